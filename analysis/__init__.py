@@ -1,0 +1,1 @@
+"""What users run: the ``kruskal`` command line, direct simulation, experiments, figures and reports."""

@@ -1,0 +1,35 @@
+"""Sub-commands of ``kruskal``: one module each, ``add_arguments(parser)`` and ``run(args) -> dict``.
+
+A command that is not built yet is simply absent from :data:`COMMANDS`.
+"""
+from __future__ import annotations
+
+
+class InputError(ValueError):
+    """Bad input from the user: the CLI prints its message as one line and exits with status 2."""
+
+
+#: command name -> (module, one-line help). Order is the order shown by ``kruskal --help``.
+COMMANDS: dict[str, tuple[str, str]] = {}
+
+
+def register(name: str, module: str, help_text: str) -> None:
+    """Add a command to :data:`COMMANDS` (used below; one line per command)."""
+    COMMANDS[name] = (module, help_text)
+
+
+# --- the commands (each helper adds its line here) ---------------------------------------------
+register("simulate", "analysis.commands.simulate",
+         "direct Monte Carlo in the physics engine (the paper's method)")
+register("build", "analysis.commands.build",
+         "sample the physics engine into per-action transition matrices")
+register("entropy", "analysis.commands.entropy",
+         "entropy after every tilt of a sequence, from a model, an automaton or recorded poses")
+register("ensemble", "analysis.commands.ensemble",
+         "statistics of K random sequences (the paper's Fig. 3)")
+register("sync", "analysis.commands.sync", "shortest synchronizing word (optimal sensorless plan)")
+register("convergence", "analysis.commands.convergence",
+         "expected length of a random synchronizing sequence")
+register("validate", "analysis.commands.validate", "model prediction against direct simulation")
+register("rank", "analysis.commands.rank", "orientability ranking of shapes")
+register("reproduce", "analysis.commands.reproduce", "the paper's experiments as a report")

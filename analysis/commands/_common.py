@@ -1,0 +1,66 @@
+"""Options and parsing shared by several commands."""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from analysis.commands import InputError
+
+#: The canonical tray actions, in index order 0..7 (SPEC.md).
+TRAY_ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+
+
+def parse_sequence(text: str, action_names, rng: np.random.Generator | None = None) -> np.ndarray:
+    """Parse ``"NE,S,W"`` (or ``"random:N"``, drawn from ``rng``) into action indices.
+
+    Raises :class:`InputError` naming the unknown action and the known ones.
+    """
+    names = list(action_names)
+    text = text.strip()
+    if text.startswith("random:"):
+        try:
+            length = int(text.split(":", 1)[1])
+        except ValueError:
+            raise InputError(f"bad sequence {text!r}: expected random:N with an integer N") from None
+        if length < 0:
+            raise InputError(f"bad sequence {text!r}: length must be >= 0")
+        if rng is None:
+            rng = np.random.default_rng()
+        return rng.integers(0, len(names), size=length).astype(np.int64)
+    if text == "":
+        return np.zeros(0, dtype=np.int64)
+    index = {name.upper(): i for i, name in enumerate(names)}
+    out = []
+    for token in text.split(","):
+        token = token.strip()
+        if token.upper() not in index:
+            raise InputError(f"unknown action {token!r} in sequence; known actions: {','.join(names)}")
+        out.append(index[token.upper()])
+    return np.asarray(out, dtype=np.int64)
+
+
+def add_seed(parser: argparse.ArgumentParser, default: int = 0) -> None:
+    """Add ``--seed`` (every random choice of the command flows from it)."""
+    parser.add_argument("--seed", type=int, default=default,
+                        help=f"random seed; the same seed gives the same output (default {default})")
+
+
+def add_model_source(parser: argparse.ArgumentParser) -> None:
+    """Add the mutually exclusive ``--model PATH`` / ``--automaton FILE`` options."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--model", metavar="PATH", help="a built transition model (.npz)")
+    group.add_argument("--automaton", metavar="FILE", help="an automaton in the JSON format of SPEC.md")
+
+
+def load_model_source(args: argparse.Namespace, required: bool = True):
+    """Load the :class:`~kruskal_markov.model.TransitionModel` named by ``--model`` or ``--automaton``."""
+    from kruskal_markov.model import TransitionModel
+
+    if getattr(args, "model", None):
+        return TransitionModel.load(args.model)
+    if getattr(args, "automaton", None):
+        return TransitionModel.from_automaton_json(args.automaton)
+    if required:
+        raise InputError("one of --model PATH or --automaton FILE is required")
+    return None

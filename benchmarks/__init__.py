@@ -1,0 +1,1 @@
+"""Speed and time-versus-error studies, run by ``make bench`` (never by the tests)."""

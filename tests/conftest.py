@@ -1,0 +1,1 @@
+"""Shared pytest configuration. Fixtures live in the test module that uses them."""
