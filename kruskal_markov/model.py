@@ -1,0 +1,436 @@
+"""The validated transition model: one row-stochastic sparse matrix per action.
+
+A :class:`TransitionModel` is the abstract tray: ``n`` states (pose voxels, or automaton states),
+one CSR matrix ``P_a`` per action ``a`` with ``P_a[i, j]`` = probability that action ``a`` moves
+state ``i`` to state ``j``, an initial distribution, an optional partition of the states into
+report cells (the paper's coarse entropy grid) and free-form JSON metadata.
+
+Validation follows deeptime's ``transition_matrix_tolerance`` style: every error says which action,
+which row and by how much (see :class:`ModelError`). A model is immutable once built: its arrays
+are read-only so that derived data (packed kernel arrays, deterministic tables) stay valid.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+import zipfile
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION"]
+
+#: Marker stored in every saved model; a ``.npz`` without it is rejected as foreign.
+FORMAT_NAME = "kruskal.TransitionModel"
+FORMAT_VERSION = 1
+
+
+class ModelError(ValueError):
+    """An invalid transition model, automaton or model file; the message says what and where."""
+
+
+def _json_default(value):
+    """Convert numpy scalars and arrays (and tuples/sets) for ``json.dumps``."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (set, frozenset)):
+        return sorted(value)
+    raise TypeError(f"object of type {type(value).__name__} is not JSON serialisable")
+
+
+def _normalise_metadata(metadata) -> dict:
+    if metadata is None:
+        return {}
+    if not isinstance(metadata, dict):
+        raise ModelError(f"metadata must be a dict, got {type(metadata).__name__}")
+    try:
+        text = json.dumps(metadata, default=_json_default, allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"metadata is not JSON-serialisable: {exc}") from None
+    return json.loads(text)
+
+
+def _fmt_action(name: str) -> str:
+    return f"action {name!r}"
+
+
+def _as_csr(matrix, name: str) -> sp.csr_matrix:
+    """Convert one action's matrix (sparse or dense) to canonical float64 CSR, checking shape and values."""
+    try:
+        if sp.issparse(matrix):
+            m = sp.csr_matrix(matrix, dtype=np.float64, copy=True)
+        else:
+            arr = np.asarray(matrix)
+            if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
+                raise ModelError(f"{_fmt_action(name)}: matrix must be numeric, got dtype {arr.dtype}")
+            if arr.ndim != 2:
+                raise ModelError(f"{_fmt_action(name)}: matrix must be 2-dimensional, got shape {arr.shape}")
+            m = sp.csr_matrix(arr.astype(np.float64))
+    except ModelError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"{_fmt_action(name)}: cannot convert to a sparse matrix: {exc}") from None
+    if m.shape[0] != m.shape[1]:
+        raise ModelError(f"{_fmt_action(name)}: matrix is {m.shape[0]} x {m.shape[1]}, not square")
+    m.sum_duplicates()
+    if not np.all(np.isfinite(m.data)):
+        bad = int(np.flatnonzero(~np.isfinite(m.data))[0])
+        row = int(np.searchsorted(m.indptr, bad, side="right") - 1)
+        raise ModelError(f"{_fmt_action(name)}: row {row} has a non-finite entry "
+                         f"{m.data[bad]!r} at column {int(m.indices[bad])}")
+    if np.any(m.data < 0):
+        bad = int(np.argmin(m.data))
+        row = int(np.searchsorted(m.indptr, bad, side="right") - 1)
+        raise ModelError(f"{_fmt_action(name)}: row {row} has a negative entry {m.data[bad]:.6g} "
+                         f"at column {int(m.indices[bad])}")
+    m.eliminate_zeros()
+    m.sort_indices()
+    return m
+
+
+class TransitionModel:
+    """Per-action row-stochastic transition matrices over ``n`` states, validated.
+
+    Parameters
+    ----------
+    actions : sequence of str
+        Action names, unique and non-empty (tray models use ``N, NE, E, SE, S, SW, W, NW``).
+    matrices : sequence of array_like or scipy.sparse matrices
+        One ``n x n`` row-stochastic matrix per action, same order as ``actions``. Stored as
+        float64 CSR with sorted indices, duplicates summed and explicit zeros removed.
+    initial : array_like, optional
+        Initial probability vector (default uniform over all states).
+    partition : array_like of int, optional
+        ``partition[i]`` = report cell of state ``i``, in ``[0, n_cells)``.
+    n_cells : int, optional
+        Number of report cells (default ``partition.max() + 1``); requires ``partition``.
+    metadata : dict, optional
+        JSON-serialisable free-form data (scene, grids, counts for error bars...). Numpy scalars
+        and arrays are converted to plain JSON values.
+    tol : float
+        Tolerance on row sums and on the total mass of ``initial`` (deeptime style), default 1e-9.
+
+    Raises
+    ------
+    ModelError
+        If anything is invalid; the message names the action, the row and the deviation.
+
+    Examples
+    --------
+    >>> m = TransitionModel(["a", "b"], [[[0, 1], [0, 1]], [[0, 1], [1, 0]]])
+    >>> m.n_states, m.n_actions, m.is_deterministic()
+    (2, 2, True)
+    >>> m.deterministic_table().tolist()
+    [[1, 1], [1, 0]]
+    """
+
+    def __init__(self, actions, matrices, initial=None, partition=None, n_cells=None, metadata=None,
+                 tol: float = 1e-9):
+        try:
+            tol = float(tol)
+        except (TypeError, ValueError):
+            raise ModelError(f"tol must be a number, got {tol!r}") from None
+        if not (np.isfinite(tol) and tol >= 0):
+            raise ModelError(f"tol must be finite and >= 0, got {tol!r}")
+        self.tol = tol
+        if isinstance(actions, str):
+            raise ModelError("actions must be a sequence of names, not a single string")
+        actions = tuple(actions)
+        if not actions:
+            raise ModelError("a model needs at least one action")
+        for a in actions:
+            if not isinstance(a, str) or not a.strip():
+                raise ModelError(f"action names must be non-empty strings, got {a!r}")
+            if "," in a:
+                raise ModelError(f"action name {a!r} must not contain a comma")
+        seen = set()
+        for a in actions:
+            if a in seen:
+                raise ModelError(f"action name {a!r} is used twice")
+            seen.add(a)
+        lowered = [a.upper() for a in actions]
+        if len(set(lowered)) != len(lowered):
+            raise ModelError(f"action names must differ ignoring case (command-line sequences are "
+                             f"case-insensitive): {list(actions)}")
+        if sp.issparse(matrices) or (isinstance(matrices, np.ndarray) and matrices.ndim == 2):
+            raise ModelError("matrices must be a sequence of one matrix per action")
+        matrices = list(matrices)
+        if len(matrices) != len(actions):
+            raise ModelError(f"{len(actions)} actions but {len(matrices)} matrices")
+        mats = []
+        n = None
+        for name, mat in zip(actions, matrices):
+            m = _as_csr(mat, name)
+            if n is None:
+                n = m.shape[0]
+                if n == 0:
+                    raise ModelError(f"{_fmt_action(name)}: matrix has no states (0 x 0)")
+                first = name
+            elif m.shape[0] != n:
+                raise ModelError(f"{_fmt_action(name)}: matrix is {m.shape[0]} x {m.shape[1]} but "
+                                 f"{_fmt_action(first)} has {n} states")
+            sums = np.asarray(m.sum(axis=1)).ravel()
+            dev = np.abs(sums - 1.0)
+            if dev.size and dev.max() > tol:
+                row = int(np.argmax(dev))
+                nbad = int(np.count_nonzero(dev > tol))
+                more = f" ({nbad} rows out of tolerance)" if nbad > 1 else ""
+                raise ModelError(f"{_fmt_action(name)}: row {row} sums to {sums[row]:.12g}, off by "
+                                 f"{sums[row] - 1.0:+.3g} (tolerance {tol:g}){more}")
+            for arr in (m.data, m.indices, m.indptr):
+                arr.flags.writeable = False
+            mats.append(m)
+        self.actions: tuple[str, ...] = actions
+        self.matrices: tuple[sp.csr_matrix, ...] = tuple(mats)
+
+        if initial is None:
+            init = np.full(n, 1.0 / n)
+        else:
+            try:
+                init = np.array(initial, dtype=np.float64).ravel()
+            except (TypeError, ValueError):
+                raise ModelError("initial distribution must be a numeric vector") from None
+            if init.shape != (n,):
+                raise ModelError(f"initial distribution has {init.size} entries, the model has {n} states")
+            if not np.all(np.isfinite(init)):
+                raise ModelError(f"initial distribution has a non-finite entry at state "
+                                 f"{int(np.flatnonzero(~np.isfinite(init))[0])}")
+            if np.any(init < 0):
+                i = int(np.argmin(init))
+                raise ModelError(f"initial distribution has a negative entry {init[i]:.6g} at state {i}")
+            total = init.sum()
+            if abs(total - 1.0) > tol:
+                raise ModelError(f"initial distribution sums to {total:.12g}, off by {total - 1.0:+.3g} "
+                                 f"(tolerance {tol:g})")
+        init.flags.writeable = False
+        self.initial: np.ndarray = init
+
+        if partition is None:
+            if n_cells is not None:
+                raise ModelError("n_cells given without a partition")
+            self.partition = None
+            self.n_cells = None
+        else:
+            try:
+                part = np.array(partition).ravel()
+            except (TypeError, ValueError):
+                raise ModelError("partition must be an integer vector") from None
+            if part.shape != (n,):
+                raise ModelError(f"partition has {part.size} entries, the model has {n} states")
+            if part.dtype.kind == "f":
+                if not np.all(np.isfinite(part)) or np.any(part != np.round(part)):
+                    raise ModelError("partition entries must be integers")
+            elif part.dtype.kind not in "iu":
+                raise ModelError(f"partition entries must be integers, got dtype {part.dtype}")
+            part = part.astype(np.int64)
+            if np.any(part < 0):
+                i = int(np.argmin(part))
+                raise ModelError(f"partition maps state {i} to cell {int(part[i])} < 0")
+            if n_cells is None:
+                n_cells = int(part.max()) + 1
+            try:
+                n_cells_int = int(n_cells)
+            except (TypeError, ValueError):
+                raise ModelError(f"n_cells must be an integer, got {n_cells!r}") from None
+            if n_cells_int != n_cells or n_cells_int < 1:
+                raise ModelError(f"n_cells must be a positive integer, got {n_cells!r}")
+            if part.max() >= n_cells_int:
+                i = int(np.argmax(part))
+                raise ModelError(f"partition maps state {i} to cell {int(part[i])}, out of range "
+                                 f"[0, {n_cells_int})")
+            part.flags.writeable = False
+            self.partition = part
+            self.n_cells = n_cells_int
+        self.metadata: dict = _normalise_metadata(metadata)
+        self._cache: dict = {}
+
+    # ------------------------------------------------------------------ basic properties
+    @property
+    def n_states(self) -> int:
+        """Number of states ``n``."""
+        return self.matrices[0].shape[0]
+
+    @property
+    def n_actions(self) -> int:
+        """Number of actions."""
+        return len(self.actions)
+
+    def __repr__(self) -> str:
+        cells = f", n_cells={self.n_cells}" if self.partition is not None else ""
+        nnz = sum(m.nnz for m in self.matrices)
+        return (f"TransitionModel(n_states={self.n_states}, actions={list(self.actions)}, "
+                f"nnz={nnz}{cells})")
+
+    def action_index(self, name: str) -> int:
+        """Index of action ``name`` (case-insensitive); :class:`ModelError` if unknown."""
+        for i, a in enumerate(self.actions):
+            if a == name:
+                return i
+        for i, a in enumerate(self.actions):
+            if a.upper() == str(name).upper():
+                return i
+        raise ModelError(f"unknown action {name!r}; known actions: {','.join(self.actions)}")
+
+    def is_deterministic(self) -> bool:
+        """True if every row of every matrix is a single entry (equal to 1 within ``tol``)."""
+        if "det" not in self._cache:
+            self._cache["det"] = all(bool(np.all(np.diff(m.indptr) == 1)) for m in self.matrices)
+        return self._cache["det"]
+
+    def deterministic_table(self) -> np.ndarray:
+        """The next-state table ``T[a, i]`` (int32, shape ``(n_actions, n_states)``).
+
+        Raises :class:`ModelError` if some row is not a point mass.
+        """
+        if not self.is_deterministic():
+            for name, m in zip(self.actions, self.matrices):
+                counts = np.diff(m.indptr)
+                if np.any(counts != 1):
+                    row = int(np.flatnonzero(counts != 1)[0])
+                    raise ModelError(f"model is not deterministic: {_fmt_action(name)} row {row} has "
+                                     f"{int(counts[row])} non-zero entries")
+        if "table" not in self._cache:
+            table = np.stack([m.indices for m in self.matrices]).astype(np.int32)
+            table.flags.writeable = False
+            self._cache["table"] = table
+        return self._cache["table"]
+
+    def packed(self):
+        """All matrices as three flat arrays for the Numba kernels.
+
+        Returns ``(indptr, indices, data)`` with ``indptr`` int64 of shape ``(n_actions, n + 1)``
+        holding offsets into the concatenated ``indices`` (int32) and ``data`` (float64).
+        """
+        if "packed" not in self._cache:
+            n, k = self.n_states, self.n_actions
+            indptr = np.empty((k, n + 1), dtype=np.int64)
+            offset = 0
+            for a, m in enumerate(self.matrices):
+                indptr[a] = m.indptr.astype(np.int64) + offset
+                offset += m.nnz
+            indices = np.concatenate([m.indices for m in self.matrices]).astype(np.int32)
+            data = np.concatenate([m.data for m in self.matrices]).astype(np.float64)
+            for arr in (indptr, indices, data):
+                arr.flags.writeable = False
+            self._cache["packed"] = (indptr, indices, data)
+        return self._cache["packed"]
+
+    def with_initial(self, initial) -> "TransitionModel":
+        """A copy of this model with another initial distribution."""
+        return TransitionModel(self.actions, self.matrices, initial=initial, partition=self.partition,
+                               n_cells=self.n_cells, metadata=self.metadata, tol=self.tol)
+
+    # ------------------------------------------------------------------ files
+    def save(self, path) -> str:
+        """Write the model to one ``.npz`` file, atomically (temporary file + ``os.replace``).
+
+        Arrays are stored uncompressed; the header (format marker, action names, metadata, tol) is
+        a JSON string inside the archive. Returns the path written.
+        """
+        path = os.fspath(path)
+        header = {
+            "format": FORMAT_NAME, "version": FORMAT_VERSION, "actions": list(self.actions),
+            "n_states": self.n_states, "n_cells": self.n_cells, "tol": self.tol,
+            "metadata": self.metadata,
+        }
+        arrays = {"header": np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8),
+                  "initial": np.asarray(self.initial)}
+        for a, m in enumerate(self.matrices):
+            arrays[f"indptr_{a}"] = np.asarray(m.indptr)
+            arrays[f"indices_{a}"] = np.asarray(m.indices)
+            arrays[f"data_{a}"] = np.asarray(m.data)
+        if self.partition is not None:
+            arrays["partition"] = np.asarray(self.partition)
+        directory = os.path.dirname(os.path.abspath(path))
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(fh, **arrays)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path, tol: float | None = None) -> "TransitionModel":
+        """Read a model written by :meth:`save`; validated again on load.
+
+        Raises :class:`ModelError` for a missing, corrupt or foreign file.
+        """
+        path = os.fspath(path)
+        if not os.path.exists(path):
+            raise ModelError(f"model file not found: {path}")
+        if os.path.isdir(path):
+            raise ModelError(f"model path is a directory, not a .npz file: {path}")
+        try:
+            loaded = np.load(path, allow_pickle=False)
+            if not hasattr(loaded, "files"):
+                raise ModelError(f"{path} is not a kruskal model (a .npy array, not a .npz archive)")
+            with loaded as npz:
+                if "header" not in npz.files:
+                    raise ModelError(f"{path} is not a kruskal model (no header in the .npz archive)")
+                try:
+                    header = json.loads(npz["header"].tobytes().decode("utf-8"))
+                except (UnicodeDecodeError, json.JSONDecodeError):
+                    raise ModelError(f"{path} is not a kruskal model (unreadable header)") from None
+                if not isinstance(header, dict) or header.get("format") != FORMAT_NAME:
+                    raise ModelError(f"{path} is not a kruskal model (foreign .npz file)")
+                if header.get("version") != FORMAT_VERSION:
+                    raise ModelError(f"{path}: unsupported model format version {header.get('version')!r} "
+                                     f"(this program reads version {FORMAT_VERSION})")
+                actions = header["actions"]
+                n = int(header["n_states"])
+                mats = []
+                for a in range(len(actions)):
+                    data = npz[f"data_{a}"]
+                    indices = npz[f"indices_{a}"]
+                    indptr = npz[f"indptr_{a}"]
+                    if indptr.shape != (n + 1,) or indptr[0] != 0 or indptr[-1] != data.size \
+                            or indices.size != data.size or np.any(np.diff(indptr) < 0) \
+                            or (indices.size and (indices.min() < 0 or indices.max() >= n)):
+                        raise ModelError(f"{path}: corrupt sparse arrays for action {actions[a]!r}")
+                    mats.append(sp.csr_matrix((data, indices, indptr), shape=(n, n)))
+                initial = npz["initial"]
+                partition = npz["partition"] if "partition" in npz.files else None
+                return cls(actions, mats, initial=initial, partition=partition,
+                           n_cells=header.get("n_cells") if partition is not None else None,
+                           metadata=header.get("metadata") or {},
+                           tol=header.get("tol", 1e-9) if tol is None else tol)
+        except ModelError as exc:
+            if str(exc).startswith(path):
+                raise
+            raise ModelError(f"{path}: invalid model: {exc}") from None
+        except (zipfile.BadZipFile, EOFError, KeyError, ValueError, TypeError, OSError,
+                io.UnsupportedOperation) as exc:
+            raise ModelError(f"{path} is not a readable kruskal model ({type(exc).__name__}: "
+                             f"{str(exc).splitlines()[0] if str(exc) else 'corrupt file'})") from None
+
+    # ------------------------------------------------------------------ automaton JSON
+    @classmethod
+    def from_automaton_json(cls, source, tol: float = 1e-9) -> "TransitionModel":
+        """Build a model from the SPEC.md automaton JSON (a path, a JSON string or a dict).
+
+        See :func:`kruskal_markov.automaton.model_from_automaton`.
+        """
+        from kruskal_markov.automaton import model_from_automaton
+
+        return model_from_automaton(source, tol=tol)
+
+    def to_automaton_json(self) -> dict:
+        """The SPEC.md automaton JSON of this model (deterministic form when every row is a point mass).
+
+        See :func:`kruskal_markov.automaton.automaton_from_model`.
+        """
+        from kruskal_markov.automaton import automaton_from_model
+
+        return automaton_from_model(self)

@@ -1,0 +1,119 @@
+"""Tests of kruskal_markov.automaton: the SPEC.md automaton JSON format."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from kruskal_markov.automaton import automaton_from_model, model_from_automaton
+from kruskal_markov.model import ModelError, TransitionModel
+
+
+def test_deterministic_from_dict_and_file(tmp_path):
+    doc = {"states": 3, "actions": {"a": [1, 2, 0], "b": [0, 0, 2]}}
+    path = tmp_path / "aut.json"
+    path.write_text(json.dumps(doc))
+    for source in (doc, path, str(path), json.dumps(doc)):
+        m = TransitionModel.from_automaton_json(source)
+        assert m.actions == ("a", "b")
+        assert m.is_deterministic()
+        np.testing.assert_array_equal(m.deterministic_table(), [[1, 2, 0], [0, 0, 2]])
+        np.testing.assert_array_equal(m.initial, np.full(3, 1 / 3))
+
+
+def test_stochastic_sums_duplicates_and_reads_initial():
+    doc = {"states": 2, "actions": {
+        "a": {"rows": [0, 0, 0, 1], "cols": [0, 1, 1, 1], "probs": [0.5, 0.25, 0.25, 1.0]},
+        "b": [1, 0]}, "initial": [0.25, 0.75]}
+    m = model_from_automaton(doc)
+    np.testing.assert_array_equal(m.matrices[0].toarray(), [[0.5, 0.5], [0, 1]])
+    np.testing.assert_array_equal(m.matrices[1].toarray(), [[0, 1], [1, 0]])
+    np.testing.assert_array_equal(m.initial, [0.25, 0.75])
+    assert not m.is_deterministic()
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_round_trip_stochastic(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 8))
+    mats = []
+    for _ in range(int(rng.integers(1, 4))):
+        a = rng.random((n, n)) * (rng.random((n, n)) < 0.4)
+        a[np.arange(n), rng.integers(0, n, n)] += 0.3
+        mats.append(sp.csr_matrix(a / a.sum(axis=1, keepdims=True)))
+    init = rng.random(n)
+    init /= init.sum()
+    part = rng.integers(0, 3, n)
+    m = TransitionModel([f"x{i}" for i in range(len(mats))], mats, initial=init, partition=part,
+                        n_cells=3, metadata={"k": 1})
+    doc = json.loads(json.dumps(automaton_from_model(m)))
+    back = model_from_automaton(doc)
+    assert back.actions == m.actions
+    for a, b in zip(back.matrices, m.matrices):
+        np.testing.assert_array_equal(a.toarray(), b.toarray())
+    np.testing.assert_array_equal(back.initial, m.initial)
+    np.testing.assert_array_equal(back.partition, m.partition)
+    assert back.n_cells == 3 and back.metadata == {"k": 1}
+
+
+def test_round_trip_deterministic_uses_lists():
+    m = TransitionModel(["a", "b"], [np.eye(4)[[1, 2, 3, 0]], np.eye(4)[[0, 0, 2, 3]]])
+    doc = m.to_automaton_json()
+    assert doc == {"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 0, 2, 3]}}
+    back = TransitionModel.from_automaton_json(doc)
+    np.testing.assert_array_equal(back.deterministic_table(), m.deterministic_table())
+
+
+@pytest.mark.parametrize("doc, pattern", [
+    ({"actions": {"a": [0]}}, "'states' must be a positive integer"),
+    ({"states": 0, "actions": {"a": []}}, "'states' must be a positive integer"),
+    ({"states": True, "actions": {"a": [0]}}, "'states' must be a positive integer"),
+    ({"states": 2}, "'actions' must be a non-empty object"),
+    ({"states": 2, "actions": {}}, "'actions' must be a non-empty object"),
+    ({"states": 2, "actions": {"a": [0]}}, "action 'a': next-state list has 1 entries, expected 2"),
+    ({"states": 2, "actions": {"a": [0, 2]}}, "action 'a': state 1 goes to 2, out of range"),
+    ({"states": 2, "actions": {"a": [0, -1]}}, "state 1 goes to -1"),
+    ({"states": 2, "actions": {"a": [0, 0.5]}}, "integers only"),
+    ({"states": 2, "actions": {"a": [0, "1"]}}, "integers only"),
+    ({"states": 2, "actions": {"a": 3}}, "expected a next-state list"),
+    ({"states": 2, "actions": {"a": {"rows": [0], "cols": [0]}}}, "missing \\['probs'\\]"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 1], "cols": [0], "probs": [1, 1]}}}, "different lengths"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 5], "cols": [0, 1], "probs": [1, 1]}}}, "row index 5 out of range"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 1], "cols": [0, 7], "probs": [1, 1]}}}, "column index 7"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 1], "cols": [0, 1], "probs": [1, 0.5]}}},
+     r"action 'a': row 1 sums to 0\.5"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 1], "cols": [0, 1], "probs": [1, "x"]}}}, "list of numbers"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 1, 1], "cols": [0, 0, 1], "probs": [1, 1.5, -0.5]}}},
+     "negative entry"),
+    ({"states": 2, "actions": {"a": [0, 1]}, "initial": [0.5, 0.4]}, "initial distribution sums to 0.9"),
+    ({"states": 2, "actions": {"a": [0, 1]}, "initial": "uniform"}, "'initial' must be a list"),
+    ({"states": 2, "actions": {"a": [0, 1]}, "bogus": 1}, "unknown key"),
+])
+def test_rejects_bad_automata(doc, pattern):
+    with pytest.raises(ModelError, match=pattern):
+        model_from_automaton(doc)
+
+
+def test_bad_files(tmp_path):
+    with pytest.raises(ModelError, match="not found"):
+        model_from_automaton(tmp_path / "nope.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(ModelError, match="bad.json: not valid JSON"):
+        model_from_automaton(bad)
+    arr = tmp_path / "arr.json"
+    arr.write_text("[1, 2]")
+    with pytest.raises(ModelError, match="expected a JSON object"):
+        model_from_automaton(arr)
+    with pytest.raises(ModelError, match="must be a path"):
+        model_from_automaton(42)
+
+
+def test_tolerance_is_1e9():
+    ok = {"states": 1, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1 + 5e-10]}}}
+    model_from_automaton(ok)
+    bad = {"states": 1, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1 + 5e-9]}}}
+    with pytest.raises(ModelError, match="sums to"):
+        model_from_automaton(bad)
