@@ -1,0 +1,117 @@
+"""Tests for transition_builder.grid: voxel bins, theta modulo symmetry, bin offsets."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from transition_builder.grid import ReportGrid, parse_grid
+
+
+def test_parse_grid():
+    assert parse_grid("4x4x4") == (4, 4, 4)
+    assert parse_grid(" 3X5x2 ") == (3, 5, 2)
+    for bad in ["4x4", "4x4x0", "axbxc", "4x4x4x4", "-1x4x4", "", "4.5x4x4"]:
+        with pytest.raises(ValueError, match="grid"):
+            parse_grid(bad)
+
+
+def test_xy_bins_and_edges():
+    g = ReportGrid(200, 100, 4, 2, 4)
+    poses = np.array([[0, 0, 0], [49.999, 49.999, 0], [50, 50, 0], [200, 100, 0], [150.0, 99.0, 0]])
+    ix, iy, _ = g.bin_indices(poses)
+    assert ix.tolist() == [0, 0, 1, 3, 3]  # x == a goes to the last bin
+    assert iy.tolist() == [0, 0, 1, 1, 1]
+    assert g.n_voxels == 32
+
+
+def test_voxel_index_layout_and_centres_roundtrip():
+    g = ReportGrid(200, 200, 3, 5, 7, symmetry_order=1)
+    idx = np.arange(g.n_voxels)
+    centres = g.centres(idx)
+    np.testing.assert_array_equal(g.voxel_index(centres), idx)
+    ix, iy, it = g.unravel(idx)
+    np.testing.assert_array_equal((ix * 5 + iy) * 7 + it, idx)
+
+
+def test_default_offset_centres_axis_angles():
+    g = ReportGrid(200, 200, 4, 4, 4)  # 90-degree bins
+    assert g.theta_offset == pytest.approx(math.pi / 4)
+    angles = np.array([0, 90, 180, 270]) * math.pi / 180
+    eps = 1e-9
+    for a, expected in zip(angles, range(4)):
+        poses = np.array([[100, 100, a - eps], [100, 100, a], [100, 100, a + eps]]) % [1e9, 1e9, 2 * math.pi]
+        # round-off around an axis angle never changes the bin
+        assert g.bin_indices(poses)[2].tolist() == [expected] * 3
+    # bin 0 covers [-45, 45) degrees
+    t = np.radians([-44.9, 44.9, 45.0, 134.9, 135.0, 314.9, 315.0, 359.99])
+    poses = np.column_stack([np.full(t.size, 100.0), np.full(t.size, 100.0), t])
+    assert g.bin_indices(poses)[2].tolist() == [0, 0, 1, 1, 2, 3, 0, 0]
+
+
+def test_zero_offset_gives_paper_edges():
+    g = ReportGrid(200, 200, 4, 4, 4, theta_offset=0.0)
+    t = np.radians([0.0, 89.99, 90.0, 179.99, 180.0, 270.0, 359.99])
+    poses = np.column_stack([np.full(t.size, 100.0), np.full(t.size, 100.0), t])
+    assert g.bin_indices(poses)[2].tolist() == [0, 0, 1, 1, 2, 3, 3]
+    # an axis angle sits on an edge: round-off flips its bin (why the default is centred)
+    flip = g.bin_indices(np.array([[100, 100, math.pi / 2 - 1e-12], [100, 100, math.pi / 2 + 1e-12]]))[2]
+    assert flip[0] != flip[1]
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4])
+def test_theta_modulo_symmetry(k):
+    g = ReportGrid(200, 200, 4, 4, 6, symmetry_order=k)
+    rng = np.random.default_rng(k)
+    poses = np.column_stack([rng.uniform(0, 200, 500), rng.uniform(0, 200, 500), rng.uniform(-10, 10, 500)])
+    base = g.voxel_index(poses)
+    for j in range(1, k + 1):
+        shifted = poses + [0, 0, 2 * math.pi * j / k]
+        np.testing.assert_array_equal(g.voxel_index(shifted), base)
+    # theta bins are equally wide over one period: uniform theta fills them equally
+    t = np.linspace(0, 2 * math.pi, 6000 * k, endpoint=False) + 1e-7
+    its = g.bin_indices(np.column_stack([np.full(t.size, 1.0), np.full(t.size, 1.0), t]))[2]
+    assert np.bincount(its, minlength=6).tolist() == [1000 * k] * 6
+
+
+def test_symmetric_shape_pose_equivalence_by_brute_force():
+    # a 2-fold symmetric grid must identify theta and theta + pi, and nothing else
+    g1 = ReportGrid(100, 100, 1, 1, 8, symmetry_order=1)
+    g2 = ReportGrid(100, 100, 1, 1, 4, symmetry_order=2)
+    t = np.linspace(0.01, 2 * math.pi - 0.01, 997)
+    poses = np.column_stack([np.full(t.size, 5.0), np.full(t.size, 5.0), t])
+    b1 = g1.bin_indices(poses)[2]
+    b2 = g2.bin_indices(poses)[2]
+    np.testing.assert_array_equal(b1 % 4, b2)  # same bin width, period folded
+
+
+def test_rejects_nan_and_out_of_tray():
+    g = ReportGrid(200, 200, 4, 4, 4)
+    with pytest.raises(ValueError, match="not finite"):
+        g.voxel_index(np.array([[1.0, 2.0, np.nan]]))
+    with pytest.raises(ValueError, match="outside the tray"):
+        g.voxel_index(np.array([[201.0, 2.0, 0.0]]))
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        g.voxel_index(np.zeros((3, 2)))
+    # round-off just outside the tray is tolerated and clipped
+    assert g.voxel_index(np.array([[-1e-9, 200 + 1e-9, 0.0]]))[0] == g.voxel_index(np.array([[0, 200, 0.0]]))[0]
+
+
+def test_constructor_validation():
+    with pytest.raises(ValueError, match="positive"):
+        ReportGrid(0, 200, 4, 4, 4)
+    with pytest.raises(ValueError, match="positive integer"):
+        ReportGrid(200, 200, 4, 0, 4)
+    with pytest.raises(ValueError, match="positive integer"):
+        ReportGrid(200, 200, 4, 4, 4, symmetry_order=0)
+    with pytest.raises(ValueError, match="finite"):
+        ReportGrid(200, 200, 4, 4, 4, theta_offset=float("nan"))
+
+
+def test_counts_and_entropy():
+    g = ReportGrid(200, 200, 2, 2, 1)
+    poses = np.array([[10, 10, 0], [10, 10, 1], [150, 150, 2], [150, 10, 3]])
+    assert g.counts(poses).tolist() == [2, 0, 1, 1]  # index = ix * ny + iy
+    assert g.entropy_bits(poses) == pytest.approx(1.5)
+    assert g.entropy_bits(np.zeros((0, 3))) == 0.0
