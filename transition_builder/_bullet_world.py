@@ -1,0 +1,207 @@
+"""One PyBullet world for one tilt direction (private helper of :mod:`transition_builder.sim`).
+
+The world is built in the *downhill frame* of its action: the tray is rotated about its centre so
+that the action's downhill direction is the world +x axis, and gravity is
+``g (sin a, 0, -cos a)``. See :mod:`transition_builder.sim` for why.
+
+The part is a planar joint chain on a fixed base: prismatic x, prismatic y, prismatic z, revolute
+yaw (the part's mass and z inertia), then fixed child links: one per convex part of the prism
+(it floats ``floor_clearance_mm`` above the floor, farther than the contact threshold, so it only
+ever touches walls) and one support sphere under the centroid (the only floor contact; it carries
+the part's weight, its lateral and its spinning friction).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as pb
+from matplotlib.path import Path
+
+from transition_builder.friction import friction_map
+
+G = 9.81
+_EPS_MASS_FRACTION = 1e-4      # mass of each massless-in-spirit link, relative to the part
+_FLOOR_T = 0.01                 # floor slab thickness (m)
+J_X, J_Y, J_Z, J_YAW = 0, 1, 2, 3
+
+
+def friction_radius_mm(shape, n: int = 400) -> float:
+    """Area-weighted mean distance from the centroid, ``(1/A) int |r| dA`` (mm).
+
+    A part spinning in place about its centroid on a floor of coefficient ``mu`` (uniform
+    pressure) feels the friction torque ``mu * N * friction_radius``. Midpoint rule on an
+    ``n x n`` grid over the bounding box.
+    """
+    v = shape.vertices
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    xs = lo[0] + (np.arange(n) + 0.5) * (hi[0] - lo[0]) / n
+    ys = lo[1] + (np.arange(n) + 0.5) * (hi[1] - lo[1]) / n
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    pts = np.column_stack([X.ravel(), Y.ravel()])
+    inside = Path(np.vstack([v, v[:1]]), closed=True).contains_points(pts)
+    r = np.hypot(pts[inside, 0], pts[inside, 1])
+    return float(r.mean())
+
+
+def _rot(phi):
+    c, s = math.cos(phi), math.sin(phi)
+    return np.array([[c, -s], [s, c]])
+
+
+class BulletWorld:
+    """A DIRECT-mode PyBullet world holding the tray (in the downhill frame of ``phi``) and the part."""
+
+    def __init__(self, scene, phi: float):
+        self.scene = scene
+        self.phi = float(phi)
+        st = scene.settings
+        self.R = _rot(-self.phi)              # tray frame -> world (downhill) frame
+        self.centre = np.array([scene.tray_x_mm, scene.tray_y_mm]) / 2.0
+        self.cid = cid = pb.connect(pb.DIRECT)
+        try:
+            self._build(scene, st, cid)
+        except Exception:
+            pb.disconnect(cid)
+            raise
+
+    # ------------------------------------------------------------------ construction
+    def _world_xy(self, p_mm):
+        """Tray-frame point(s) (mm) -> world xy (m)."""
+        return ((np.asarray(p_mm, float) - self.centre) @ self.R.T) / 1000.0
+
+    def _quat(self, yaw):
+        return pb.getQuaternionFromEuler([0.0, 0.0, yaw])
+
+    def _build(self, scene, st, cid):
+        a = math.radians(scene.tilt_deg)
+        pb.resetSimulation(physicsClientId=cid)
+        pb.setPhysicsEngineParameter(
+            fixedTimeStep=st.time_step_s * st.substeps, numSubSteps=st.substeps,
+            numSolverIterations=st.solver_iterations, deterministicOverlappingPairs=1,
+            contactBreakingThreshold=st.contact_threshold_mm / 1000.0, physicsClientId=cid)
+        pb.setGravity(G * math.sin(a), 0.0, -G * math.cos(a), physicsClientId=cid)
+        yaw_tray = -self.phi
+        q_tray = self._quat(yaw_tray)
+        W, H = scene.tray_x_mm, scene.tray_y_mm
+        T, WH = scene.wall_thickness_mm, scene.wall_height_mm
+
+        # floor tiles
+        mu, tile = friction_map(scene.friction, W, H)
+        self.tiles = []
+        nx, ny = mu.shape
+        if nx == 1 and ny == 1:
+            boxes = [((W / 2, H / 2), ((W + 2 * T) / 2, (H + 2 * T) / 2), mu[0, 0])]
+        else:
+            boxes = []
+            for i in range(nx):
+                x0, x1 = i * tile, min((i + 1) * tile, W)
+                for j in range(ny):
+                    y0, y1 = j * tile, min((j + 1) * tile, H)
+                    boxes.append((((x0 + x1) / 2, (y0 + y1) / 2), ((x1 - x0) / 2, (y1 - y0) / 2), mu[i, j]))
+        for (cx, cy), (hx, hy), m in boxes:
+            cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx / 1000, hy / 1000, _FLOOR_T / 2],
+                                         physicsClientId=cid)
+            wx, wy = self._world_xy((cx, cy))
+            b = pb.createMultiBody(0, cs, basePosition=[wx, wy, -_FLOOR_T / 2], baseOrientation=q_tray,
+                                   physicsClientId=cid)
+            pb.changeDynamics(b, -1, lateralFriction=float(m), spinningFriction=float(m), rollingFriction=0.0,
+                              restitution=0.0, physicsClientId=cid)
+            self.tiles.append(b)
+
+        # walls (east, west, north, south), full outer length so corners are closed
+        wall_mu = scene.effective_wall_mu
+        walls = [((W + T / 2, H / 2), (T / 2, H / 2 + T)), ((-T / 2, H / 2), (T / 2, H / 2 + T)),
+                 ((W / 2, H + T / 2), (W / 2 + T, T / 2)), ((W / 2, -T / 2), (W / 2 + T, T / 2))]
+        self.walls = []
+        for (cx, cy), (hx, hy) in walls:
+            cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx / 1000, hy / 1000, WH / 2000],
+                                         physicsClientId=cid)
+            wx, wy = self._world_xy((cx, cy))
+            b = pb.createMultiBody(0, cs, basePosition=[wx, wy, WH / 2000], baseOrientation=q_tray,
+                                   physicsClientId=cid)
+            pb.changeDynamics(b, -1, lateralFriction=wall_mu, restitution=0.0, physicsClientId=cid)
+            self.walls.append(b)
+
+        # the part: x, y, z slides, yaw hinge (mass), prism parts, support sphere
+        shape = scene.shape
+        m = shape.mass_kg
+        eps = m * _EPS_MASS_FRACTION
+        r = st.support_radius_mm / 1000.0
+        z0 = st.floor_clearance_mm / 1000.0 - r          # prism bottom relative to the sphere centre
+        t = shape.thickness_mm / 1000.0
+        part_shapes = []
+        for part in shape.convex_parts:
+            p2 = np.asarray(part, float) / 1000.0
+            verts = [[x, y, z0] for x, y in p2] + [[x, y, z0 + t] for x, y in p2]
+            cs = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
+            part_shapes.append(cs)
+        sph = pb.createCollisionShape(pb.GEOM_SPHERE, radius=r, physicsClientId=cid)
+        n_parts = len(part_shapes)
+        n = 4 + n_parts + 1
+        masses = [eps, eps, eps, m] + [eps] * (n_parts + 1)
+        shapes = [-1, -1, -1, -1] + part_shapes + [sph]
+        parents = [0, 1, 2, 3] + [4] * (n_parts + 1)      # parent indices are link index + 1 (0 = base)
+        types = [pb.JOINT_PRISMATIC] * 3 + [pb.JOINT_REVOLUTE] + [pb.JOINT_FIXED] * (n_parts + 1)
+        axes = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]] + [[0, 0, 1]] * (n_parts + 1)
+        self.body = ob = pb.createMultiBody(
+            baseMass=0, baseCollisionShapeIndex=-1, basePosition=[0, 0, r],
+            linkMasses=masses, linkCollisionShapeIndices=shapes, linkVisualShapeIndices=[-1] * n,
+            linkPositions=[[0, 0, 0]] * n, linkOrientations=[[0, 0, 0, 1]] * n,
+            linkInertialFramePositions=[[0, 0, 0]] * n, linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
+            linkParentIndices=parents, linkJointTypes=types, linkJointAxis=axes,
+            useMaximalCoordinates=False, physicsClientId=cid)
+        self.n_links = n
+        I = shape.inertia_kg_m2
+        tiny = I * _EPS_MASS_FRACTION
+        pb.changeDynamics(ob, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
+        for j in range(n):
+            pb.setJointMotorControl2(ob, j, pb.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0,
+                                     physicsClientId=cid)
+            pb.changeDynamics(ob, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+                              restitution=0.0, lateralFriction=1.0, spinningFriction=0.0, rollingFriction=0.0,
+                              localInertiaDiagonal=[I, I, I] if j == J_YAW else [tiny, tiny, tiny],
+                              physicsClientId=cid)
+        for j in range(4, 4 + n_parts):
+            pb.changeDynamics(ob, j, collisionMargin=st.collision_margin_mm / 1000.0, physicsClientId=cid)
+        self.sphere_link = n - 1
+        pb.changeDynamics(ob, n - 1, spinningFriction=friction_radius_mm(shape) / 1000.0, physicsClientId=cid)
+        self.far = [0.0, 0.0, 1.0]
+
+    # ------------------------------------------------------------------ state
+    def set_pose(self, pose_mm):
+        """Place the part at a tray-frame pose (x, y in mm, theta in rad), at rest on the floor."""
+        cid, ob = self.cid, self.body
+        # Move away and run collision detection first: drops every cached contact (and its
+        # warm-start impulse), so a trial never depends on the trial before it.
+        for j, q in zip((J_X, J_Y, J_Z), self.far):
+            pb.resetJointState(ob, j, q, 0.0, physicsClientId=cid)
+        pb.performCollisionDetection(physicsClientId=cid)
+        wx, wy = self._world_xy(pose_mm[:2])
+        yaw = float(pose_mm[2]) - self.phi
+        for j, q in ((J_X, wx), (J_Y, wy), (J_Z, 0.0), (J_YAW, yaw)):
+            pb.resetJointState(ob, j, float(q), 0.0, physicsClientId=cid)
+
+    def state(self):
+        """(x, y, z, yaw, vx, vy, wz) in the world frame (m, rad, m/s, rad/s)."""
+        s = pb.getJointStates(self.body, (J_X, J_Y, J_Z, J_YAW), physicsClientId=self.cid)
+        return (s[0][0], s[1][0], s[2][0], s[3][0], s[0][1], s[1][1], s[3][1])
+
+    def to_tray(self, x, y, yaw):
+        """World (m, rad) -> tray-frame pose (mm, rad in [0, 2 pi))."""
+        p = self.R.T @ np.array([x, y]) * 1000.0 + self.centre
+        th = (yaw + self.phi) % (2 * math.pi)
+        if th >= 2 * math.pi:      # -tiny % 2pi rounds to 2pi
+            th = 0.0
+        return p[0], p[1], th
+
+    def step(self):
+        pb.stepSimulation(physicsClientId=self.cid)
+
+    def close(self):
+        if self.cid is not None:
+            try:
+                pb.disconnect(self.cid)
+            except pb.error:
+                pass
+            self.cid = None

@@ -1,0 +1,267 @@
+"""The scene of a tray-tilt experiment: tray, part, friction, tilt angle, action set, simulator settings.
+
+Tray frame (SPEC.md): origin at the tray's inner south-west corner, x east, y north, millimetres.
+A pose is ``(x, y, theta)`` of the part's area centroid, ``theta`` counter-clockwise in ``[0, 2 pi)``.
+Tilting ``E`` lowers the east side: the part slides east (downhill direction angle 0); the eight
+actions ``N, NE, E, SE, S, SW, W, NW`` have downhill angles 90, 45, 0, -45, -90, -135, 180, 135 deg.
+
+A :class:`Scene` holds everything that can change a simulated outcome, and
+:meth:`Scene.content_hash` hashes all of it (including the PyBullet version), so cached samples and
+models can be keyed by it.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from transition_builder.friction import DEFAULT_MU, FrictionSpec, parse_friction
+from transition_builder.settings import SimSettings
+from transition_builder.shapes import Shape, check_fits, make_shape, parse_shape
+
+__all__ = ["Scene", "scene_from_options", "ACTIONS", "ACTION_ANGLES_DEG", "DEFAULT_TILT_DEG"]
+
+#: canonical action names in index order (SPEC.md).
+ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+#: downhill direction of each action, degrees counter-clockwise from east (+x).
+ACTION_ANGLES_DEG = {"N": 90.0, "NE": 45.0, "E": 0.0, "SE": -45.0, "S": -90.0, "SW": -135.0,
+                     "W": 180.0, "NW": 135.0}
+DEFAULT_TILT_DEG = 30.0
+_SCENE_FORMAT = 1
+
+
+def _pybullet_version() -> str:
+    try:
+        from importlib.metadata import version
+        return version("pybullet")
+    except Exception:  # pragma: no cover - pybullet is a hard dependency
+        return "unknown"
+
+
+def _positive(name, val, upper=None):
+    if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)) or not math.isfinite(val) or val <= 0:
+        raise ValueError(f"{name} must be a positive finite number, got {val!r}")
+    if upper is not None and val >= upper:
+        raise ValueError(f"{name} must be below {upper}, got {val!r}")
+    return float(val)
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """A tray-tilt scene.
+
+    Parameters
+    ----------
+    shape : Shape
+        The part (see :mod:`transition_builder.shapes`).
+    tray_x_mm, tray_y_mm : float
+        Inner size of the tray (default 200 x 200 mm).
+    wall_height_mm, wall_thickness_mm : float
+        Wall size. Walls are taller than any part so nothing can jump them.
+    friction : FrictionSpec or str or float
+        Floor friction: a uniform coefficient or ``map:LEVEL:SEED`` (see :mod:`transition_builder.friction`).
+    wall_mu : float or None
+        Coulomb coefficient between part and walls; ``None`` means the floor's (base) coefficient.
+    tilt_deg : float
+        Tilt angle of every action (default 30 degrees), in (0, 90).
+    actions : tuple of str
+        The action set, a subset of ``N, NE, E, SE, S, SW, W, NW`` kept in canonical order.
+    settings : SimSettings
+        Simulator settings.
+    """
+
+    shape: Shape
+    tray_x_mm: float = 200.0
+    tray_y_mm: float = 200.0
+    wall_height_mm: float = 30.0
+    wall_thickness_mm: float = 20.0
+    friction: FrictionSpec = field(default_factory=lambda: parse_friction(DEFAULT_MU))
+    wall_mu: float | None = None
+    tilt_deg: float = DEFAULT_TILT_DEG
+    actions: tuple = ACTIONS
+    settings: SimSettings = field(default_factory=SimSettings)
+
+    def __post_init__(self):
+        if not isinstance(self.shape, Shape):
+            raise ValueError(f"scene shape must be a Shape, got {type(self.shape).__name__}")
+        for name in ("tray_x_mm", "tray_y_mm", "wall_height_mm", "wall_thickness_mm"):
+            object.__setattr__(self, name, _positive(name.replace("_", " "), getattr(self, name)))
+        object.__setattr__(self, "tilt_deg", _positive("tilt angle (deg)", self.tilt_deg, upper=90.0))
+        object.__setattr__(self, "friction", parse_friction(self.friction))
+        if self.wall_mu is not None:
+            wm = self.wall_mu
+            if isinstance(wm, bool) or not isinstance(wm, (int, float)) or not math.isfinite(wm) or wm < 0:
+                raise ValueError(f"wall friction must be a finite number >= 0, got {wm!r}")
+            object.__setattr__(self, "wall_mu", float(wm))
+        if not isinstance(self.settings, SimSettings):
+            raise ValueError("scene settings must be a SimSettings")
+        acts = self.actions
+        if isinstance(acts, str):
+            acts = [a for a in acts.split(",") if a.strip()]
+        names = []
+        for a in acts:
+            if not isinstance(a, str) or a.strip().upper() not in ACTIONS:
+                raise ValueError(f"unknown action {a!r}; known actions: {','.join(ACTIONS)}")
+            names.append(a.strip().upper())
+        if not names:
+            raise ValueError("the action set is empty")
+        if len(set(names)) != len(names):
+            raise ValueError(f"repeated action in the action set {','.join(names)}")
+        object.__setattr__(self, "actions", tuple(a for a in ACTIONS if a in names))
+        if self.wall_height_mm <= self.shape.thickness_mm:
+            raise ValueError(f"walls ({self.wall_height_mm:g} mm) must be taller than the part "
+                             f"({self.shape.thickness_mm:g} mm)")
+        check_fits(self.shape, self.tray_x_mm, self.tray_y_mm)
+
+    # ------------------------------------------------------------------ actions
+    def action_index(self, action) -> int:
+        """Index of ``action`` (a name or an index) in this scene's action set; ValueError if unknown."""
+        if isinstance(action, (int, np.integer)) and not isinstance(action, bool):
+            if not 0 <= int(action) < len(self.actions):
+                raise ValueError(f"action index {action} out of range 0..{len(self.actions) - 1} "
+                                 f"(actions {','.join(self.actions)})")
+            return int(action)
+        if isinstance(action, str) and action.strip().upper() in self.actions:
+            return self.actions.index(action.strip().upper())
+        raise ValueError(f"unknown action {action!r}; known actions: {','.join(self.actions)}")
+
+    def action_name(self, action) -> str:
+        return self.actions[self.action_index(action)]
+
+    def downhill_angle(self, action) -> float:
+        """Downhill direction of ``action`` in radians counter-clockwise from +x (east)."""
+        return math.radians(ACTION_ANGLES_DEG[self.action_name(action)])
+
+    @property
+    def base_mu(self) -> float:
+        return self.friction.mu
+
+    @property
+    def effective_wall_mu(self) -> float:
+        return self.base_mu if self.wall_mu is None else self.wall_mu
+
+    # ------------------------------------------------------------------ serialisation
+    def to_dict(self) -> dict:
+        """Everything that defines the scene, JSON-able."""
+        return {
+            "format": _SCENE_FORMAT,
+            "shape": self.shape.to_dict(),
+            "tray_x_mm": self.tray_x_mm, "tray_y_mm": self.tray_y_mm,
+            "wall_height_mm": self.wall_height_mm, "wall_thickness_mm": self.wall_thickness_mm,
+            "friction": str(self.friction), "base_mu": self.friction.mu,
+            "wall_mu": self.wall_mu,
+            "tilt_deg": self.tilt_deg,
+            "actions": list(self.actions),
+            "settings": self.settings.to_dict(),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Scene":
+        """Build a scene from :meth:`to_dict` output or a hand-written JSON/TOML table.
+
+        ``shape`` may be a spec string (``"allen-key"``) or a table with ``vertices`` (and optional
+        ``name``, ``thickness_mm``, ``density_kg_m3``). Missing keys take their defaults.
+        """
+        if not isinstance(data, dict):
+            raise ValueError(f"a scene must be a table/object, got {type(data).__name__}")
+        known = {"format", "shape", "tray_x_mm", "tray_y_mm", "wall_height_mm", "wall_thickness_mm",
+                 "friction", "base_mu", "wall_mu", "tilt_deg", "actions", "settings"}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"unknown scene key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        if "shape" not in data:
+            raise ValueError("scene has no 'shape'")
+        sh = data["shape"]
+        if isinstance(sh, str):
+            shape = parse_shape(sh)
+        elif isinstance(sh, dict):
+            if "vertices" not in sh:
+                raise ValueError("scene shape table has no 'vertices'")
+            kw = {k: sh[k] for k in ("thickness_mm", "density_kg_m3") if k in sh}
+            shape = make_shape(sh["vertices"], name=str(sh.get("name", "polygon")), **kw)
+        else:
+            raise ValueError(f"scene shape must be a spec string or a table, got {type(sh).__name__}")
+        kw = {k: data[k] for k in ("tray_x_mm", "tray_y_mm", "wall_height_mm", "wall_thickness_mm",
+                                   "wall_mu", "tilt_deg") if k in data}
+        base_mu = data.get("base_mu", DEFAULT_MU)
+        kw["friction"] = parse_friction(data.get("friction", base_mu), base_mu=base_mu)
+        if "actions" in data:
+            kw["actions"] = tuple(data["actions"]) if not isinstance(data["actions"], str) else data["actions"]
+        if "settings" in data:
+            kw["settings"] = SimSettings.from_dict(data["settings"])
+        return cls(shape=shape, **kw)
+
+    @classmethod
+    def load(cls, path) -> "Scene":
+        """Load a scene from a ``.json`` or ``.toml`` file."""
+        path = os.fspath(path)
+        try:
+            if path.lower().endswith(".toml"):
+                with open(path, "rb") as f:
+                    data = tomllib.load(f)
+            else:
+                with open(path, encoding="utf-8") as f:
+                    data = json.load(f)
+        except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+            raise ValueError(f"scene file {path}: cannot parse: {exc}") from None
+        return cls.from_dict(data)
+
+    def save(self, path) -> None:
+        """Write :meth:`to_dict` as JSON (atomically)."""
+        path = os.fspath(path)
+        tmp = f"{path}.tmp{os.getpid()}"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(self.to_dict(), f, indent=1)
+        os.replace(tmp, path)
+
+    def content_hash(self) -> str:
+        """SHA-256 (hex) of the canonical JSON of everything that can change a simulated result.
+
+        Includes the shape's vertices and convex parts, tray, friction, tilt, actions, every
+        simulator setting, the simulator's model version and the PyBullet version.
+        """
+        from transition_builder import sim  # local: sim imports scene
+        payload = dict(self.to_dict(), pybullet=_pybullet_version(), simulator=sim.SIMULATOR_VERSION)
+        text = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
+        return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+    def with_settings(self, **changes) -> "Scene":
+        """A copy with some simulator settings changed."""
+        return replace(self, settings=replace(self.settings, **changes))
+
+    def __eq__(self, other):
+        return isinstance(other, Scene) and self.to_dict() == other.to_dict()
+
+    def __hash__(self):
+        return hash(self.content_hash())
+
+    def __repr__(self):
+        return (f"Scene({self.shape.name!r}, tray {self.tray_x_mm:g}x{self.tray_y_mm:g} mm, "
+                f"friction {self.friction}, tilt {self.tilt_deg:g} deg, actions {','.join(self.actions)})")
+
+
+def scene_from_options(shape_spec, friction_spec=DEFAULT_MU, tilt_deg: float = DEFAULT_TILT_DEG,
+                       actions=None, tray_mm=(200.0, 200.0), wall_mu=None,
+                       settings: SimSettings | None = None, **setting_changes) -> Scene:
+    """Build a :class:`Scene` from command-line style options.
+
+    ``shape_spec`` is a shape spec string or a :class:`Shape`; ``friction_spec`` a number or
+    ``map:LEVEL:SEED``; ``actions`` ``None`` (all eight), a list of names or ``"N,E,S"``;
+    extra keyword arguments change :class:`SimSettings` fields. Raises a one-line ValueError on bad input.
+    """
+    shape = shape_spec if isinstance(shape_spec, Shape) else parse_shape(shape_spec)
+    settings = settings or SimSettings()
+    if setting_changes:
+        try:
+            settings = replace(settings, **setting_changes)
+        except TypeError as exc:
+            raise ValueError(f"bad simulator setting: {exc}") from None
+    tx, ty = tray_mm
+    return Scene(shape=shape, tray_x_mm=tx, tray_y_mm=ty, friction=parse_friction(friction_spec),
+                 wall_mu=wall_mu, tilt_deg=tilt_deg, actions=ACTIONS if actions is None else actions,
+                 settings=settings)

@@ -1,0 +1,99 @@
+"""Simulator settings (:class:`SimSettings`): every knob of the tilt simulator that can change a result.
+
+Results of a rigid-body engine are very sensitive to solver settings (PHYSICS_NOTES.md: the final yaw
+after 64 tilts differed by more than 3 rad between 10 and 50 solver iterations), so every field here
+goes into :meth:`transition_builder.scene.Scene.content_hash`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+__all__ = ["SimSettings"]
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """Numerical settings of the PyBullet tilt simulator (see :mod:`transition_builder.sim`).
+
+    Attributes
+    ----------
+    time_step_s : float
+        Physics time step (s).
+    substeps : int
+        Physics steps per ``stepSimulation`` call (PyBullet ``numSubSteps``); the rest test runs once
+        per call, i.e. every ``substeps * time_step_s`` seconds.
+    solver_iterations : int
+        Sequential-impulse solver iterations per step.
+    rest_speed_mm_s : float
+        The object is at rest while its centroid speed is below this (mm/s) ...
+    rest_angular_speed_rad_s : float
+        ... and its yaw rate is below this (rad/s) ...
+    dwell_s : float
+        ... continuously for this long (s).
+    max_time_s : float
+        A tilt still moving after this long is ``UNSETTLED``.
+    support_radius_mm : float
+        Radius of the support sphere under the centroid that carries the floor contact.
+    floor_clearance_mm : float
+        Gap between the floor and the bottom of the part's prism; larger than
+        ``contact_threshold_mm`` so the prism never makes floor contacts (it only touches walls).
+    collision_margin_mm : float
+        Bullet collision margin of the object's prism parts.
+    contact_threshold_mm : float
+        Bullet contact breaking threshold: contacts are made this far ahead of touching (must exceed
+        the distance travelled in one step, about 5 mm at 1.3 m/s and 1/240 s, or parts tunnel).
+    escape_tolerance_mm : float
+        A rest pose whose outline is outside the tray by more than this is ``ESCAPED``.
+    lift_tolerance_mm : float
+        A rest pose lifted off the floor by more than this is ``ESCAPED`` (left the floor).
+    """
+
+    time_step_s: float = 1.0 / 240.0
+    substeps: int = 4
+    solver_iterations: int = 100
+    rest_speed_mm_s: float = 0.5
+    rest_angular_speed_rad_s: float = 0.01
+    dwell_s: float = 1.0 / 30.0
+    max_time_s: float = 4.0
+    support_radius_mm: float = 1.0
+    floor_clearance_mm: float = 10.0
+    collision_margin_mm: float = 0.1
+    contact_threshold_mm: float = 8.0
+    escape_tolerance_mm: float = 1.0
+    lift_tolerance_mm: float = 2.0
+
+    def __post_init__(self):
+        for f in fields(self):
+            val = getattr(self, f.name)
+            if f.type in ("int", int):
+                if isinstance(val, bool) or not isinstance(val, int) or val < 1:
+                    raise ValueError(f"SimSettings.{f.name} must be a positive integer, got {val!r}")
+            else:
+                if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
+                    raise ValueError(f"SimSettings.{f.name} must be a positive finite number, got {val!r}")
+                object.__setattr__(self, f.name, float(val))
+        if self.floor_clearance_mm <= self.contact_threshold_mm:
+            raise ValueError("SimSettings.floor_clearance_mm must exceed contact_threshold_mm")
+        if self.max_time_s < self.dwell_s:
+            raise ValueError("SimSettings.max_time_s must be at least dwell_s")
+
+    def to_dict(self) -> dict:
+        """All fields, JSON-able."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "SimSettings":
+        """Inverse of :meth:`to_dict`; unknown keys are an error."""
+        if not isinstance(data, dict):
+            raise ValueError(f"sim settings must be a table/object, got {type(data).__name__}")
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"unknown sim setting(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        return cls(**data)
+
+    @property
+    def check_interval_s(self) -> float:
+        """Simulated time between two rest tests."""
+        return self.time_step_s * self.substeps
