@@ -267,3 +267,50 @@ def test_read_poses_csv_lenient_forms(tmp_path):
     np.testing.assert_allclose(entropy_by_step(rec, g), [1.0, 0.0])
     with pytest.raises(ValueError, match="does not exist"):
         read_poses_csv(tmp_path / "nope.csv")
+
+
+# ---------------------------------------------------------------------------------- real physics
+
+@pytest.fixture(scope="module")
+def real_scene():
+    pytest.importorskip("transition_builder.sim")
+    from transition_builder.scene import scene_from_options
+
+    return scene_from_options("allen-key")
+
+
+def test_paper_sanity_initial_entropy(real_scene):
+    """M = 10,000 uniform starts on the 4x4x4 grid: entropy near log2(occupied voxels)."""
+    res = run_direct(real_scene, [], 10000, seed=0, workers=1)
+    assert res.occupied_voxels[0] == 64
+    assert abs(res.entropy_bits[0] - math.log2(res.occupied_voxels[0])) < 0.5
+
+
+def test_paper_sanity_first_tilt_drops_entropy(real_scene):
+    """After the first tilt the part lies against the wall and the entropy drops sharply."""
+    res = run_direct(real_scene, ["E"], 300, seed=0, workers=1)
+    assert res.surviving[1] >= 0.9 * 300
+    ok = res.status[:, 1] == OK
+    rest = res.poses[ok, 1]
+    # every settled part touches the east wall (within 2 mm: contact margins) ...
+    xmax = real_scene.shape.placed(rest)[..., 0].max(axis=1)
+    assert np.all(xmax > real_scene.tray_x_mm - 2.0)
+    # ... so only the last x bin is occupied: at most log2(4 y-bins x 4 theta-bins) = 4 bits are left
+    assert np.all(res.grid.bin_indices(rest)[0] == res.grid.nx - 1)
+    assert res.entropy_bits[1] <= 4.0 + 1e-9
+    assert res.entropy_bits[1] < res.entropy_bits[0] - 1.0
+
+
+def test_paper_sanity_diagonal_tilt_drives_parts_to_the_walls(real_scene):
+    """NE tilt: every part ends against the east or the north wall (with mu = 0.3 at 30 degrees a
+    part that meets one wall first may stay there: wall plus floor friction exceed the along-wall
+    pull), and the entropy drops sharply."""
+    res = run_direct(real_scene, ["NE"], 300, seed=1, workers=1)
+    assert res.surviving[1] >= 0.9 * 300
+    rest = res.poses[res.status[:, 1] == OK, 1]
+    v = real_scene.shape.placed(rest)
+    east = v[..., 0].max(axis=1) > real_scene.tray_x_mm - 2.0
+    north = v[..., 1].max(axis=1) > real_scene.tray_y_mm - 2.0
+    assert np.all(east | north)
+    assert np.mean(east & north) > 0.5  # most reach the corner
+    assert res.entropy_bits[0] - res.entropy_bits[1] > 2.0
