@@ -274,3 +274,40 @@ def test_shape_is_frozen_and_arrays_read_only():
 def test_convex_decomposition_function_direct():
     parts = convex_decomposition(np.array(_star(4), dtype=float))
     assert sum(Polygon(p).area for p in parts) == pytest.approx(Polygon(_star(4)).area)
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@st.composite
+def star_polygons(draw):
+    """Random star-shaped (hence simple) polygons, possibly with rounded (collinear) coordinates."""
+    m = draw(st.integers(3, 12))
+    gaps = draw(st.lists(st.floats(0.05, 1.0), min_size=m, max_size=m))
+    ang = np.cumsum(gaps) / np.sum(gaps) * 2 * math.pi
+    r = np.array(draw(st.lists(st.floats(5.0, 60.0), min_size=m, max_size=m)))
+    pts = np.column_stack([r * np.cos(ang), r * np.sin(ang)])
+    if draw(st.booleans()):
+        pts = np.round(pts)
+    return pts
+
+
+@settings(max_examples=150, deadline=None)
+@given(star_polygons())
+def test_property_random_simple_polygons(pts):
+    try:
+        s = make_shape(pts)
+    except ValueError as exc:  # rounding can make a polygon degenerate; the error must say so
+        assert "zero area" in str(exc) or "not simple" in str(exc) or "convex parts" in str(exc)
+        assert not Polygon(pts).is_valid or Polygon(pts).area < 1e-6 or "convex parts" in str(exc)
+        return
+    assert _signed_area(s.vertices) > 0
+    c = Polygon(s.vertices).centroid
+    assert abs(c.x) < 1e-9 and abs(c.y) < 1e-9
+    assert s.area_mm2 == pytest.approx(Polygon(pts).area, rel=1e-9)
+    polys = [Polygon(p) for p in s.convex_parts]
+    assert sum(p.area for p in polys) == pytest.approx(s.area_mm2, rel=1e-9)
+    assert unary_union(polys).symmetric_difference(Polygon(s.vertices)).area < 1e-6 * s.area_mm2
+    for p in polys:
+        assert p.area == pytest.approx(p.convex_hull.area, rel=1e-9)
