@@ -1,0 +1,347 @@
+"""Numba kernels for synchronization: subsets as bitsets (``uint64`` words), hashed subset stores,
+forward (image) and inverse (preimage) breadth-first levels, the subset-inclusion meet test, the
+pair graph and Eppstein's greedy pair merging.
+
+All kernels take arrays and write into preallocated arrays; nothing here allocates randomness.
+A letter is given twice: ``delta[a, q]`` (next state, deterministic automata; ``-1`` rows mean
+"use ``sup``") and ``sup[a, q, :]`` (bitset of the support of row ``q`` of action ``a``). For a
+set-valued (support) automaton the image of a set is the union of the supports of its states and
+the preimage of ``S`` is ``{q : supp(q, a) is a subset of S}``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+_ONE = np.uint64(1)
+_ZERO = np.uint64(0)
+_ALL = np.uint64(0xFFFFFFFFFFFFFFFF)
+_MUL = np.uint64(0x9E3779B97F4A7C15)
+
+
+@njit(cache=True, inline="always")
+def _popcount(x):
+    x = x - ((x >> np.uint64(1)) & np.uint64(0x5555555555555555))
+    x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
+    x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
+    return int((x * np.uint64(0x0101010101010101)) >> np.uint64(56))
+
+
+@njit(cache=True, inline="always")
+def _ctz(x):
+    # index of the lowest set bit of a non-zero word
+    return _popcount((x & (~x + np.uint64(1))) - np.uint64(1))
+
+
+@njit(cache=True)
+def _hash_row(store, i):
+    h = np.uint64(0xCBF29CE484222325)
+    for w in range(store.shape[1]):
+        h = (h ^ store[i, w]) * _MUL
+        h ^= h >> np.uint64(29)
+    return h
+
+
+@njit(cache=True)
+def _rows_equal(store, i, j):
+    for w in range(store.shape[1]):
+        if store[i, w] != store[j, w]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def set_size(store, i):
+    c = 0
+    for w in range(store.shape[1]):
+        c += _popcount(store[i, w])
+    return c
+
+
+@njit(cache=True)
+def rehash(store, count, table):
+    """Fill ``table`` (power-of-two length, int64, reset to -1 here) with rows ``0..count-1``."""
+    table[:] = -1
+    mask = np.uint64(table.shape[0] - 1)
+    for i in range(count):
+        slot = _hash_row(store, i) & mask
+        while table[slot] != -1:
+            slot = (slot + _ONE) & mask
+        table[slot] = i
+
+
+@njit(cache=True)
+def _insert_last(store, count, table):
+    """Insert row ``count`` if new; return True when inserted."""
+    mask = np.uint64(table.shape[0] - 1)
+    slot = _hash_row(store, count) & mask
+    while True:
+        j = table[slot]
+        if j == -1:
+            table[slot] = count
+            return True
+        if _rows_equal(store, j, count):
+            return False
+        slot = (slot + _ONE) & mask
+
+
+@njit(cache=True)
+def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, letter, max_count):
+    """Append to ``store`` the new images (``forward``) or non-empty preimages of rows ``lo..hi-1``.
+
+    Rows are appended from ``count``; ``parent``/``letter`` record where each new row came from.
+    Returns the new count, or ``-1`` if ``max_count`` would be exceeded (the store then holds a
+    partial level that the caller discards).
+    """
+    k = delta.shape[0]
+    n = delta.shape[1]
+    W = store.shape[1]
+    for i in range(lo, hi):
+        for a in range(k):
+            if count >= max_count:
+                return -1
+            for w in range(W):
+                store[count, w] = _ZERO
+            if forward:
+                for w in range(W):
+                    x = store[i, w]
+                    while x != _ZERO:
+                        b = _ctz(x)
+                        x &= x - _ONE
+                        q = w * 64 + b
+                        if det:
+                            r = delta[a, q]
+                            store[count, r >> 6] |= _ONE << np.uint64(r & 63)
+                        else:
+                            for v in range(W):
+                                store[count, v] |= sup[a, q, v]
+                empty = False
+            else:
+                empty = True
+                for q in range(n):
+                    ok = True
+                    if det:
+                        r = delta[a, q]
+                        ok = ((store[i, r >> 6] >> np.uint64(r & 63)) & _ONE) == _ONE
+                    else:
+                        for v in range(W):
+                            if (sup[a, q, v] & ~store[i, v]) != _ZERO:
+                                ok = False
+                                break
+                    if ok:
+                        store[count, q >> 6] |= _ONE << np.uint64(q & 63)
+                        empty = False
+            if empty:
+                continue
+            if _insert_last(store, count, table):
+                parent[count] = i
+                letter[count] = a
+                count += 1
+    return count
+
+
+@njit(cache=True)
+def meet(fstore, flo, fhi, bstore, blo, bhi, n, block):
+    """Find ``F`` in forward rows ``flo..fhi-1`` and ``B`` in backward rows ``blo..bhi-1`` with F <= B.
+
+    Uses an inverted index (for each state, the bitset of the backward rows containing it), built
+    block by block of ``block`` backward rows. Returns ``(f, b)`` or ``(-1, -1)``.
+    """
+    W = fstore.shape[1]
+    nwords = (block + 63) // 64
+    inv = np.zeros((n, nwords), dtype=np.uint64)
+    elems = np.empty(n, dtype=np.int64)
+    for start in range(blo, bhi, block):
+        stop = min(bhi, start + block)
+        inv[:, :] = _ZERO
+        for j in range(start, stop):
+            jj = j - start
+            bit = _ONE << np.uint64(jj & 63)
+            for w in range(W):
+                x = bstore[j, w]
+                while x != _ZERO:
+                    b = _ctz(x)
+                    x &= x - _ONE
+                    inv[w * 64 + b, jj >> 6] |= bit
+        used = (stop - start + 63) // 64
+        for i in range(flo, fhi):
+            m = 0
+            for w in range(W):
+                x = fstore[i, w]
+                while x != _ZERO:
+                    b = _ctz(x)
+                    x &= x - _ONE
+                    elems[m] = w * 64 + b
+                    m += 1
+            for v in range(used):
+                acc = _ALL
+                for t in range(m):
+                    acc &= inv[elems[t], v]
+                    if acc == _ZERO:
+                        break
+                if acc != _ZERO:
+                    jj = v * 64 + _ctz(acc)
+                    return i, start + jj
+    return -1, -1
+
+
+@njit(cache=True)
+def apply_word(bits, word, delta, sup, det):
+    """Image of the bitset ``bits`` under ``word`` (returns a new bitset)."""
+    W = bits.shape[0]
+    cur = bits.copy()
+    nxt = np.zeros(W, dtype=np.uint64)
+    for t in range(word.shape[0]):
+        a = word[t]
+        nxt[:] = _ZERO
+        for w in range(W):
+            x = cur[w]
+            while x != _ZERO:
+                b = _ctz(x)
+                x &= x - _ONE
+                q = w * 64 + b
+                if det:
+                    r = delta[a, q]
+                    nxt[r >> 6] |= _ONE << np.uint64(r & 63)
+                else:
+                    for v in range(W):
+                        nxt[v] |= sup[a, q, v]
+        cur[:] = nxt
+    return cur
+
+
+# ----------------------------------------------------------------------------- pair graph
+@njit(cache=True, inline="always")
+def pair_index(p, q, n):
+    if p > q:
+        p, q = q, p
+    return p * n - (p * (p + 1)) // 2 + (q - p - 1)
+
+
+@njit(cache=True)
+def pair_edges_count(indptr, indices, n):
+    """Number of (pair, letter, image pair) edges of the 'exists a choice' pair graph, and merges."""
+    k = indptr.shape[0]
+    total = 0
+    for a in range(k):
+        for p in range(n):
+            for q in range(p + 1, n):
+                total += (indptr[a, p + 1] - indptr[a, p]) * (indptr[a, q + 1] - indptr[a, q])
+    return total
+
+
+@njit(cache=True)
+def pair_merge_distance(indptr, indices, n):
+    """Shortest merging length of every pair (``-1`` if no word merges it) by inverse BFS.
+
+    Edges: pair {p,q} --a--> {p',q'} for p' in supp(p,a), q' in supp(q,a) (for deterministic
+    automata exactly the pair automaton). A pair is merged in one step if some choice gives p'=q'.
+    Returns ``(dist, nxt_letter)`` over pair indices (``pair_index``), ``nxt_letter`` being the first
+    letter of a shortest merging word.
+    """
+    k = indptr.shape[0]
+    P = n * (n - 1) // 2
+    dist = np.full(P, -1, dtype=np.int64)
+    nxt = np.full(P, -1, dtype=np.int32)
+    # reverse adjacency in CSR: count in-degrees first
+    indeg = np.zeros(P + 1, dtype=np.int64)
+    queue = np.empty(P, dtype=np.int64)
+    qlen = 0
+    for a in range(k):
+        for p in range(n):
+            for q in range(p + 1, n):
+                src = pair_index(p, q, n)
+                for s in range(indptr[a, p], indptr[a, p + 1]):
+                    for t in range(indptr[a, q], indptr[a, q + 1]):
+                        pp = indices[s]
+                        qq = indices[t]
+                        if pp == qq:
+                            if dist[src] == -1:
+                                dist[src] = 1
+                                nxt[src] = a
+                                queue[qlen] = src
+                                qlen += 1
+                        else:
+                            indeg[pair_index(pp, qq, n) + 1] += 1
+    for i in range(P):
+        indeg[i + 1] += indeg[i]
+    fill = indeg[:P].copy()
+    radj = np.empty(indeg[P], dtype=np.int64)
+    rlet = np.empty(indeg[P], dtype=np.int32)
+    for a in range(k):
+        for p in range(n):
+            for q in range(p + 1, n):
+                src = pair_index(p, q, n)
+                for s in range(indptr[a, p], indptr[a, p + 1]):
+                    for t in range(indptr[a, q], indptr[a, q + 1]):
+                        pp = indices[s]
+                        qq = indices[t]
+                        if pp != qq:
+                            d = pair_index(pp, qq, n)
+                            radj[fill[d]] = src
+                            rlet[fill[d]] = a
+                            fill[d] += 1
+    head = 0
+    while head < qlen:
+        cur = queue[head]
+        head += 1
+        for e in range(indeg[cur], indeg[cur + 1]):
+            src = radj[e]
+            if dist[src] == -1:
+                dist[src] = dist[cur] + 1
+                nxt[src] = rlet[e]
+                queue[qlen] = src
+                qlen += 1
+    return dist, nxt
+
+
+@njit(cache=True)
+def eppstein_greedy(delta, start, dist, nxt, out_word):
+    """Eppstein's (1990) greedy: repeatedly merge the pair of the current set with the shortest
+    merging word. Deterministic automata only. Returns the word length written into ``out_word``,
+    or ``-1`` if some pair cannot be merged, ``-2`` if ``out_word`` is too short.
+    """
+    n = delta.shape[1]
+    cur = start.copy()
+    m = cur.shape[0]
+    mark = np.zeros(n, dtype=np.int64)
+    stamp = 0
+    length = 0
+    while m > 1:
+        best = -1
+        bp = -1
+        bq = -1
+        for i in range(m):
+            for j in range(i + 1, m):
+                d = dist[pair_index(cur[i], cur[j], n)]
+                if d < 0:
+                    return -1
+                if best < 0 or d < best:
+                    best = d
+                    bp = cur[i]
+                    bq = cur[j]
+                    if best == 1:
+                        break
+            if best == 1:
+                break
+        p = bp
+        q = bq
+        while p != q:
+            a = nxt[pair_index(p, q, n)]
+            if length >= out_word.shape[0]:
+                return -2
+            out_word[length] = a
+            length += 1
+            p = delta[a, p]
+            q = delta[a, q]
+            # apply the letter to the whole current set, deduplicating
+            stamp += 1
+            mm = 0
+            for i in range(m):
+                r = delta[a, cur[i]]
+                if mark[r] != stamp:
+                    mark[r] = stamp
+                    cur[mm] = r
+                    mm += 1
+            m = mm
+    return length

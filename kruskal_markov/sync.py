@@ -1,0 +1,604 @@
+"""Synchronizing words: support automata, synchronizability, shortest and greedy reset words,
+and epsilon-synchronizing words of stochastic models.
+
+A *synchronizing* (reset) word ``w`` drives a start set ``S`` of states to a single state:
+``|S . w| = 1``. For a deterministic automaton ``S`` is the whole state set (a reset word); for a
+tray model it is the support of the initial distribution. For a stochastic model we work on its
+*support automaton* (entries ``>= threshold``), where the image of a set is the union of the
+supports of its states: a word that synchronizes the support automaton orients the part with
+certainty (up to the dropped probability mass).
+
+Algorithms
+----------
+* Synchronizability: the pair graph (Cerny 1964; Eppstein 1990): a deterministic automaton is
+  synchronizing iff every pair of states can be merged, decided in ``O(k n^2)``.
+* Exact shortest word: bidirectional breadth-first search over subsets stored as bitsets --
+  images of the start set forward, preimages of singletons backward, meeting when a forward set is
+  contained in a backward set -- as in Kisielewicz, Kowalski and Szykula, "Computing the shortest
+  reset words of synchronizing automata", J. Comb. Optim. 29 (2015), and Kisielewicz and Szykula,
+  "Experiments with synchronizing automata", CIAA 2016. ``exact`` is True only when the search
+  proved optimality.
+* Greedy: Eppstein, "Reset sequences for monotonic automata", SIAM J. Comput. 19 (1990):
+  repeatedly merge the pair with the shortest merging word.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from kruskal_markov import _sync_kernels as _k
+
+__all__ = [
+    "SyncAutomaton", "SyncResult", "support_automaton", "start_set", "synchronizability",
+    "shortest_synchronizing_word", "greedy_synchronizing_word", "epsilon_synchronizing_word",
+    "is_synchronizing_word",
+]
+
+
+# ----------------------------------------------------------------------------- automata
+@dataclass
+class SyncAutomaton:
+    """A (possibly set-valued) automaton over ``n`` states and ``k`` letters.
+
+    Attributes
+    ----------
+    actions : tuple of str
+    n : int
+    deterministic : bool
+    indptr, indices : ndarray
+        Supports as a packed CSR: row ``q`` of letter ``a`` is
+        ``indices[indptr[a, q]:indptr[a, q + 1]]`` (``indptr`` int64 of shape ``(k, n + 1)``).
+    mass_dropped : float
+        Largest probability mass of one row removed by the threshold (0 for deterministic input).
+    """
+
+    actions: tuple
+    n: int
+    deterministic: bool
+    indptr: np.ndarray
+    indices: np.ndarray
+    mass_dropped: float = 0.0
+    mass_dropped_mean: float = 0.0
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def k(self) -> int:
+        return len(self.actions)
+
+    @property
+    def n_words(self) -> int:
+        return (self.n + 63) // 64
+
+    @classmethod
+    def from_table(cls, table, actions=None) -> "SyncAutomaton":
+        """A deterministic automaton from a next-state table ``table[a, q]``.
+
+        >>> SyncAutomaton.from_table([[1, 2, 0], [0, 0, 2]]).deterministic
+        True
+        """
+        t = np.asarray(table)
+        if t.ndim != 2 or t.shape[1] == 0 or t.shape[0] == 0:
+            raise ValueError("a transition table must have shape (letters, states) with both > 0")
+        if not np.issubdtype(t.dtype, np.integer):
+            raise ValueError("a transition table must hold integer state indices")
+        k, n = t.shape
+        if t.min() < 0 or t.max() >= n:
+            raise ValueError(f"transition table entries must lie in [0, {n})")
+        if actions is None:
+            actions = tuple(str(i) for i in range(k))
+        if len(actions) != k:
+            raise ValueError(f"{len(actions)} action names for {k} letters")
+        indptr = (np.arange(n + 1, dtype=np.int64)[None, :] + (np.arange(k, dtype=np.int64) * n)[:, None])
+        return cls(tuple(actions), n, True, indptr, t.astype(np.int32).ravel().copy())
+
+    @property
+    def delta(self) -> np.ndarray:
+        """Next-state table ``(k, n)`` int32; ``-1`` everywhere for set-valued automata."""
+        if "delta" not in self._cache:
+            if self.deterministic:
+                d = self.indices[self.indptr[:, :-1]].astype(np.int32)
+            else:
+                d = np.full((self.k, self.n), -1, dtype=np.int32)
+            self._cache["delta"] = d
+        return self._cache["delta"]
+
+    @property
+    def sup(self) -> np.ndarray:
+        """Support bitsets ``(k, n, words)`` uint64 (a dummy for deterministic automata)."""
+        if "sup" not in self._cache:
+            if self.deterministic:
+                s = np.zeros((1, 1, 1), dtype=np.uint64)
+            else:
+                s = np.zeros((self.k, self.n, self.n_words), dtype=np.uint64)
+                for a in range(self.k):
+                    for q in range(self.n):
+                        for r in self.indices[self.indptr[a, q]:self.indptr[a, q + 1]]:
+                            s[a, q, r >> 6] |= np.uint64(1) << np.uint64(r & 63)
+            self._cache["sup"] = s
+        return self._cache["sup"]
+
+    def bits(self, states) -> np.ndarray:
+        """Bitset of a collection of states."""
+        out = np.zeros(self.n_words, dtype=np.uint64)
+        for q in np.asarray(states, dtype=np.int64).ravel():
+            out[q >> 6] |= np.uint64(1) << np.uint64(q & 63)
+        return out
+
+    def states_of(self, bits) -> list:
+        """The sorted states of a bitset."""
+        out = []
+        for w, x in enumerate(np.asarray(bits, dtype=np.uint64)):
+            x = int(x)
+            while x:
+                b = (x & -x).bit_length() - 1
+                out.append(w * 64 + b)
+                x &= x - 1
+        return out
+
+    def image(self, states, word) -> list:
+        """The image of a set of states under a word (list of letter indices)."""
+        w = np.asarray(word, dtype=np.int64)
+        if w.size and (w.min() < 0 or w.max() >= self.k):
+            raise ValueError(f"letters must lie in [0, {self.k})")
+        return self.states_of(_k.apply_word(self.bits(states), w, self.delta, self.sup, self.deterministic))
+
+    def pair_distances(self):
+        """Shortest merging length of every pair (``-1``: never), and a first letter of it."""
+        if "pairs" not in self._cache:
+            self._cache["pairs"] = _k.pair_merge_distance(self.indptr, self.indices, self.n)
+        return self._cache["pairs"]
+
+
+def support_automaton(model, threshold: float = 0.0) -> SyncAutomaton:
+    """The support automaton of a :class:`~kruskal_markov.model.TransitionModel`.
+
+    Keeps, per action and row, the entries ``>= threshold`` (always at least the largest entry of
+    the row, so no row is empty); ``mass_dropped`` is the largest probability mass removed from
+    one row. A model whose kept rows are all single entries gives a deterministic automaton.
+    """
+    threshold = float(threshold)
+    if not (0.0 <= threshold <= 1.0) or math.isnan(threshold):
+        raise ValueError(f"threshold must lie in [0, 1], got {threshold}")
+    n, k = model.n_states, model.n_actions
+    indptr = np.empty((k, n + 1), dtype=np.int64)
+    parts = []
+    offset = 0
+    worst = 0.0
+    total = 0.0
+    for a, m in enumerate(model.matrices):
+        m = sp.csr_matrix(m)
+        data = m.data
+        keep = data >= threshold if threshold > 0 else data > 0
+        # keep the largest entry of every row
+        rows = np.repeat(np.arange(n), np.diff(m.indptr))
+        if m.nnz:
+            order = np.lexsort((-data, rows))
+            first = order[np.r_[0, np.flatnonzero(np.diff(rows[order])) + 1]]
+            keep[first] = True
+        dropped = np.bincount(rows[~keep], weights=data[~keep], minlength=n)
+        worst = max(worst, float(dropped.max()) if n else 0.0)
+        total += float(dropped.sum())
+        counts = np.bincount(rows[keep], minlength=n)
+        indptr[a, 0] = offset
+        indptr[a, 1:] = offset + np.cumsum(counts)
+        parts.append(m.indices[keep].astype(np.int32))
+        offset += int(counts.sum())
+    indices = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int32)
+    det = bool(np.all(np.diff(indptr, axis=1) == 1))
+    return SyncAutomaton(tuple(model.actions), n, det, indptr, indices, worst, total / max(1, n * k))
+
+
+def start_set(model, whole: bool | None = None) -> np.ndarray:
+    """The start set: the support of ``model.initial``, or all states when ``whole``.
+
+    ``whole=None`` means: all states for a deterministic automaton, the initial support otherwise.
+    """
+    if whole is None:
+        whole = model.is_deterministic()
+    if whole:
+        return np.arange(model.n_states)
+    return np.flatnonzero(np.asarray(model.initial) > 0)
+
+
+def _as_start(aut: SyncAutomaton, start) -> np.ndarray:
+    if start is None:
+        return np.arange(aut.n)
+    s = np.unique(np.asarray(start, dtype=np.int64).ravel())
+    if s.size == 0:
+        raise ValueError("the start set is empty")
+    if s[0] < 0 or s[-1] >= aut.n:
+        raise ValueError(f"start states must lie in [0, {aut.n})")
+    return s
+
+
+def is_synchronizing_word(aut: SyncAutomaton, word, start=None) -> bool:
+    """True if ``word`` maps the start set (default: all states) onto one state."""
+    return len(aut.image(_as_start(aut, start), word)) == 1
+
+
+# ----------------------------------------------------------------------------- synchronizability
+def synchronizability(aut: SyncAutomaton, start=None) -> dict:
+    """Polynomial synchronizability test via the pair graph.
+
+    Returns ``{"synchronizing": True | False | None, "witness": dict | None}``. ``False`` comes with
+    a pair of start states that no word merges; ``None`` means the pair test cannot decide (a proper
+    start subset, or a set-valued automaton: those questions are PSPACE-complete in general and
+    are settled by the exhaustive search of :func:`shortest_synchronizing_word`).
+
+    >>> a = SyncAutomaton.from_table([[1, 2, 3, 0], [0, 1, 2, 0]])   # Cerny C_4
+    >>> synchronizability(a)["synchronizing"]
+    True
+    """
+    s = _as_start(aut, start)
+    if s.size == 1:
+        return {"synchronizing": True, "witness": None}
+    dist, _ = aut.pair_distances()
+    n = aut.n
+    p, q = np.meshgrid(s, s, indexing="ij")
+    mask = p < q
+    p, q = p[mask], q[mask]
+    idx = p * n - (p * (p + 1)) // 2 + (q - p - 1)
+    bad = np.flatnonzero(dist[idx] < 0)
+    if bad.size:
+        i = bad[0]
+        pair = [int(p[i]), int(q[i])]
+        return {"synchronizing": False,
+                "witness": {"kind": "pair", "states": pair,
+                            "reason": f"no word merges states {pair[0]} and {pair[1]}"}}
+    if not aut.deterministic:
+        return {"synchronizing": None, "witness": None}
+    if s.size == aut.n:
+        return {"synchronizing": True, "witness": None}
+    # states reachable from the start set: if all their pairs merge, greedy merging succeeds
+    reach = _reachable_states(aut, s)
+    p, q = np.meshgrid(reach, reach, indexing="ij")
+    mask = p < q
+    p, q = p[mask], q[mask]
+    idx = p * n - (p * (p + 1)) // 2 + (q - p - 1)
+    if np.all(dist[idx] >= 0):
+        return {"synchronizing": True, "witness": None}
+    return {"synchronizing": None, "witness": None}
+
+
+def _reachable_states(aut: SyncAutomaton, s) -> np.ndarray:
+    seen = np.zeros(aut.n, dtype=bool)
+    seen[s] = True
+    frontier = np.asarray(s)
+    while frontier.size:
+        nxt = []
+        for a in range(aut.k):
+            lo, hi = aut.indptr[a, frontier], aut.indptr[a, frontier + 1]
+            for x, y in zip(lo, hi):
+                nxt.append(aut.indices[x:y])
+        cand = np.unique(np.concatenate(nxt)) if nxt else np.zeros(0, dtype=np.int64)
+        cand = cand[~seen[cand]]
+        seen[cand] = True
+        frontier = cand.astype(np.int64)
+    return np.flatnonzero(seen)
+
+
+# ----------------------------------------------------------------------------- results
+@dataclass
+class SyncResult:
+    """Outcome of a synchronizing-word search.
+
+    ``word`` (letter indices) and ``length`` are None when no word exists (``exact`` True, with a
+    ``witness``) or when none was found within the budgets (``exact`` False).
+    """
+
+    word: list | None
+    length: int | None
+    exact: bool
+    method: str
+    witness: dict | None = None
+    lower_bound: int | None = None
+    greedy_length: int | None = None
+    states_explored: int = 0
+    seconds: float = 0.0
+    notes: list = field(default_factory=list)
+
+    def as_dict(self, actions=None) -> dict:
+        word = self.word
+        if word is not None and actions is not None:
+            word = [actions[a] for a in word]
+        return {"word": word, "length": self.length, "exact": self.exact, "method": self.method,
+                "witness": self.witness, "lower_bound": self.lower_bound,
+                "greedy_length": self.greedy_length, "states_explored": self.states_explored,
+                "notes": list(self.notes)}
+
+
+class _Store:
+    """A growable, hashed store of bitsets with parent pointers (one search direction)."""
+
+    def __init__(self, W, cap, max_rows):
+        self.W = W
+        self.max_rows = max_rows
+        cap = max(16, min(cap, max_rows))
+        self.rows = np.zeros((cap, W), dtype=np.uint64)
+        self.parent = np.full(cap, -1, dtype=np.int64)
+        self.letter = np.full(cap, -1, dtype=np.int32)
+        self.table = np.full(_pow2(2 * cap), -1, dtype=np.int64)
+        self.count = 0
+        self.levels = []
+
+    def ensure(self, need):
+        need = min(need, self.max_rows)
+        cap = self.rows.shape[0]
+        if need <= cap:
+            return
+        new = min(self.max_rows, max(need, 2 * cap))
+        rows = np.zeros((new, self.W), dtype=np.uint64)
+        rows[:self.count] = self.rows[:self.count]
+        parent = np.full(new, -1, dtype=np.int64)
+        parent[:self.count] = self.parent[:self.count]
+        letter = np.full(new, -1, dtype=np.int32)
+        letter[:self.count] = self.letter[:self.count]
+        self.rows, self.parent, self.letter = rows, parent, letter
+        self.table = np.full(_pow2(2 * new), -1, dtype=np.int64)
+        _k.rehash(self.rows, self.count, self.table)
+
+    def add_roots(self, bitsets):
+        self.ensure(self.count + len(bitsets))
+        lo = self.count
+        for b in bitsets:
+            self.rows[self.count] = b
+            self.count += 1
+        _k.rehash(self.rows, self.count, self.table)
+        self.levels.append((lo, self.count))
+
+    def expand(self, aut, forward):
+        lo, hi = self.levels[-1]
+        self.ensure(self.count + (hi - lo) * aut.k)
+        new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.sup, aut.deterministic,
+                              forward, self.table, self.parent, self.letter, self.rows.shape[0])
+        if new < 0:
+            _k.rehash(self.rows, self.count, self.table)   # drop the partial level
+            return None
+        lo2 = self.count
+        self.count = new
+        self.levels.append((lo2, new))
+        return new - lo2
+
+    def path(self, i):
+        out = []
+        while self.parent[i] >= 0:
+            out.append(int(self.letter[i]))
+            i = self.parent[i]
+        return out, i
+
+    def nbytes(self):
+        return self.rows.nbytes + self.parent.nbytes + self.letter.nbytes + self.table.nbytes
+
+
+def _pow2(x):
+    return 1 << max(4, int(x - 1).bit_length())
+
+
+def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
+    """Bidirectional BFS. Returns ``(word | None, status, explored, lower_bound)`` with status
+    'found', 'none' (proven: no word) or 'budget'."""
+    t0 = time.perf_counter()
+    W = aut.n_words
+    row_bytes = 8 * W + 8 + 4 + 16 * 2      # rows + parent + letter + hash table (load <= 1/2, x2 growth)
+    max_rows = max(1024, int(memory_budget_mb * 2 ** 20 / row_bytes / 2))   # per direction
+    fwd = _Store(W, 1024, max_rows)
+    bwd = _Store(W, max(1024, aut.n), max_rows)
+    fwd.add_roots([aut.bits(start)])
+    singletons = []
+    for q in range(aut.n):
+        b = np.zeros(W, dtype=np.uint64)
+        b[q >> 6] = np.uint64(1) << np.uint64(q & 63)
+        singletons.append(b)
+    bwd.add_roots(singletons)
+    total = 0
+    block = 1 << 16
+    while True:
+        (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
+        f, b = _k.meet(fwd.rows, flo, fhi, bwd.rows, blo, bhi, aut.n, block)
+        if f >= 0:
+            u, _ = fwd.path(f)
+            v, _ = bwd.path(b)
+            word = u[::-1] + v
+            return word, "found", fwd.count + bwd.count, total
+        if time.perf_counter() - t0 > time_budget:
+            return None, "budget", fwd.count + bwd.count, total + 1
+        # expand the side with the smaller newest level (inverse steps cost ~ n per set)
+        fsize = fhi - flo
+        bsize = (bhi - blo) * 2
+        forward = fsize <= bsize
+        store = fwd if forward else bwd
+        grown = store.expand(aut, forward)
+        if grown is None:
+            return None, "budget", fwd.count + bwd.count, total + 1
+        if grown == 0:
+            return None, "none", fwd.count + bwd.count, total
+        total += 1
+
+
+def greedy_synchronizing_word(aut: SyncAutomaton, start=None, node_budget: int = 200_000):
+    """A synchronizing word, not necessarily shortest, or None if none was found.
+
+    Deterministic automata: Eppstein's (1990) greedy pair merging (``O(k n^2)`` pair BFS plus
+    ``O(n^3)`` merging), which always succeeds on a synchronizable start set whose reachable pairs
+    all merge. Set-valued automata: greedy descent, repeatedly running a breadth-first search of at
+    most ``node_budget`` subsets from the current set to the nearest strictly smaller image.
+    The returned word is verified.
+    """
+    s = _as_start(aut, start)
+    if s.size == 1:
+        return []
+    word = None
+    if aut.deterministic:
+        dist, nxt = aut.pair_distances()
+        out = np.empty(max(16, aut.n ** 3 // 6 + aut.n), dtype=np.int32) if aut.n <= 256 else \
+            np.empty(4 * aut.n * aut.n, dtype=np.int32)
+        length = _k.eppstein_greedy(aut.delta, s.astype(np.int64), dist, nxt, out)
+        if length >= 0:
+            word = [int(x) for x in out[:length]]
+    if word is None:
+        word = _greedy_descent(aut, s, node_budget)
+    if word is not None and not is_synchronizing_word(aut, word, s):
+        raise AssertionError("internal error: greedy word does not synchronize")
+    return word
+
+
+def _greedy_descent(aut, s, node_budget):
+    W = aut.n_words
+    cur = aut.bits(s)
+    word = []
+    while True:
+        size = len(aut.states_of(cur))
+        if size == 1:
+            return word
+        st = _Store(W, 1024, node_budget)
+        st.add_roots([cur])
+        found = None
+        while found is None:
+            grown = st.expand(aut, True)
+            if not grown:
+                return None
+            lo, hi = st.levels[-1]
+            best, best_size = -1, size
+            for i in range(lo, hi):
+                c = _k.set_size(st.rows, i)
+                if c < best_size:
+                    best, best_size = i, c
+            if best >= 0:
+                found = best
+        u, _ = st.path(found)
+        word += u[::-1]
+        cur = st.rows[found].copy()
+
+
+def shortest_synchronizing_word(aut: SyncAutomaton, start=None, time_budget: float = 60.0,
+                                memory_budget_mb: float = 2048.0) -> SyncResult:
+    """The shortest word synchronizing ``start`` (default: all states).
+
+    Exact bidirectional subset search (Kisielewicz, Kowalski and Szykula 2015): forward images of
+    the start set and inverse images of singletons, breadth-first, hashed bitsets, meeting when a
+    forward set lies inside a backward one; totals ``i + j`` are checked in increasing order, so
+    the first meeting is a shortest word. If a direction is exhausted without meeting, no word
+    exists. Past ``time_budget`` seconds or ``memory_budget_mb`` the result is Eppstein's greedy
+    word with ``exact=False`` and a proven ``lower_bound``.
+
+    >>> a = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])   # Cerny C_3
+    >>> r = shortest_synchronizing_word(a)
+    >>> r.length, r.exact
+    (4, True)
+    """
+    if time_budget <= 0 or memory_budget_mb <= 0:
+        raise ValueError("time and memory budgets must be positive")
+    t0 = time.perf_counter()
+    s = _as_start(aut, start)
+    if s.size == 1:
+        return SyncResult([], 0, True, "trivial", seconds=time.perf_counter() - t0)
+    check = synchronizability(aut, s)
+    if check["synchronizing"] is False:
+        return SyncResult(None, None, True, "pair-graph", witness=check["witness"],
+                          seconds=time.perf_counter() - t0)
+    word, status, explored, lower = _exact_search(aut, s, time_budget, memory_budget_mb)
+    if status == "found":
+        if not is_synchronizing_word(aut, word, s):
+            raise AssertionError("internal error: exact search returned a non-synchronizing word")
+        return SyncResult(word, len(word), True, "bidirectional-bfs", states_explored=explored,
+                          lower_bound=len(word), seconds=time.perf_counter() - t0)
+    if status == "none":
+        return SyncResult(None, None, True, "bidirectional-bfs", states_explored=explored,
+                          witness={"kind": "exhaustive", "subsets_explored": explored,
+                                   "reason": "exhaustive subset search: no image of the start set "
+                                             "is a single state"},
+                          seconds=time.perf_counter() - t0)
+    greedy = greedy_synchronizing_word(aut, s)
+    res = SyncResult(greedy, None if greedy is None else len(greedy), False,
+                     "greedy-eppstein" if aut.deterministic else "greedy-descent",
+                     lower_bound=lower, states_explored=explored,
+                     greedy_length=None if greedy is None else len(greedy),
+                     seconds=time.perf_counter() - t0)
+    res.notes.append(f"exact search stopped by its budget; no synchronizing word is shorter than {lower}")
+    if greedy is not None and len(greedy) <= lower:
+        res.exact = True            # the greedy word meets the proven lower bound
+        res.method += "+lower-bound"
+    return res
+
+
+# ----------------------------------------------------------------------------- epsilon-synchronizing
+def _cell_entropy(p, partition, n_cells):
+    if partition is not None:
+        q = np.bincount(partition, weights=p, minlength=n_cells)
+    else:
+        q = p
+    q = q[q > 0]
+    s = q.sum()
+    if s <= 0:
+        return 0.0
+    q = q / s
+    return float(max(0.0, -np.sum(q * np.log2(q))))
+
+
+def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time_budget: float = 30.0,
+                               max_nodes: int = 2_000_000, decimals: int = 12) -> SyncResult:
+    """Shortest word whose predicted entropy from ``model.initial`` is ``<= epsilon``.
+
+    Entropy is taken on the report partition (on the states if the model has none), in bits.
+    Breadth-first search over the distributions reached by words, with duplicate distributions
+    (equal after rounding to ``decimals``) merged. ``exact`` is True only when the search was
+    exhaustive up to the returned length (the first level with a hit). If no hit exists and the
+    set of reachable distributions is exhausted, the answer is "none" (exact).
+    """
+    epsilon = float(epsilon)
+    if not epsilon >= 0:
+        raise ValueError(f"epsilon must be >= 0, got {epsilon}")
+    t0 = time.perf_counter()
+    mats = [sp.csr_matrix(m).T.tocsr() for m in model.matrices]
+    part = None if model.partition is None else np.asarray(model.partition, dtype=np.int64)
+    ncells = None if part is None else int(model.n_cells if model.n_cells else part.max() + 1)
+    p0 = np.asarray(model.initial, dtype=np.float64)
+    h0 = _cell_entropy(p0, part, ncells)
+    if h0 <= epsilon:
+        return SyncResult([], 0, True, "distribution-bfs", seconds=time.perf_counter() - t0)
+    seen = {np.round(p0, decimals).tobytes()}
+    frontier = [(p0, [])]
+    explored = 1
+    best = (h0, [])
+    for depth in range(1, max_length + 1):
+        nxt = []
+        for p, w in frontier:
+            for a, m in enumerate(mats):
+                q = m @ p
+                key = np.round(q, decimals).tobytes()
+                if key in seen:
+                    continue
+                seen.add(key)
+                explored += 1
+                h = _cell_entropy(q, part, ncells)
+                if h < best[0]:
+                    best = (h, w + [a])
+                if h <= epsilon:
+                    return SyncResult(w + [a], depth, True, "distribution-bfs", states_explored=explored,
+                                      lower_bound=depth, seconds=time.perf_counter() - t0,
+                                      notes=[f"entropy {h:.6g} bits"])
+                nxt.append((q, w + [a]))
+            if explored > max_nodes or time.perf_counter() - t0 > time_budget:
+                res = SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
+                                 lower_bound=depth, seconds=time.perf_counter() - t0)
+                res.notes.append(f"budget reached at depth {depth}; lowest entropy seen "
+                                 f"{best[0]:.6g} bits by a word of length {len(best[1])}")
+                res.witness = None
+                res.greedy_length = len(best[1])
+                res.best_word = best[1]
+                return res
+        if not nxt:
+            return SyncResult(None, None, True, "distribution-bfs", states_explored=explored,
+                              witness={"kind": "exhaustive",
+                                       "reason": f"all {explored} reachable distributions have entropy "
+                                                 f"> {epsilon}"},
+                              seconds=time.perf_counter() - t0)
+        frontier = nxt
+    res = SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
+                     lower_bound=max_length + 1, seconds=time.perf_counter() - t0)
+    res.notes.append(f"no word of length <= {max_length} reaches entropy <= {epsilon}")
+    return res
