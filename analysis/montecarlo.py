@@ -12,12 +12,17 @@ the physics is deterministic, so the result is the same for any number of worker
 """
 from __future__ import annotations
 
+import atexit
 import csv
+import hashlib
 import math
 import os
+import pickle
 import sys
 import tempfile
+from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 
 import multiprocessing as mp
@@ -28,7 +33,7 @@ from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.sampling import sample_start_poses
 from transition_builder.status import INVALID, OK, STATUS_NAMES
 
-__all__ = ["DirectResult", "run_direct", "write_poses_csv", "read_poses_csv", "PoseRecords",
+__all__ = ["DirectResult", "run_direct", "shutdown_workers", "write_poses_csv", "read_poses_csv", "PoseRecords",
            "entropy_by_step", "resolve_sequence", "report_grid_for", "POSES_CSV_COLUMNS"]
 
 #: columns of the ``--poses`` CSV file (SPEC.md).
@@ -176,7 +181,12 @@ class DirectResult:
 # workers
 # ----------------------------------------------------------------------------------------------
 
-_WORKER_SIM = None
+# Simulators are cached per process, keyed by (scene, factory): a worker builds one simulator per
+# scene once and keeps it for later chunks and later calls (at most _SIM_CACHE_SIZE scenes).
+_SIM_CACHE: "OrderedDict[str, object]" = OrderedDict()
+_SIM_CACHE_SIZE = 4
+# The worker pool is kept between calls (spawning workers costs about a second each time).
+_POOL: tuple[int, ProcessPoolExecutor] | None = None
 
 
 def _default_factory(scene):
@@ -185,13 +195,49 @@ def _default_factory(scene):
     return TraySimulator(scene)
 
 
-def _make_simulator(scene, factory):
-    return (factory or _default_factory)(scene)
+def _scene_key(scene, factory) -> str:
+    """A key identifying (scene, simulator factory) across processes."""
+    h = hashlib.sha256()
+    content_hash = getattr(scene, "content_hash", None)
+    h.update(content_hash().encode() if callable(content_hash) else pickle.dumps(scene))
+    h.update(pickle.dumps(factory))
+    return h.hexdigest()
 
 
-def _init_worker(scene, factory):
-    global _WORKER_SIM
-    _WORKER_SIM = _make_simulator(scene, factory)
+def _simulator_for(key: str, scene, factory):
+    sim = _SIM_CACHE.get(key)
+    if sim is None:
+        sim = (factory or _default_factory)(scene)
+        _SIM_CACHE[key] = sim
+        while len(_SIM_CACHE) > _SIM_CACHE_SIZE:
+            _, old = _SIM_CACHE.popitem(last=False)
+            close = getattr(old, "close", None)
+            if callable(close):
+                close()
+    else:
+        _SIM_CACHE.move_to_end(key)
+    return sim
+
+
+def _get_pool(n_workers: int) -> ProcessPoolExecutor:
+    global _POOL
+    if _POOL is not None and _POOL[0] == n_workers and not getattr(_POOL[1], "_broken", False):
+        return _POOL[1]
+    shutdown_workers()
+    ctx = mp.get_context("spawn")  # never fork a process that may hold a physics client
+    _POOL = (n_workers, ProcessPoolExecutor(max_workers=n_workers, mp_context=ctx))
+    return _POOL[1]
+
+
+def shutdown_workers() -> None:
+    """Stop the worker processes kept by :func:`run_direct` (also done at interpreter exit)."""
+    global _POOL
+    if _POOL is not None:
+        _POOL[1].shutdown(wait=True, cancel_futures=True)
+        _POOL = None
+
+
+atexit.register(shutdown_workers)
 
 
 def _tilt(sim, poses: np.ndarray, action_name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -225,9 +271,8 @@ def _run_chunk(sim, starts: np.ndarray, sequence_names: list[str]) -> tuple[np.n
     return poses, status
 
 
-def _worker_chunk(args):
-    starts, sequence_names = args
-    return _run_chunk(_WORKER_SIM, starts, sequence_names)
+def _worker_chunk(key, scene, factory, starts, sequence_names):
+    return _run_chunk(_simulator_for(key, scene, factory), starts, sequence_names)
 
 
 def _chunk_size(trials: int) -> int:
@@ -316,24 +361,30 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
         bar = tqdm(total=trials, unit="trial", desc="simulate", file=sys.stderr, leave=False)
     try:
         n_workers = min(int(workers), len(bounds))
+        key = _scene_key(scene, simulator_factory)
         if n_workers <= 1 or len(seq) == 0:
-            sim = _make_simulator(scene, simulator_factory) if len(seq) else None
+            sim = _simulator_for(key, scene, simulator_factory) if len(seq) else None
             for lo, hi in bounds:
                 p, s = _run_chunk(sim, starts[lo:hi], seq_names)
                 poses[lo:hi], status[lo:hi] = p, s
                 if bar is not None:
                     bar.update(hi - lo)
         else:
-            ctx = mp.get_context("spawn")  # never fork a process that may hold a physics client
-            with ProcessPoolExecutor(max_workers=n_workers, mp_context=ctx, initializer=_init_worker,
-                                     initargs=(scene, simulator_factory)) as pool:
-                futures = {pool.submit(_worker_chunk, (starts[lo:hi], seq_names)): (lo, hi)
-                           for lo, hi in bounds}
+            pool = _get_pool(n_workers)
+            futures = {pool.submit(_worker_chunk, key, scene, simulator_factory, starts[lo:hi], seq_names):
+                       (lo, hi) for lo, hi in bounds}
+            try:
                 for fut in as_completed(futures):
                     lo, hi = futures[fut]
                     poses[lo:hi], status[lo:hi] = fut.result()
                     if bar is not None:
                         bar.update(hi - lo)
+            except BaseException:
+                for fut in futures:
+                    fut.cancel()
+                if isinstance(sys.exc_info()[1], BrokenProcessPool):
+                    shutdown_workers()
+                raise
     finally:
         if bar is not None:
             bar.close()

@@ -171,9 +171,17 @@ def test_same_result_for_any_number_of_workers(scene):
 
 
 def test_simulator_built_once_per_process(scene):
+    import analysis.montecarlo as mc
+
+    mc._SIM_CACHE.clear()
     FakeSimulator.builds = 0
     run_direct(scene, SEQ[:2], 600, seed=0, workers=1, simulator_factory=fake_factory)
     assert FakeSimulator.builds == 1  # many chunks, one simulator
+    run_direct(scene, SEQ[2:4], 100, seed=1, workers=1, simulator_factory=fake_factory)
+    assert FakeSimulator.builds == 1  # kept for the next call with the same scene
+    run_direct(FakeScene(shape=parse_shape("rectangle:40x20")), SEQ[:1], 10, workers=1,
+               simulator_factory=fake_factory)
+    assert FakeSimulator.builds == 2  # a new scene gets its own simulator
 
 
 def test_sequence_forms_and_errors(scene):
@@ -277,6 +285,19 @@ def real_scene():
     from transition_builder.scene import scene_from_options
 
     return scene_from_options("allen-key")
+
+
+def test_real_physics_same_result_for_any_workers_and_repeat_calls(real_scene):
+    """The physics is deterministic: 1 or 2 workers, a fresh or a reused worker pool, same result."""
+    seq = ["NE", "W", "S"]
+    a = run_direct(real_scene, seq, 40, seed=3, workers=2)
+    b = run_direct(real_scene, ["E", "N"], 40, seed=8, workers=2)  # the workers' simulators now have history
+    c = run_direct(real_scene, seq, 40, seed=3, workers=2)
+    d = run_direct(real_scene, seq, 40, seed=3, workers=1)
+    for other in (c, d):
+        np.testing.assert_array_equal(a.poses, other.poses)
+        np.testing.assert_array_equal(a.status, other.status)
+    assert not np.array_equal(a.poses[:, 1], b.poses[:, 1], equal_nan=True)
 
 
 def test_paper_sanity_initial_entropy(real_scene):
