@@ -7,8 +7,13 @@ the surviving trials' poses on the report grid is recorded. A trial whose tilt f
 escaped, unsettled, invalid) is counted once, by kind, and dropped from all later steps.
 
 Trials are split into fixed-size chunks (the chunk size depends only on ``M``) and run in parallel
-over worker processes, each of which builds its simulator once. Start poses come from the seed and
-the physics is deterministic, so the result is the same for any number of workers.
+over worker processes, each of which builds its simulator once per scene. Start poses come from the
+seed and the physics is deterministic, so the result is the same for any number of workers.
+
+Workers are *spawned* (never forked: a forked PyBullet client is not safe) and kept between calls,
+because starting them costs about a second; :func:`shutdown_workers` stops them (it also runs at
+exit). As with any spawned pool, a script that calls :func:`run_direct` with ``workers > 1`` must
+guard its top level with ``if __name__ == "__main__":``.
 """
 from __future__ import annotations
 
@@ -379,11 +384,14 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
                     poses[lo:hi], status[lo:hi] = fut.result()
                     if bar is not None:
                         bar.update(hi - lo)
+            except BrokenProcessPool as exc:
+                shutdown_workers()
+                raise RuntimeError("a worker process died (BrokenProcessPool); workers are spawned, so a "
+                                   "script calling run_direct needs an `if __name__ == '__main__':` guard "
+                                   "-- or pass workers=1") from exc
             except BaseException:
                 for fut in futures:
                     fut.cancel()
-                if isinstance(sys.exc_info()[1], BrokenProcessPool):
-                    shutdown_workers()
                 raise
     finally:
         if bar is not None:
