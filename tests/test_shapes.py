@@ -148,7 +148,10 @@ def test_symmetry_order(points, order):
 def test_symmetry_tolerates_rounded_coordinates():
     tri = [(round(x, 3), round(y, 3)) for x, y in _rotated([(0, 0), (50, 0), (25, 25 * math.sqrt(3))], 0.4)]
     assert symmetry_order(tri) == 3
+    sq = [(round(x, 2), round(y, 2)) for x, y in _rotated([(0, 0), (40, 0), (40, 40), (0, 40)], 1.1)]
+    assert symmetry_order(sq) == 4  # coordinates to 0.01 mm
     assert symmetry_order([(0, 0), (30, 0), (30, 30.5), (0, 30.5)]) == 2  # not a square
+    assert symmetry_order([(0, 0), (30, 0), (30, 30.2), (0, 30.2)]) == 2
 
 
 @pytest.mark.parametrize("seed", range(15))

@@ -287,7 +287,7 @@ def convex_decomposition(vertices, max_parts: int = MAX_CONVEX_PARTS) -> tuple[n
     return out
 
 
-def symmetry_order(vertices, rel_tol: float = 1e-4) -> int:
+def symmetry_order(vertices, rel_tol: float = 1e-3) -> int:
     """Order of the rotational symmetry group of a polygon about its area centroid.
 
     The largest k such that rotating the polygon by 2*pi/k about its centroid maps it onto itself:
