@@ -1,0 +1,94 @@
+"""``kruskal convergence``: expected length of a random synchronizing sequence.
+
+Actions are drawn independently (uniform, or ``--weights``) and applied to the start set (all
+states of a deterministic automaton, else the initial support of the support automaton) until it
+is one state. Exact (absorbing chain on reachable subsets, within ``--max-subsets``), Monte Carlo
+with a 95% confidence interval, and pair-chain lower/upper bounds, side by side. For stochastic
+models ``--epsilon`` adds the Monte Carlo number of random tilts until predicted entropy <= E.
+"""
+from __future__ import annotations
+
+import argparse
+
+from analysis.commands import InputError
+from analysis.commands._common import add_model_source, add_seed, load_model_source
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_model_source(parser)
+    add_seed(parser)
+    parser.add_argument("--weights", default=None,
+                        help="action probabilities, comma-separated in action order or NAME=W pairs "
+                             "(normalised; default uniform)")
+    parser.add_argument("--threshold", type=float, default=0.0,
+                        help="support automaton: keep transition probabilities >= T (default 0)")
+    parser.add_argument("--start", choices=("auto", "all", "initial"), default="auto",
+                        help="start set (default auto: all states if deterministic, else initial support)")
+    parser.add_argument("--runs", type=int, default=2000, help="Monte Carlo runs (default 2000)")
+    parser.add_argument("--max-steps", type=int, default=100_000,
+                        help="Monte Carlo: letters per run before a run is censored (default 100000)")
+    parser.add_argument("--max-subsets", type=int, default=200_000,
+                        help="exact answer only if at most this many subsets are reachable (default 200000)")
+    parser.add_argument("--pair-time-budget", type=float, default=60.0, metavar="S",
+                        help="seconds for the pair-chain upper bound iteration (default 60)")
+    parser.add_argument("--epsilon", type=float, default=None,
+                        help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
+
+
+def _parse_weights(text, actions):
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    try:
+        if parts and all("=" in p for p in parts):
+            index = {a.upper(): i for i, a in enumerate(actions)}
+            w = [0.0] * len(actions)
+            for p in parts:
+                name, val = p.split("=", 1)
+                if name.strip().upper() not in index:
+                    raise InputError(f"unknown action {name.strip()!r} in --weights; known: {','.join(actions)}")
+                w[index[name.strip().upper()]] = float(val)
+            return w
+        w = [float(p) for p in parts]
+    except ValueError:
+        raise InputError(f"bad --weights {text!r}: expected numbers or NAME=W pairs") from None
+    if len(w) != len(actions):
+        raise InputError(f"--weights has {len(w)} values for {len(actions)} actions ({','.join(actions)})")
+    return w
+
+
+def run(args: argparse.Namespace) -> dict:
+    from kruskal_markov.convergence import (expected_sync_length, letter_weights,
+                                            monte_carlo_entropy_tilts)
+    from kruskal_markov.sync import start_set, support_automaton
+
+    if args.runs < 2:
+        raise InputError("--runs must be >= 2")
+    if args.max_steps < 1 or args.max_subsets < 1:
+        raise InputError("--max-steps and --max-subsets must be >= 1")
+    if not 0.0 <= args.threshold <= 1.0:
+        raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
+    model = load_model_source(args)
+    weights = _parse_weights(args.weights, model.actions)
+    w = letter_weights(model.n_actions, weights)
+    aut = support_automaton(model, args.threshold)
+    whole = {"auto": None, "all": True, "initial": False}[args.start]
+    if whole is None:
+        whole = model.is_deterministic()
+    start = start_set(model, whole)
+    res = expected_sync_length(aut, start, w, seed=args.seed, runs=args.runs,
+                               max_subsets=args.max_subsets, max_steps=args.max_steps,
+                               pair_time_budget=args.pair_time_budget)
+    keys = ("exact", "monte_carlo", "ci95", "pair_lower", "pair_upper")
+    out = {"expected_length": {k: res[k] for k in keys}}
+    out.update({k: v for k, v in res.items() if k not in keys})
+    out.update({"states": model.n_states, "start_states": int(len(start)),
+                "deterministic": aut.deterministic, "mass_dropped": aut.mass_dropped,
+                "weights": [float(x) for x in w]})
+    if args.epsilon is not None:
+        if not args.epsilon >= 0:
+            raise InputError(f"--epsilon must be >= 0, got {args.epsilon}")
+        out["entropy_tilts"] = monte_carlo_entropy_tilts(model, args.epsilon, w, runs=min(args.runs, 1000),
+                                                         seed=args.seed, max_steps=min(args.max_steps, 2000))
+        out["epsilon"] = args.epsilon
+    return out

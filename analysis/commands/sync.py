@@ -1,0 +1,65 @@
+"""``kruskal sync``: the shortest synchronizing word (optimal sensorless plan) of a model or automaton.
+
+Deterministic automata are synchronized from the whole state set (a reset word); stochastic
+models through their support automaton (entries ``>= --threshold``) from the support of the
+initial distribution. With ``--epsilon E`` the command instead searches the shortest word whose
+predicted entropy (report grid, or states) from the initial distribution is ``<= E``.
+"""
+from __future__ import annotations
+
+import argparse
+
+from analysis.commands import InputError
+from analysis.commands._common import add_model_source, load_model_source
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_model_source(parser)
+    parser.add_argument("--threshold", type=float, default=0.0,
+                        help="support automaton: keep transition probabilities >= T (default 0: all "
+                             "non-zero entries)")
+    parser.add_argument("--epsilon", type=float, default=None,
+                        help="instead: shortest word whose predicted entropy is <= E bits")
+    parser.add_argument("--start", choices=("auto", "all", "initial"), default="auto",
+                        help="start set: all states, the support of the initial distribution, or auto "
+                             "(all states for deterministic automata, else the initial support)")
+    parser.add_argument("--time-budget", type=float, default=60.0, metavar="S",
+                        help="seconds for the exact search before falling back to greedy (default 60)")
+    parser.add_argument("--memory-budget-mb", type=float, default=2048.0, metavar="MB",
+                        help="memory for the exact search's subset stores (default 2048)")
+    parser.add_argument("--max-length", type=int, default=30,
+                        help="--epsilon search: longest word tried (default 30)")
+
+
+def run(args: argparse.Namespace) -> dict:
+    from kruskal_markov.sync import (epsilon_synchronizing_word, shortest_synchronizing_word, start_set,
+                                     support_automaton)
+
+    if args.time_budget <= 0 or args.memory_budget_mb <= 0:
+        raise InputError("--time-budget and --memory-budget-mb must be positive")
+    if not 0.0 <= args.threshold <= 1.0:
+        raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
+    model = load_model_source(args)
+    if args.epsilon is not None:
+        if not args.epsilon >= 0:
+            raise InputError(f"--epsilon must be >= 0, got {args.epsilon}")
+        if args.max_length < 0:
+            raise InputError("--max-length must be >= 0")
+        res = epsilon_synchronizing_word(model, args.epsilon, max_length=args.max_length,
+                                         time_budget=args.time_budget)
+        out = res.as_dict(model.actions)
+        out["epsilon"] = args.epsilon
+        out["states"] = model.n_states
+        return out
+    aut = support_automaton(model, args.threshold)
+    whole = {"auto": None, "all": True, "initial": False}[args.start]
+    if whole is None:
+        whole = model.is_deterministic()
+    start = start_set(model, whole)
+    res = shortest_synchronizing_word(aut, start, time_budget=args.time_budget,
+                                      memory_budget_mb=args.memory_budget_mb)
+    out = res.as_dict(model.actions)
+    out.update({"states": model.n_states, "start_states": int(len(start)),
+                "deterministic": aut.deterministic, "threshold": args.threshold,
+                "mass_dropped": aut.mass_dropped, "mass_dropped_mean": aut.mass_dropped_mean})
+    return out

@@ -1,0 +1,333 @@
+"""Expected length of a random synchronizing sequence (the Kruskal effect).
+
+Letters are drawn independently (uniformly, or with given weights) and applied to the start set
+of a :class:`~kruskal_markov.sync.SyncAutomaton` (for set-valued automata the image of a set is the
+union of supports) until the image is a single state. ``T`` is that first time. Three answers,
+side by side:
+
+* exact ``E[T]``: the absorbing Markov chain on the subsets reachable from the start set, solved
+  with sparse linear algebra, when their number is within a budget;
+* Monte Carlo with a 95% confidence interval (normal approximation);
+* pair-chain bounds (deterministic automata): each pair of states follows a Markov chain that is
+  absorbed when the two states merge; with ``h`` its expected merging times,
+  ``max_{pairs in S} h <= E[T]`` (every pair must have merged), and, from the union bound
+  ``P(T > t) <= min(1, m_t)`` with ``m_t = sum_{pairs in S} P(pair not merged by t)``,
+  ``E[T] <= sum_{t < t0} min(1, m_t) + sum_{t >= t0} m_t`` where the tail is exactly ``v_{t0} . h``
+  (``v_t`` the pair mass vector at time ``t``). See Eppstein (1990) for the pair automaton and
+  Berlinkov, "On the probability of being synchronizable" (2016) for pair-chain arguments.
+
+For stochastic models :func:`monte_carlo_entropy_tilts` estimates the expected number of random
+tilts until the predicted report-grid entropy is ``<= epsilon``.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
+import scipy.sparse.linalg as spla
+
+from kruskal_markov import _convergence_kernels as _ck
+from kruskal_markov.sync import SyncAutomaton, _as_start, _Store
+
+__all__ = ["letter_weights", "exact_expected_length", "monte_carlo_sync_length", "pair_chain_bounds",
+           "expected_sync_length", "monte_carlo_entropy_tilts"]
+
+
+def letter_weights(k: int, weights=None) -> np.ndarray:
+    """Validated letter probabilities (uniform by default); weights are normalised to sum 1."""
+    if weights is None:
+        return np.full(k, 1.0 / k)
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    if w.shape[0] != k:
+        raise ValueError(f"{w.shape[0]} weights given for {k} actions")
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
+        raise ValueError("weights must be finite, non-negative and not all zero")
+    return w / w.sum()
+
+
+def _finite_or_none(x):
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+# ----------------------------------------------------------------------------- exact
+def exact_expected_length(aut: SyncAutomaton, start=None, weights=None, max_subsets: int = 200_000):
+    """Exact ``E[T]`` from the absorbing chain on reachable subsets.
+
+    Returns ``(value, info)``: ``value`` is a float, ``math.inf`` (some reachable subset can never
+    be synchronized, so ``T`` is infinite with positive probability) or None (more than
+    ``max_subsets`` reachable subsets). ``info`` holds ``subsets`` (how many were enumerated).
+    """
+    s = _as_start(aut, start)
+    w = letter_weights(aut.k, weights)
+    if s.size == 1:
+        return 0.0, {"subsets": 1}
+    st = _Store(aut.n_words, 1024, max_subsets)
+    st.add_roots([aut.bits(s)])
+    while True:
+        grown = st.expand(aut, True)
+        if grown is None:
+            return None, {"subsets": f">{max_subsets}"}
+        if grown == 0:
+            break
+    count = st.count
+    img = np.empty((count, aut.k), dtype=np.int64)
+    _ck.subset_chain_table(st.rows, count, aut.delta, aut.sup, aut.deterministic, st.table, img)
+    if np.any(img < 0):
+        raise AssertionError("internal error: subset chain not closed")
+    sizes = np.array([_popcount_row(st.rows[i]) for i in range(count)])
+    absorbing = sizes == 1
+    # which subsets can reach a singleton?
+    rows = np.repeat(np.arange(count), aut.k)
+    cols = img.ravel()
+    wts = np.tile(w, count)
+    keep = (wts > 0) & ~absorbing[rows]
+    G = sp.csr_matrix((np.ones(int(keep.sum())), (rows[keep], cols[keep])), shape=(count, count))
+    # subsets reachable from the start (through positive-weight letters, before absorption)
+    reach = csgraph.breadth_first_order(G, 0, directed=True, return_predecessors=False)
+    live = np.zeros(count, dtype=bool)
+    live[reach] = True
+    # which of them can reach a singleton?  reverse BFS from a virtual source linked to singletons
+    targets = np.flatnonzero(absorbing)
+    can = np.zeros(count, dtype=bool)
+    if targets.size:
+        src = np.concatenate([cols[keep], np.full(targets.size, count)])
+        dst = np.concatenate([rows[keep], targets])
+        GT = sp.csr_matrix((np.ones(src.size, dtype=np.int8), (src, dst)), shape=(count + 1, count + 1))
+        order = csgraph.breadth_first_order(GT, count, directed=True, return_predecessors=False)
+        can[order[order < count]] = True
+    if np.any(live & ~can):
+        return math.inf, {"subsets": count}
+    absorbing = absorbing | ~live      # unreachable subsets play no role
+    trans = np.flatnonzero(~absorbing)
+    pos = np.full(count, -1, dtype=np.int64)
+    pos[trans] = np.arange(trans.size)
+    r = rows[keep]
+    c = cols[keep]
+    ww = wts[keep]
+    inner = ~absorbing[c]
+    Q = sp.csr_matrix((ww[inner], (pos[r[inner]], pos[c[inner]])), shape=(trans.size, trans.size))
+    A = (sp.identity(trans.size, format="csc") - Q.tocsc())
+    x = spla.spsolve(A, np.ones(trans.size))
+    x = np.atleast_1d(x)
+    return float(x[pos[0]]), {"subsets": count}
+
+
+def _popcount_row(row):
+    return sum(bin(int(v)).count("1") for v in row)
+
+
+# ----------------------------------------------------------------------------- Monte Carlo
+def monte_carlo_sync_length(aut: SyncAutomaton, start=None, weights=None, runs: int = 2000, seed=0,
+                            max_steps: int = 100_000, chunk: int = 64):
+    """Monte Carlo estimate of ``E[T]`` over ``runs`` random words (seeded).
+
+    Returns ``dict(mean, ci95, runs, censored, std)``; runs that are not synchronized after
+    ``max_steps`` letters are censored (the mean then only counts finished runs and is flagged).
+    """
+    if runs < 2:
+        raise ValueError("Monte Carlo needs at least 2 runs")
+    s = _as_start(aut, start)
+    w = letter_weights(aut.k, weights)
+    rng = np.random.default_rng(seed)
+    cur = np.tile(aut.bits(s), (runs, 1))
+    steps = np.zeros(runs, dtype=np.int64)
+    done = np.zeros(runs, dtype=bool)
+    if s.size == 1:
+        done[:] = True
+    while not np.all(done) and steps[~done].max(initial=0) < max_steps:
+        active = np.flatnonzero(~done)
+        letters = rng.choice(aut.k, size=(active.size, chunk), p=w).astype(np.int64)
+        sub_cur = cur[active]
+        sub_steps = steps[active]
+        sub_done = done[active]
+        _ck.mc_sync_steps(sub_cur, letters, aut.delta, aut.sup, aut.deterministic, sub_steps, sub_done)
+        cur[active] = sub_cur
+        steps[active] = sub_steps
+        done[active] = sub_done
+        chunk = min(4 * chunk, 4096)
+    fin = steps[done].astype(np.float64)
+    censored = int(runs - done.sum())
+    if fin.size == 0:
+        return {"mean": None, "ci95": [None, None], "runs": runs, "censored": censored, "std": None}
+    mean = float(fin.mean())
+    sd = float(fin.std(ddof=1)) if fin.size > 1 else 0.0
+    half = 1.96 * sd / math.sqrt(fin.size)
+    return {"mean": mean, "ci95": [mean - half, mean + half], "runs": runs, "censored": censored,
+            "std": sd}
+
+
+# ----------------------------------------------------------------------------- pair chain
+def pair_chain_bounds(aut: SyncAutomaton, start=None, weights=None, max_iterations: int = 200_000,
+                      time_budget: float = 60.0, tol: float = 1e-12):
+    """Lower and upper bounds on ``E[T]`` from the chain on pairs (deterministic automata).
+
+    Returns ``dict(lower, upper, pairs, memory_mb, iterations, residual)``; bounds are ``inf``
+    when some start pair can never merge, and None for set-valued automata (the image of a pair
+    is then a set, not a pair). The pair chain is restricted to the pairs reachable in one or
+    more steps from the start pairs; the expected merging times ``h`` solve ``(I - Q) h = 1``.
+    """
+    t0 = time.perf_counter()
+    s = _as_start(aut, start)
+    w = letter_weights(aut.k, weights)
+    if s.size == 1:
+        return {"lower": 0.0, "upper": 0.0, "pairs": 0, "memory_mb": 0.0, "iterations": 0, "residual": 0.0}
+    if not aut.deterministic:
+        return {"lower": None, "upper": None, "pairs": None, "memory_mb": None, "iterations": 0,
+                "residual": None, "note": "pair bounds need a deterministic automaton"}
+    n = aut.n
+    delta = aut.delta
+    p, q = np.triu_indices(s.size, 1)
+    p, q = s[p].astype(np.int64), s[q].astype(np.int64)
+    start_pairs = p * n - (p * (p + 1)) // 2 + (q - p - 1)
+    del p, q
+    # letters of zero weight do not move the chain
+    use = np.flatnonzero(w > 0)
+    d_use = np.ascontiguousarray(delta[use])
+    w_use = w[use]
+    order, local = _ck.pair_reachable(d_use, start_pairs)
+    R = order.size
+    img = _ck.pair_images(d_use, order, local)
+    mem = (img.nbytes + order.nbytes + local.nbytes + start_pairs.nbytes) / 2 ** 20
+    # can every reachable pair merge?  reverse BFS from the virtual "merged" node R
+    rows = np.repeat(np.arange(R), use.size)
+    cols = img.ravel().copy()
+    cols[cols < 0] = R
+    G = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (cols, rows)), shape=(R + 1, R + 1))
+    reach = csgraph.breadth_first_order(G, R, directed=True, return_predecessors=False)
+    can = np.zeros(R + 1, dtype=bool)
+    can[reach] = True
+    start_ok = _start_pairs_can_merge(d_use, start_pairs, local, can, n)
+    if not start_ok or not np.all(can[:R]):
+        # some pair never merges: if it is reachable from a start pair, T = inf with positive prob.
+        return {"lower": math.inf, "upper": math.inf, "pairs": int(R), "memory_mb": mem,
+                "iterations": 0, "residual": None}
+    h = np.zeros(R)
+    residual = 0.0
+    if R:
+        keep = img.ravel() >= 0
+        Q = sp.csr_matrix((np.tile(w_use, R)[keep], (rows[keep], img.ravel()[keep])), shape=(R, R))
+        A = sp.identity(R, format="csr") - Q
+        mem += (Q.data.nbytes + Q.indices.nbytes + Q.indptr.nbytes) * 2 / 2 ** 20
+        if R <= 30_000:
+            h = spla.spsolve(A.tocsc(), np.ones(R))
+        else:
+            h, info = spla.gmres(A, np.ones(R), rtol=1e-12, restart=200, maxiter=200)
+            if info != 0:
+                h, info = spla.bicgstab(A, np.ones(R), x0=h, rtol=1e-12, maxiter=5000)
+        h = np.asarray(h, dtype=np.float64)
+        tmp = np.empty(R)
+        _ck.pair_value_step(img, w_use, h, tmp)
+        residual = float(np.max(np.abs(tmp - h))) if R else 0.0
+    v = np.zeros(R)
+    lower = _ck.start_pair_stats(d_use, start_pairs, local, w_use, h, v)
+    # upper bound: sum_{t < t0} min(1, m_t) + v_{t0} . h
+    upper_head = min(1.0, float(start_pairs.size))    # t = 0
+    t = 1
+    m = float(v.sum())
+    nxt = np.empty(R)
+    while m >= 1.0 and t < max_iterations and time.perf_counter() - t0 < time_budget:
+        upper_head += 1.0
+        m = _ck.pair_mass_step(img, w_use, v, nxt)
+        v, nxt = nxt, v
+        t += 1
+    upper = upper_head + float(v @ h)
+    return {"lower": float(lower), "upper": float(upper), "pairs": int(R), "memory_mb": float(mem),
+            "iterations": int(t), "residual": residual}
+
+
+def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
+    k = d_use.shape[0]
+    first = np.array([p * n - (p * (p + 1)) // 2 for p in range(n + 1)], dtype=np.int64)
+    p = np.searchsorted(first, start_pairs, side="right") - 1
+    q = start_pairs - first[p] + p + 1
+    ok = np.zeros(start_pairs.size, dtype=bool)
+    for a in range(k):
+        pp, qq = d_use[a, p], d_use[a, q]
+        merged = pp == qq
+        lo, hi = np.minimum(pp, qq).astype(np.int64), np.maximum(pp, qq).astype(np.int64)
+        idx = np.where(merged, 0, lo * n - (lo * (lo + 1)) // 2 + (hi - lo - 1))
+        loc = np.where(merged, -1, local[idx])
+        ok |= merged | can[np.where(loc >= 0, loc, 0)] & (loc >= 0)
+    return bool(np.all(ok))
+
+
+# ----------------------------------------------------------------------------- all together
+def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, runs: int = 2000,
+                         max_subsets: int = 200_000, max_steps: int = 100_000,
+                         pair_time_budget: float = 60.0) -> dict:
+    """``E[T]`` by every method: keys ``exact``, ``monte_carlo``, ``ci95``, ``pair_lower``,
+    ``pair_upper`` (None where unavailable or infinite; ``infinite`` True when ``E[T] = inf``)
+    plus diagnostics."""
+    from kruskal_markov.sync import synchronizability
+
+    out = {}
+    check = synchronizability(aut, _as_start(aut, start))
+    if check["synchronizing"] is False:
+        # some start pair never merges: T is infinite on every word
+        return {"exact": None, "monte_carlo": None, "ci95": [None, None], "pair_lower": None,
+                "pair_upper": None, "subsets": None, "mc_runs": 0, "mc_censored": 0, "pair_states": None,
+                "pair_memory_mb": None, "pair_residual": None, "infinite": True,
+                "witness": check["witness"]}
+    exact, info = exact_expected_length(aut, start, weights, max_subsets)
+    infinite = exact is not None and math.isinf(exact)
+    out["exact"] = _finite_or_none(exact)
+    out["subsets"] = info["subsets"]
+    if infinite:
+        mc = {"mean": None, "ci95": [None, None], "runs": 0, "censored": 0}
+    else:
+        mc = monte_carlo_sync_length(aut, start, weights, runs=runs, seed=seed, max_steps=max_steps)
+    out["monte_carlo"] = mc["mean"]
+    out["ci95"] = mc["ci95"]
+    out["mc_runs"] = mc["runs"]
+    out["mc_censored"] = mc["censored"]
+    pb = pair_chain_bounds(aut, start, weights, time_budget=pair_time_budget)
+    if pb["lower"] is not None and math.isinf(pb["lower"]):
+        infinite = True
+    out["pair_lower"] = _finite_or_none(pb["lower"])
+    out["pair_upper"] = _finite_or_none(pb["upper"])
+    out["pair_states"] = pb["pairs"]
+    out["pair_memory_mb"] = pb["memory_mb"]
+    out["pair_residual"] = pb["residual"]
+    out["infinite"] = bool(infinite)
+    return out
+
+
+def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 500, seed=0,
+                              max_steps: int = 1000):
+    """Monte Carlo: expected number of random tilts until the predicted entropy from
+    ``model.initial`` is ``<= epsilon`` (partition cells, or states without a partition).
+
+    Returns ``dict(mean, ci95, runs, censored)``; censored runs (not reached within ``max_steps``)
+    are excluded from the mean and counted.
+    """
+    epsilon = float(epsilon)
+    if not epsilon >= 0:
+        raise ValueError(f"epsilon must be >= 0, got {epsilon}")
+    w = letter_weights(model.n_actions, weights)
+    rng = np.random.default_rng(seed)
+    indptr, indices, data = model.packed()
+    if model.partition is None:
+        part = np.arange(model.n_states, dtype=np.int64)
+        ncells = model.n_states
+    else:
+        part = np.asarray(model.partition, dtype=np.int64)
+        ncells = int(model.n_cells if model.n_cells else part.max() + 1)
+    letters = rng.choice(model.n_actions, size=(runs, max_steps), p=w).astype(np.int64)
+    steps = np.empty(runs, dtype=np.int64)
+    _ck.mc_entropy_steps(np.asarray(model.initial, dtype=np.float64), indptr, indices, data, part,
+                         ncells, letters, epsilon, steps)
+    # entropy already <= epsilon before any tilt
+    p0 = np.bincount(part, weights=np.asarray(model.initial, dtype=np.float64), minlength=ncells)
+    p0 = p0[p0 > 0] / p0.sum()
+    if -np.sum(p0 * np.log2(p0)) <= epsilon:
+        steps[:] = 0
+    fin = steps[steps >= 0].astype(np.float64)
+    censored = int((steps < 0).sum())
+    if fin.size == 0:
+        return {"mean": None, "ci95": [None, None], "runs": runs, "censored": censored}
+    mean = float(fin.mean())
+    half = 1.96 * float(fin.std(ddof=1)) / math.sqrt(fin.size) if fin.size > 1 else 0.0
+    return {"mean": mean, "ci95": [mean - half, mean + half], "runs": runs, "censored": censored}

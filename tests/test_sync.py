@@ -1,0 +1,358 @@
+"""Synchronizing words: checked against independent plain-Python breadth-first searches."""
+from __future__ import annotations
+
+import itertools
+from collections import deque
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from kruskal_markov.model import TransitionModel
+from kruskal_markov.sync import (SyncAutomaton, epsilon_synchronizing_word, greedy_synchronizing_word,
+                                 is_synchronizing_word, shortest_synchronizing_word, start_set,
+                                 support_automaton, synchronizability)
+
+
+# ----------------------------------------------------------------------------- independent judges
+def cerny(n):
+    """Cerny automaton C_n: a = cyclic shift, b = identity except n-1 -> 0."""
+    a = [(i + 1) % n for i in range(n)]
+    b = [i if i != n - 1 else 0 for i in range(n)]
+    return np.array([a, b])
+
+
+def plain_image(table, states, word):
+    cur = set(int(s) for s in states)
+    for a in word:
+        cur = {int(table[a][q]) for q in cur}
+    return cur
+
+
+def plain_union_image(supports, states, word):
+    """supports[a][q] = set of successors."""
+    cur = set(int(s) for s in states)
+    for a in word:
+        cur = set().union(*(supports[a][q] for q in cur))
+    return cur
+
+
+def brute_shortest(step, k, start):
+    """Plain BFS over frozensets; step(set, a) -> frozenset. Returns the length or None."""
+    s = frozenset(int(x) for x in start)
+    if len(s) == 1:
+        return 0
+    seen = {s}
+    queue = deque([(s, 0)])
+    while queue:
+        x, d = queue.popleft()
+        for a in range(k):
+            y = step(x, a)
+            if len(y) == 1:
+                return d + 1
+            if y not in seen:
+                seen.add(y)
+                queue.append((y, d + 1))
+    return None
+
+
+def brute_det(table, start=None):
+    table = [list(map(int, r)) for r in np.asarray(table)]
+    n = len(table[0])
+    start = range(n) if start is None else start
+    return brute_shortest(lambda x, a: frozenset(table[a][q] for q in x), len(table), start)
+
+
+def brute_pair_mergeable(table, p, q):
+    k = len(table)
+    seen = {(p, q)}
+    queue = deque([(p, q)])
+    while queue:
+        x, y = queue.popleft()
+        if x == y:
+            return True
+        for a in range(k):
+            nxt = (int(table[a][x]), int(table[a][y]))
+            if nxt not in seen:
+                seen.add(nxt)
+                queue.append(nxt)
+    return False
+
+
+def random_table(rng, n, k):
+    return rng.integers(0, n, size=(k, n))
+
+
+# ----------------------------------------------------------------------------- Cerny automata
+@pytest.mark.parametrize("n", list(range(2, 17)) + [20])
+def test_cerny_exact(n):
+    table = cerny(n)
+    res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
+    assert res.exact is True
+    assert res.length == (n - 1) ** 2
+    assert len(plain_image(table, range(n), res.word)) == 1
+
+
+def test_cerny_small_cross_check_brute():
+    for n in range(2, 8):
+        assert brute_det(cerny(n)) == (n - 1) ** 2
+
+
+# ----------------------------------------------------------------------------- random small, brute force
+def test_random_small_automata_match_brute_force():
+    rng = np.random.default_rng(20240501)
+    checked_none = 0
+    for _ in range(400):
+        n = int(rng.integers(1, 11))
+        k = int(rng.integers(1, 4))
+        table = random_table(rng, n, k)
+        start = None
+        if rng.random() < 0.4:
+            start = rng.choice(n, size=int(rng.integers(1, n + 1)), replace=False)
+        aut = SyncAutomaton.from_table(table)
+        res = shortest_synchronizing_word(aut, start)
+        expected = brute_det(table, start)
+        assert res.exact is True
+        assert res.length == expected
+        if expected is None:
+            checked_none += 1
+            assert res.word is None and res.witness is not None
+        else:
+            assert len(res.word) == expected
+            assert len(plain_image(table, range(n) if start is None else start, res.word)) == 1
+    assert checked_none > 10
+
+
+@pytest.mark.parametrize("k", [2, 8])
+def test_medium_random_automata_match_plain_bfs(k):
+    rng = np.random.default_rng(7 + k)
+    sizes = [20, 24, 28, 32, 40] if k == 2 else [20, 22, 24, 26, 30]
+    for n in sizes:
+        table = random_table(rng, n, k)
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
+        assert res.exact is True
+        assert res.length == brute_det(table)
+        if res.word is not None:
+            assert len(plain_image(table, range(n), res.word)) == 1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("k", [2, 8])
+def test_larger_random_automata_match_plain_bfs(k):
+    rng = np.random.default_rng(100 + k)
+    sizes = [44, 50, 60] if k == 2 else [34, 40]
+    for n in sizes:
+        for _ in range(2):
+            table = random_table(rng, n, k)
+            res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
+            assert res.exact is True
+            assert res.length == brute_det(table)
+
+
+def test_structured_slowly_synchronizing_match_brute():
+    # Cerny-like automata with an extra random letter, and automata with a permutation letter
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        n = int(rng.integers(3, 12))
+        table = np.vstack([cerny(n), rng.integers(0, n, size=(1, n))]) if rng.random() < 0.5 else \
+            np.vstack([rng.permutation(n), rng.integers(0, n, size=(1, n))])
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
+        assert res.exact and res.length == brute_det(table)
+
+
+# ----------------------------------------------------------------------------- non-synchronizing
+def test_permutation_automaton_has_pair_witness():
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        n = int(rng.integers(2, 9))
+        table = np.array([rng.permutation(n) for _ in range(2)])
+        aut = SyncAutomaton.from_table(table)
+        res = shortest_synchronizing_word(aut)
+        assert res.word is None and res.length is None and res.exact is True
+        p, q = res.witness["states"]
+        assert p != q and not brute_pair_mergeable(table, p, q)
+        assert synchronizability(aut)["synchronizing"] is False
+
+
+def test_two_closed_classes_witness():
+    # states {0,1} and {2,3} are closed under both letters
+    table = np.array([[1, 1, 3, 3], [0, 0, 2, 2]])
+    aut = SyncAutomaton.from_table(table)
+    res = shortest_synchronizing_word(aut)
+    assert res.word is None and res.exact
+    p, q = res.witness["states"]
+    assert not brute_pair_mergeable(table, p, q)
+    assert (p < 2) != (q < 2)
+    # restricted to one class it synchronizes in one letter
+    res2 = shortest_synchronizing_word(aut, start=[0, 1])
+    assert res2.length == 1 and res2.exact
+
+
+def test_synchronizability_agrees_with_brute_force():
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        n = int(rng.integers(2, 9))
+        table = random_table(rng, n, 2)
+        verdict = synchronizability(SyncAutomaton.from_table(table))["synchronizing"]
+        assert verdict == (brute_det(table) is not None)
+
+
+# ----------------------------------------------------------------------------- set-valued automata
+def random_support(rng, n, k, pmax):
+    sup = []
+    for _ in range(k):
+        rows = []
+        for _ in range(n):
+            m = 1 if rng.random() > pmax else int(rng.integers(1, 3))
+            rows.append(frozenset(int(x) for x in rng.choice(n, size=m, replace=False)))
+        sup.append(rows)
+    return sup
+
+
+def model_from_support(sup, initial=None):
+    n = len(sup[0])
+    mats = []
+    for rows in sup:
+        m = np.zeros((n, n))
+        for q, succ in enumerate(rows):
+            for r in succ:
+                m[q, r] = 1.0 / len(succ)
+        mats.append(sp.csr_matrix(m))
+    return TransitionModel([f"a{i}" for i in range(len(sup))], mats, initial=initial)
+
+
+def test_support_automata_match_union_bfs():
+    rng = np.random.default_rng(5)
+    hits = 0
+    for _ in range(200):
+        n = int(rng.integers(2, 9))
+        k = int(rng.integers(1, 4))
+        sup = random_support(rng, n, k, 0.3)
+        model = model_from_support(sup)
+        aut = support_automaton(model)
+        start = list(range(n))
+        if rng.random() < 0.3:
+            start = sorted(int(x) for x in rng.choice(n, size=int(rng.integers(1, n + 1)), replace=False))
+        expected = brute_shortest(lambda x, a: frozenset().union(*(sup[a][q] for q in x)), k, start)
+        res = shortest_synchronizing_word(aut, start)
+        assert res.exact and res.length == expected
+        if expected is not None:
+            hits += 1
+            assert len(plain_union_image(sup, start, res.word)) == 1
+        else:
+            assert res.witness is not None
+            if res.witness["kind"] == "pair":
+                p, q = res.witness["states"]
+                assert brute_shortest(lambda x, a: frozenset().union(*(sup[a][s] for s in x)), k,
+                                      [p, q]) is None
+    assert hits > 50
+
+
+def test_support_threshold_and_mass_dropped():
+    m = np.array([[0.9, 0.1, 0.0], [0.0, 0.5, 0.5], [0.0, 0.0, 1.0]])
+    model = TransitionModel(["a"], [m])
+    aut = support_automaton(model, threshold=0.2)
+    assert aut.deterministic is False
+    assert aut.mass_dropped == pytest.approx(0.1)
+    assert aut.image([0], [0]) == [0]
+    assert aut.image([1], [0]) == [1, 2]
+    full = support_automaton(model)
+    assert full.image([0], [0]) == [0, 1] and full.mass_dropped == 0.0
+    # a row whose entries are all below the threshold keeps its largest entry
+    aut2 = support_automaton(model, threshold=0.95)
+    assert aut2.image([1], [0]) in ([1], [2])
+    with pytest.raises(ValueError):
+        support_automaton(model, threshold=1.5)
+
+
+def test_start_set_of_model():
+    model = TransitionModel(["a"], [np.eye(3)], initial=[0.5, 0.0, 0.5])
+    assert start_set(model, whole=False).tolist() == [0, 2]
+    assert start_set(model, whole=True).tolist() == [0, 1, 2]
+
+
+# ----------------------------------------------------------------------------- budgets and greedy
+def test_budget_fallback_is_greedy_and_verified():
+    table = cerny(12)
+    aut = SyncAutomaton.from_table(table)
+    res = shortest_synchronizing_word(aut, time_budget=1e-9)
+    assert res.word is not None and len(plain_image(table, range(12), res.word)) == 1
+    assert res.lower_bound is not None and res.lower_bound <= 121 <= res.length
+    assert res.exact == (res.length == res.lower_bound)
+
+
+def test_greedy_words_synchronize():
+    rng = np.random.default_rng(9)
+    for _ in range(50):
+        n = int(rng.integers(2, 30))
+        table = random_table(rng, n, 2)
+        aut = SyncAutomaton.from_table(table)
+        word = greedy_synchronizing_word(aut)
+        if brute_det(table) is None if n <= 12 else synchronizability(aut)["synchronizing"] is False:
+            assert word is None
+        else:
+            assert len(plain_image(table, range(n), word)) == 1
+            if n <= 12:
+                assert len(word) >= brute_det(table)
+
+
+def test_bad_input():
+    with pytest.raises(ValueError):
+        SyncAutomaton.from_table([[0, 3]])
+    with pytest.raises(ValueError):
+        shortest_synchronizing_word(SyncAutomaton.from_table([[0, 1]]), start=[5])
+    with pytest.raises(ValueError):
+        shortest_synchronizing_word(SyncAutomaton.from_table([[0, 1]]), time_budget=0)
+
+
+def test_is_synchronizing_word():
+    aut = SyncAutomaton.from_table(cerny(3))
+    assert is_synchronizing_word(aut, [1, 0, 0, 1])
+    assert not is_synchronizing_word(aut, [1, 0, 0])
+
+
+# ----------------------------------------------------------------------------- epsilon-synchronizing
+def _entropy(p, partition):
+    cells = {}
+    for s, x in enumerate(p):
+        c = s if partition is None else int(partition[s])
+        cells[c] = cells.get(c, 0.0) + x
+    v = np.array([x for x in cells.values() if x > 0])
+    v = v / v.sum()
+    return float(-np.sum(v * np.log2(v)))
+
+
+def test_epsilon_word_matches_exhaustive_enumeration():
+    rng = np.random.default_rng(17)
+    for trial in range(12):
+        n, k = 6, 3
+        mats = []
+        for _ in range(k):
+            m = rng.random((n, n)) * (rng.random((n, n)) < 0.35)
+            m[np.arange(n), rng.integers(0, n, n)] += 1.0
+            mats.append(m / m.sum(axis=1, keepdims=True))
+        partition = rng.integers(0, 3, n) if trial % 2 else None
+        model = TransitionModel([f"a{i}" for i in range(k)], mats, partition=partition,
+                                n_cells=None if partition is None else 3)
+        eps = float(rng.uniform(0.2, 1.2))
+        res = epsilon_synchronizing_word(model, eps, max_length=5)
+        # exhaustive: all words up to length 5
+        best = None
+        for length in range(0, 6):
+            for word in itertools.product(range(k), repeat=length):
+                p = np.asarray(model.initial, dtype=float)
+                for a in word:
+                    p = p @ mats[a]
+                if _entropy(p, partition) <= eps + 1e-12:
+                    best = length
+                    break
+            if best is not None:
+                break
+        if best is None:
+            assert res.word is None
+        else:
+            assert res.length == best and res.exact
+            p = np.asarray(model.initial, dtype=float)
+            for a in res.word:
+                p = p @ mats[a]
+            assert _entropy(p, partition) <= eps + 1e-9
