@@ -107,7 +107,7 @@ def exact_expected_length(aut: SyncAutomaton, start=None, weights=None, max_subs
     r = rows[keep]
     c = cols[keep]
     ww = wts[keep]
-    inner = ~absorbing[c]
+    inner = ~absorbing[c] & ~absorbing[r]
     Q = sp.csr_matrix((ww[inner], (pos[r[inner]], pos[c[inner]])), shape=(trans.size, trans.size))
     A = (sp.identity(trans.size, format="csc") - Q.tocsc())
     x = spla.spsolve(A, np.ones(trans.size))

@@ -1,0 +1,79 @@
+"""``kruskal sync`` and ``kruskal convergence`` through the command line (SPEC.md keys)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from analysis.cli import main
+
+
+def run_json(capsys, argv):
+    rc = main(argv + ["--json"])
+    out = capsys.readouterr()
+    return rc, (json.loads(out.out) if rc == 0 else None), out.err
+
+
+@pytest.fixture
+def cerny5(tmp_path):
+    n = 5
+    path = tmp_path / "c5.json"
+    path.write_text(json.dumps({"states": n, "actions": {"a": [(i + 1) % n for i in range(n)],
+                                                         "b": [i if i != n - 1 else 0 for i in range(n)]}}))
+    return path
+
+
+def test_sync_cli_cerny(capsys, cerny5):
+    rc, res, _ = run_json(capsys, ["sync", "--automaton", str(cerny5)])
+    assert rc == 0
+    assert res["length"] == 16 and res["exact"] is True and isinstance(res["method"], str)
+    assert "seconds" in res
+    table = {"a": [1, 2, 3, 4, 0], "b": [0, 1, 2, 3, 0]}
+    cur = set(range(5))
+    for a in res["word"]:
+        cur = {table[a][q] for q in cur}
+    assert len(cur) == 1
+
+
+def test_sync_cli_non_synchronizing(capsys, tmp_path):
+    path = tmp_path / "perm.json"
+    path.write_text(json.dumps({"states": 3, "actions": {"a": [1, 2, 0], "b": [1, 0, 2]}}))
+    rc, res, _ = run_json(capsys, ["sync", "--automaton", str(path)])
+    assert rc == 0 and res["word"] is None and res["length"] is None and res["exact"] is True
+    assert res["witness"]
+
+
+def test_sync_cli_stochastic_threshold(capsys, tmp_path):
+    path = tmp_path / "st.json"
+    path.write_text(json.dumps({"states": 3, "actions": {
+        "a": {"rows": [0, 0, 1, 2], "cols": [1, 2, 2, 2], "probs": [0.95, 0.05, 1, 1]},
+        "b": {"rows": [0, 1, 2], "cols": [0, 0, 1], "probs": [1, 1, 1]}}}))
+    rc, res, _ = run_json(capsys, ["sync", "--automaton", str(path), "--threshold", "0.1"])
+    assert rc == 0 and res["mass_dropped"] == pytest.approx(0.05) and res["exact"]
+    rc, res2, _ = run_json(capsys, ["sync", "--automaton", str(path), "--epsilon", "0.0"])
+    assert rc == 0 and res2["length"] is not None
+
+
+def test_convergence_cli(capsys, cerny5):
+    rc, res, _ = run_json(capsys, ["convergence", "--automaton", str(cerny5), "--seed", "3", "--runs", "500"])
+    assert rc == 0
+    e = res["expected_length"]
+    assert set(e) >= {"exact", "monte_carlo", "ci95", "pair_lower", "pair_upper"}
+    assert e["pair_lower"] <= e["exact"] <= e["pair_upper"]
+    rc, again, _ = run_json(capsys, ["convergence", "--automaton", str(cerny5), "--seed", "3", "--runs", "500"])
+    assert again["expected_length"]["monte_carlo"] == e["monte_carlo"]
+    rc, weighted, _ = run_json(capsys, ["convergence", "--automaton", str(cerny5), "--weights", "a=3,b=1",
+                                        "--runs", "200"])
+    assert rc == 0 and weighted["weights"] == [0.75, 0.25]
+
+
+def test_cli_bad_input(capsys, cerny5, tmp_path):
+    assert main(["sync", "--automaton", str(tmp_path / "missing.json"), "--json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert main(["convergence", "--automaton", str(cerny5), "--weights", "1,2,3"]) == 2
+    assert "weights" in capsys.readouterr().err
+    assert main(["sync", "--automaton", str(cerny5), "--threshold", "2"]) == 2
+    capsys.readouterr()
+    assert main(["sync"]) == 2

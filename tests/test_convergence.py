@@ -1,0 +1,166 @@
+"""Expected length of random synchronizing sequences: exact chain vs an independent dense solve,
+pair bounds sandwiching it, Monte Carlo agreeing within its error."""
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from kruskal_markov.convergence import (exact_expected_length, expected_sync_length, letter_weights,
+                                        monte_carlo_entropy_tilts, monte_carlo_sync_length,
+                                        pair_chain_bounds)
+from kruskal_markov.model import TransitionModel
+from kruskal_markov.sync import SyncAutomaton, support_automaton
+
+
+def brute_expectation(step, n, k, w, start):
+    """Dense linear solve over ALL subsets of size >= 2 (singletons absorbing); None if singular."""
+    subs = [frozenset(c) for r in range(2, n + 1) for c in itertools.combinations(range(n), r)]
+    s0 = frozenset(int(x) for x in start)
+    if len(s0) == 1:
+        return 0.0
+    idx = {s: i for i, s in enumerate(subs)}
+    A = np.eye(len(subs))
+    for s, i in idx.items():
+        for a in range(k):
+            y = step(s, a)
+            if len(y) > 1:
+                A[i, idx[y]] -= w[a]
+    # restrict to subsets reachable from s0 (others may be non-synchronizable and make A singular)
+    reach = {s0}
+    todo = [s0]
+    while todo:
+        x = todo.pop()
+        for a in range(k):
+            if w[a] > 0:
+                y = step(x, a)
+                if len(y) > 1 and y not in reach:
+                    reach.add(y)
+                    todo.append(y)
+    sel = [idx[s] for s in reach]
+    sub = A[np.ix_(sel, sel)]
+    if abs(np.linalg.det(sub)) < 1e-12 or np.linalg.cond(sub) > 1e12:
+        return None
+    x = np.linalg.solve(sub, np.ones(len(sel)))
+    return float(x[sel.index(idx[s0])])
+
+
+def det_step(table):
+    t = [list(map(int, r)) for r in table]
+    return lambda x, a: frozenset(t[a][q] for q in x)
+
+
+def test_exact_matches_dense_brute_force_and_pair_bounds_sandwich():
+    rng = np.random.default_rng(42)
+    done = 0
+    for _ in range(60):
+        n = int(rng.integers(2, 9))
+        k = int(rng.integers(2, 4))
+        table = rng.integers(0, n, size=(k, n))
+        w = letter_weights(k, rng.random(k) + 0.1 if rng.random() < 0.5 else None)
+        aut = SyncAutomaton.from_table(table)
+        exact, _ = exact_expected_length(aut, None, w)
+        brute = brute_expectation(det_step(table), n, k, w, range(n))
+        if brute is None:
+            assert exact == math.inf
+            continue
+        assert exact == pytest.approx(brute, rel=1e-9)
+        pb = pair_chain_bounds(aut, None, w)
+        assert pb["lower"] <= exact * (1 + 1e-9)
+        assert exact <= pb["upper"] * (1 + 1e-9)
+        done += 1
+    assert done > 25
+
+
+def test_subset_start_and_monte_carlo_agree():
+    rng = np.random.default_rng(8)
+    for _ in range(8):
+        n, k = 7, 2
+        table = rng.integers(0, n, size=(k, n))
+        start = sorted(int(x) for x in rng.choice(n, size=4, replace=False))
+        aut = SyncAutomaton.from_table(table)
+        w = letter_weights(k)
+        brute = brute_expectation(det_step(table), n, k, w, start)
+        res = expected_sync_length(aut, start, w, seed=3, runs=4000)
+        if brute is None:
+            assert res["infinite"] and res["exact"] is None
+            continue
+        assert res["exact"] == pytest.approx(brute, rel=1e-9)
+        assert res["pair_lower"] <= brute + 1e-9 <= res["pair_upper"] + 2e-9
+        se = (res["ci95"][1] - res["ci95"][0]) / (2 * 1.96)
+        assert abs(res["monte_carlo"] - brute) < 5 * se + 1e-9
+
+
+def test_cerny_4_expected_length_and_reproducible_mc():
+    table = np.array([[1, 2, 3, 0], [0, 1, 2, 0]])
+    aut = SyncAutomaton.from_table(table)
+    brute = brute_expectation(det_step(table), 4, 2, [0.5, 0.5], range(4))
+    a = expected_sync_length(aut, seed=5, runs=500)
+    b = expected_sync_length(aut, seed=5, runs=500)
+    assert a["exact"] == pytest.approx(brute)
+    assert a["monte_carlo"] == b["monte_carlo"]
+
+
+def test_set_valued_exact_matches_brute_force():
+    rng = np.random.default_rng(4)
+    done = 0
+    for _ in range(40):
+        n, k = int(rng.integers(2, 7)), 2
+        sup = [[frozenset(int(x) for x in rng.choice(n, size=1 + int(rng.random() < 0.25), replace=False))
+                for _ in range(n)] for _ in range(k)]
+        mats = []
+        for rows in sup:
+            m = np.zeros((n, n))
+            for q, s in enumerate(rows):
+                for r in s:
+                    m[q, r] = 1.0 / len(s)
+            mats.append(sp.csr_matrix(m))
+        aut = support_automaton(TransitionModel(["a", "b"], mats))
+        exact, _ = exact_expected_length(aut)
+        brute = brute_expectation(lambda x, a: frozenset().union(*(sup[a][q] for q in x)), n, k,
+                                  [0.5, 0.5], range(n))
+        if brute is None:
+            assert exact == math.inf
+        else:
+            assert exact == pytest.approx(brute, rel=1e-9)
+            done += 1
+    assert done > 10
+
+
+def test_non_synchronizing_is_infinite():
+    aut = SyncAutomaton.from_table([[1, 0, 3, 2], [0, 1, 2, 3]])
+    res = expected_sync_length(aut, seed=0)
+    assert res["infinite"] and res["exact"] is None and res["witness"]["kind"] == "pair"
+    pb = pair_chain_bounds(aut)
+    assert pb["lower"] == math.inf
+
+
+def test_exact_budget_gives_none():
+    rng = np.random.default_rng(0)
+    table = rng.integers(0, 30, size=(2, 30))
+    value, info = exact_expected_length(SyncAutomaton.from_table(table), max_subsets=50)
+    assert value is None
+
+
+def test_entropy_tilts_epsilon_zero_equals_sync_time():
+    # deterministic automaton, uniform start: state entropy 0 iff synchronized
+    table = np.array([[1, 2, 3, 0], [0, 1, 2, 0]])
+    mats = [sp.csr_matrix((np.ones(4), (np.arange(4), t)), shape=(4, 4)) for t in table]
+    model = TransitionModel(["a", "b"], mats)
+    brute = brute_expectation(det_step(table), 4, 2, [0.5, 0.5], range(4))
+    res = monte_carlo_entropy_tilts(model, 0.0, runs=3000, seed=1, max_steps=2000)
+    se = (res["ci95"][1] - res["ci95"][0]) / (2 * 1.96)
+    assert res["censored"] == 0 and abs(res["mean"] - brute) < 5 * se
+
+
+def test_weights_validation():
+    with pytest.raises(ValueError):
+        letter_weights(2, [1.0])
+    with pytest.raises(ValueError):
+        letter_weights(2, [-1.0, 2.0])
+    assert letter_weights(2, [1, 3]).tolist() == [0.25, 0.75]
+    with pytest.raises(ValueError):
+        monte_carlo_sync_length(SyncAutomaton.from_table([[0, 0]]), runs=1)
