@@ -20,3 +20,307 @@ def histogram_entropy_bits(counts) -> float:
         return 0.0
     p = c[c > 0] / total
     return float(max(0.0, -np.sum(p * np.log2(p))))
+
+
+# --------------------------------------------------------------------------------------------
+# Entropy evolution under action sequences (the engine; kernels in _entropy_kernels.py)
+# --------------------------------------------------------------------------------------------
+import dataclasses  # noqa: E402
+
+import numba  # noqa: E402
+
+from kruskal_markov import _entropy_kernels as _k  # noqa: E402
+from kruskal_markov.model import ModelError, TransitionModel  # noqa: E402
+
+__all__ = ["histogram_entropy_bits", "distribution_entropy_bits", "partition_entropy_bits",
+           "EntropyTrajectory", "BatchEntropy", "entropy_trajectory", "propagate", "batch_entropy",
+           "as_sequence", "as_sequences"]
+
+
+def distribution_entropy_bits(p) -> float:
+    """Shannon entropy, in bits, of a probability vector (0 log 0 = 0).
+
+    The vector is read as a distribution up to its total mass: ``H = log2(m) - sum(p log2 p)/m``
+    with ``m = sum(p)``, clamped to ``[0, log2(#non-zeros)]`` (its exact range) so round-off never
+    makes it negative or too large. Values down to the smallest subnormal are handled.
+
+    >>> distribution_entropy_bits([0.25, 0.25, 0.5, 0.0])
+    1.5
+    """
+    p = np.asarray(p, dtype=np.float64).ravel()
+    if p.size and (not np.all(np.isfinite(p)) or np.any(p < 0)):
+        raise ValueError("a distribution must be finite and non-negative")
+    nz = p[p > 0]
+    if nz.size == 0:
+        return 0.0
+    h, _ = _k._entropy_of(nz, nz.size)
+    return float(h)
+
+
+def partition_entropy_bits(p, partition, n_cells: int | None = None) -> float:
+    """Entropy (bits) of the distribution ``p`` coarse-grained by ``partition`` (state -> cell)."""
+    p = np.asarray(p, dtype=np.float64).ravel()
+    partition = np.asarray(partition).ravel()
+    if partition.shape != p.shape:
+        raise ValueError(f"partition has {partition.size} entries, distribution has {p.size}")
+    if n_cells is None:
+        n_cells = int(partition.max()) + 1 if partition.size else 0
+    return distribution_entropy_bits(np.bincount(partition, weights=p, minlength=n_cells))
+
+
+def as_sequence(model: TransitionModel, sequence) -> np.ndarray:
+    """Validate one sequence (action names or indices) and return it as an int64 array.
+
+    Raises :class:`~kruskal_markov.model.ModelError` naming the bad entry.
+    """
+    if isinstance(sequence, str):
+        sequence = [s for s in (t.strip() for t in sequence.split(",")) if s] if sequence.strip() else []
+    seq = list(sequence) if not isinstance(sequence, np.ndarray) else sequence
+    if isinstance(seq, list) and any(isinstance(s, str) for s in seq):
+        return np.asarray([model.action_index(s) if isinstance(s, str) else _bad_entry(model, i, s)
+                           for i, s in enumerate(seq)], dtype=np.int64)
+    arr = np.asarray(seq)
+    if arr.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    if arr.ndim != 1:
+        raise ModelError(f"a sequence must be 1-dimensional, got shape {arr.shape}")
+    return _check_indices(model, arr, "sequence")
+
+
+def _bad_entry(model, i, s):
+    raise ModelError(f"sequence entry {i} is {s!r}, not an action name; known actions: "
+                     f"{','.join(model.actions)}")
+
+
+def _check_indices(model, arr, what):
+    if arr.dtype == bool or not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+        raise ModelError(f"{what} must hold action indices or names, got dtype {arr.dtype}")
+    if np.issubdtype(arr.dtype, np.floating):
+        bad = ~np.isfinite(arr) | (arr != np.round(arr))
+        if np.any(bad):
+            pos = np.unravel_index(int(np.flatnonzero(bad.ravel())[0]), arr.shape)
+            raise ModelError(f"{what} entry {tuple(int(x) for x in pos) if arr.ndim > 1 else int(pos[0])} "
+                             f"is {arr[pos]!r}, not an integer action index")
+    k = model.n_actions
+    bad = (arr < 0) | (arr >= k)
+    if np.any(bad):
+        flat = int(np.flatnonzero(bad.ravel())[0])
+        pos = np.unravel_index(flat, arr.shape)
+        where = int(pos[0]) if arr.ndim == 1 else tuple(int(x) for x in pos)
+        raise ModelError(f"{what} entry {where} is {arr[pos]!r}, not an action index in [0, {k})")
+    return arr.astype(np.int64)
+
+
+def as_sequences(model: TransitionModel, sequences) -> np.ndarray:
+    """Validate a batch (``S x N`` action indices) and return it compact (uint8 if <= 256 actions)."""
+    arr = np.asarray(sequences)
+    if arr.dtype.kind in "US" or arr.dtype == object:
+        arr = np.asarray([as_sequence(model, s) for s in sequences])
+    if arr.ndim != 2:
+        raise ModelError(f"a batch of sequences must be 2-dimensional (S x N), got shape {arr.shape}")
+    if arr.size:
+        if arr.dtype == np.uint8 and model.n_actions <= 256:
+            if int(arr.max()) >= model.n_actions:
+                _check_indices(model, arr, "sequences")
+            return arr
+        _check_indices(model, arr, "sequences")
+    return arr.astype(np.uint8 if model.n_actions <= 256 else np.int32)
+
+
+def _initial_support(model: TransitionModel, initial):
+    if initial is None:
+        p = model.initial
+    else:
+        p = np.asarray(initial, dtype=np.float64).ravel()
+        if p.shape != (model.n_states,):
+            raise ModelError(f"initial distribution has {p.size} entries, the model has "
+                             f"{model.n_states} states")
+        if not np.all(np.isfinite(p)) or np.any(p < 0):
+            raise ModelError("initial distribution must be finite and non-negative")
+        if abs(p.sum() - 1.0) > model.tol:
+            raise ModelError(f"initial distribution sums to {p.sum():.12g}, off by {p.sum() - 1:+.3g} "
+                             f"(tolerance {model.tol:g})")
+    idx = np.flatnonzero(p > 0).astype(np.int32)
+    return idx, np.ascontiguousarray(p[idx]), float(p[idx].sum())
+
+
+def _kernel_arrays(model: TransitionModel):
+    """Packed matrices with each row's pivot first (cached on the model), and the partition."""
+    if "entropy_packed" not in model._cache:
+        indptr, indices, data = model.packed()
+        indices, data = indices.copy(), data.copy()
+        _k.pivot_first(indptr, indices, data)
+        img_ptr, img_idx = _k.action_images(indptr, indices, model.n_states)
+        for arr in (indices, data, img_ptr, img_idx):
+            arr.flags.writeable = False
+        model._cache["entropy_packed"] = (indptr, indices, data, img_ptr, img_idx)
+    indptr, indices, data, img_ptr, img_idx = model._cache["entropy_packed"]
+    if model.partition is None:
+        partition, n_cells, has = np.zeros(1, dtype=np.int64), 1, False
+    else:
+        partition, n_cells, has = model.partition, model.n_cells, True
+    return indptr, indices, data, img_ptr, img_idx, partition, n_cells, has
+
+
+@dataclasses.dataclass(frozen=True)
+class EntropyTrajectory:
+    """Entropy along one sequence.
+
+    Attributes
+    ----------
+    entropy_bits : ndarray (N+1,)
+        Entropy on the report partition (on the states when the model has no partition).
+    entropy_bits_states : ndarray (N+1,)
+        Entropy on the model states.
+    mass : ndarray (N+1,)
+        Total probability mass after every step (1 up to round-off; never renormalised).
+    distributions : ndarray (N+1, n) or None
+        The distributions, when asked for.
+    """
+
+    entropy_bits: np.ndarray
+    entropy_bits_states: np.ndarray
+    mass: np.ndarray
+    distributions: np.ndarray | None = None
+
+    @property
+    def mass_drift(self) -> float:
+        """Largest ``|mass[t] - mass[0]|`` along the sequence."""
+        return float(np.max(np.abs(self.mass - self.mass[0]))) if self.mass.size else 0.0
+
+
+def entropy_trajectory(model: TransitionModel, sequence, initial=None, return_distributions=False,
+                       conservative: bool = True) -> EntropyTrajectory:
+    """Propagate ``initial`` (default ``model.initial``) along ``sequence``; entropies after every step.
+
+    Parameters
+    ----------
+    model : TransitionModel
+    sequence : sequence of action names or indices (length N)
+    initial : array_like, optional
+    return_distributions : bool
+        Also return the dense ``(N+1) x n`` distributions (memory!).
+    conservative : bool
+        Mass-conservative splitting of every row (see :mod:`kruskal_markov._entropy_kernels`);
+        ``False`` gives the plain product ``p @ P``.
+
+    Notes
+    -----
+    Work per step is proportional to the non-zeros of the rows in the current support, not to
+    ``n`` (the support shrinks as the tray orients the part), so a 10^6-step sequence is cheap.
+    Row ``t`` of the result is the distribution after the first ``t`` actions:
+    ``p_t = p_0 P_{a_1} ... P_{a_t}`` (row vector times matrices).
+    """
+    seq = as_sequence(model, sequence)
+    init_idx, init_p, _ = _initial_support(model, initial)
+    indptr, indices, data, img_ptr, img_idx, partition, n_cells, has = _kernel_arrays(model)
+    n_out = seq.size + 1
+    hc = np.empty(n_out)
+    hs = np.empty(n_out) if has else hc
+    mass = np.empty(n_out)
+    dist = np.zeros((n_out, model.n_states)) if return_distributions else np.zeros((1, 1))
+    hs_buf = hs if has else np.empty(n_out)
+    _k.walk(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, seq, partition, n_cells, has,
+            conservative, hc, hs_buf, mass, dist, return_distributions)
+    return EntropyTrajectory(hc, hs_buf if has else hc, mass, dist if return_distributions else None)
+
+
+def propagate(model: TransitionModel, sequence, initial=None) -> np.ndarray:
+    """The distributions after every step of ``sequence``: a dense ``(N+1) x n`` array."""
+    return entropy_trajectory(model, sequence, initial, return_distributions=True).distributions
+
+
+@dataclasses.dataclass(frozen=True)
+class BatchEntropy:
+    """Entropies of S sequences: arrays ``(S, N+1)`` and the per-sequence mass drift ``(S,)``.
+
+    ``entropy_bits`` is on the report partition (the same array as ``entropy_bits_states`` when
+    the model has no partition); ``mass_drift[s]`` is ``max_t |mass_t - mass_0|``.
+    """
+
+    entropy_bits: np.ndarray
+    entropy_bits_states: np.ndarray
+    mass_drift: np.ndarray
+
+
+def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_prefixes: bool = True,
+                  conservative: bool = True, threads: int | None = None) -> BatchEntropy:
+    """Entropies after every step of S sequences of length N, in parallel (Numba).
+
+    Parameters
+    ----------
+    model : TransitionModel
+    sequences : array_like (S, N)
+        Action indices (or names).
+    initial : array_like, optional
+        Start distribution (default ``model.initial``).
+    share_prefixes : bool
+        Walk the prefix trie of the sequences (default): sequences sharing their first ``d``
+        actions share the distribution after ``d`` steps, computed once. ``False`` propagates
+        every sequence on its own (same arithmetic, used as a check and for benchmarks).
+    conservative : bool
+        Mass-conservative row splitting (see :func:`entropy_trajectory`).
+    threads : int, optional
+        Numba threads (default: Numba's setting).
+
+    Notes
+    -----
+    Memory is the output (``2 S (N+1)`` float64, one array when there is no partition), the
+    sequences, two int64 permutations of length S, and O(n) scratch per parallel task -- never
+    an ``S x n`` array. Distributions are sparse support lists, so work per step is
+    proportional to the support's row non-zeros; after a few tilts the support of a tray model
+    is tiny (the Kruskal effect), and a point mass on deterministic rows costs O(1) per step.
+    Parallel tasks are the groups of sequences sharing their first ``L`` actions
+    (``K**L >= 16 * threads``), handed out dynamically (chunk size 1).
+    """
+    seqs = as_sequences(model, sequences)
+    s_count, n_steps = seqs.shape
+    init_idx, init_p, m0 = _initial_support(model, initial)
+    indptr, indices, data, img_ptr, img_idx, partition, n_cells, has = _kernel_arrays(model)
+    hc = np.zeros((s_count, n_steps + 1))
+    hs = np.zeros((s_count, n_steps + 1)) if has else hc
+    drift = np.zeros(s_count)
+    if s_count == 0:
+        return BatchEntropy(hc, hs, drift)
+    prev_threads = numba.get_num_threads()
+    if threads is not None:
+        threads = int(threads)
+        if threads < 1:
+            raise ValueError(f"threads must be >= 1, got {threads}")
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        n_threads = numba.get_num_threads()
+        k = model.n_actions
+        if share_prefixes:
+            depth = 0
+            while k ** depth < 16 * n_threads and depth < n_steps and k ** depth < s_count and k > 1:
+                depth += 1
+            if depth == 0:
+                order = np.arange(s_count, dtype=np.int64)
+                task_lo = np.zeros(1, dtype=np.int64)
+                task_hi = np.full(1, s_count, dtype=np.int64)
+            else:
+                key = np.zeros(s_count, dtype=np.int64)
+                for t in range(depth):
+                    key *= k
+                    key += seqs[:, t]
+                order = np.argsort(key, kind="stable").astype(np.int64)
+                counts = np.bincount(key, minlength=k ** depth)
+                ends = np.cumsum(counts)
+                starts = ends - counts
+                keep = counts > 0
+                task_lo, task_hi = starts[keep].astype(np.int64), ends[keep].astype(np.int64)
+            block_ptr = np.arange(task_lo.size + 1, dtype=np.int64)
+        else:
+            order = np.arange(s_count, dtype=np.int64)
+            task_lo = order.copy()
+            task_hi = order + 1
+            n_blocks = min(s_count, 8 * n_threads)
+            block_ptr = np.linspace(0, s_count, n_blocks + 1).astype(np.int64)
+        with numba.parallel_chunksize(1):
+            _k.batch(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order, task_lo,
+                     task_hi, block_ptr, partition, n_cells, has, conservative, hc, hs, drift)
+    finally:
+        if threads is not None:
+            numba.set_num_threads(prev_threads)
+    return BatchEntropy(hc, hs, drift)
