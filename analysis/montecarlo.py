@@ -375,7 +375,7 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
                 if bar is not None:
                     bar.update(hi - lo)
         else:
-            pool = _get_pool(n_workers)
+            pool = _get_pool(int(workers))  # one pool size per request: no churn between calls
             futures = {pool.submit(_worker_chunk, key, scene, simulator_factory, starts[lo:hi], seq_names):
                        (lo, hi) for lo, hi in bounds}
             try:
