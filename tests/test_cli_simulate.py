@@ -123,3 +123,22 @@ def test_bad_input_in_a_real_process():
     assert proc.stdout == ""
     err = [line for line in proc.stderr.splitlines() if not line.startswith("pybullet build time")]
     assert len(err) == 1 and "at least 3 vertices" in err[0]
+
+
+def test_scene_file_and_overrides(capsys, tmp_path):
+    from transition_builder.scene import scene_from_options
+
+    path = tmp_path / "scene.json"
+    scene_from_options("rectangle:40x20", friction_spec=0.2).save(path)
+    code, out, err = _run(capsys, "--scene", str(path), "--sequence", "E", "--trials", "20", "--workers", "1",
+                          "--json", "--theta-offset", "0")
+    assert code == 0, err
+    res = json.loads(out)
+    assert res["shape"] == "rectangle:40x20" and res["friction"] == "0.2"
+    assert res["symmetry_order"] == 2 and res["theta_offset"] == 0.0
+    code, out, err = _run(capsys, "--scene", str(path), "--shape", "triangle:2", "--sequence", "E",
+                          "--trials", "20", "--workers", "1", "--json")
+    assert code == 0, err
+    assert json.loads(out)["shape"] == "triangle:2"
+    code, out, err = _run(capsys, "--scene", str(tmp_path / "missing.json"), "--sequence", "E")
+    assert code == 2 and len(err.strip().splitlines()) == 1
