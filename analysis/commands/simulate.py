@@ -54,6 +54,10 @@ def _scene(args):
         from transition_builder.friction import parse_friction
         from transition_builder.shapes import parse_shape
 
+        import os
+
+        if not os.path.isfile(args.scene):
+            raise InputError(f"scene file {args.scene!r} does not exist")
         scene = Scene.load(args.scene)
         changes = {}
         if args.shape is not None:
