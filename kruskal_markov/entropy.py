@@ -100,14 +100,14 @@ def _check_indices(model, arr, what):
         if np.any(bad):
             pos = np.unravel_index(int(np.flatnonzero(bad.ravel())[0]), arr.shape)
             raise ModelError(f"{what} entry {tuple(int(x) for x in pos) if arr.ndim > 1 else int(pos[0])} "
-                             f"is {arr[pos]!r}, not an integer action index")
+                             f"is {arr[pos].item()!r}, not an integer action index")
     k = model.n_actions
     bad = (arr < 0) | (arr >= k)
     if np.any(bad):
         flat = int(np.flatnonzero(bad.ravel())[0])
         pos = np.unravel_index(flat, arr.shape)
         where = int(pos[0]) if arr.ndim == 1 else tuple(int(x) for x in pos)
-        raise ModelError(f"{what} entry {where} is {arr[pos]!r}, not an action index in [0, {k})")
+        raise ModelError(f"{what} entry {where} is {arr[pos].item()!r}, not an action index in [0, {k})")
     return arr.astype(np.int64)
 
 
