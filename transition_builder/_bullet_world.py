@@ -105,7 +105,7 @@ class BulletWorld:
             wx, wy = self._world_xy((cx, cy))
             b = pb.createMultiBody(0, cs, basePosition=[wx, wy, -_FLOOR_T / 2], baseOrientation=q_tray,
                                    physicsClientId=cid)
-            pb.changeDynamics(b, -1, lateralFriction=float(m), spinningFriction=float(m), rollingFriction=0.0,
+            pb.changeDynamics(b, -1, lateralFriction=float(m), spinningFriction=0.0, rollingFriction=0.0,
                               restitution=0.0, physicsClientId=cid)
             self.tiles.append(b)
 

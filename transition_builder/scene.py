@@ -182,8 +182,16 @@ class Scene:
         elif isinstance(sh, dict):
             if "vertices" not in sh:
                 raise ValueError("scene shape table has no 'vertices'")
-            kw = {k: sh[k] for k in ("thickness_mm", "density_kg_m3") if k in sh}
-            shape = make_shape(sh["vertices"], name=str(sh.get("name", "polygon")), **kw)
+            shape = None
+            try:                      # a saved scene: the spec string rebuilds the identical shape
+                cand = parse_shape(str(sh.get("name", "")))
+                if cand.to_dict() == {**cand.to_dict(), **sh}:
+                    shape = cand
+            except (ValueError, OSError):
+                pass
+            if shape is None:
+                kw = {k: sh[k] for k in ("thickness_mm", "density_kg_m3") if k in sh}
+                shape = make_shape(sh["vertices"], name=str(sh.get("name", "polygon")), **kw)
         else:
             raise ValueError(f"scene shape must be a spec string or a table, got {type(sh).__name__}")
         kw = {k: data[k] for k in ("tray_x_mm", "tray_y_mm", "wall_height_mm", "wall_thickness_mm",

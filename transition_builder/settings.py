@@ -52,9 +52,9 @@ class SimSettings:
     time_step_s: float = 1.0 / 240.0
     substeps: int = 4
     solver_iterations: int = 100
-    rest_speed_mm_s: float = 0.5
-    rest_angular_speed_rad_s: float = 0.01
-    dwell_s: float = 1.0 / 30.0
+    rest_speed_mm_s: float = 1.0
+    rest_angular_speed_rad_s: float = 0.03
+    dwell_s: float = 0.1
     max_time_s: float = 4.0
     support_radius_mm: float = 1.0
     floor_clearance_mm: float = 10.0

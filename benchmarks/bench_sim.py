@@ -1,0 +1,116 @@
+"""Tilts per second per core and fault rate of the tray-tilt simulator (allen key, random actions
+and uniform collision-free start poses), with a naive free-body PyBullet loop side by side.
+
+Run: ``python -m benchmarks sim`` (``make bench``). Both wall time and process (CPU) time are
+printed: the machine may be shared, and CPU time is the honest per-core figure then.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+N_TILTS = int(os.environ.get("KRUSKAL_BENCH_TILTS", "4000"))
+N_NAIVE = int(os.environ.get("KRUSKAL_BENCH_NAIVE", "600"))
+
+
+def _ours(n, seed=1):
+    from transition_builder.sampling import sample_start_poses
+    from transition_builder.scene import scene_from_options
+    from transition_builder.sim import TraySimulator
+    from transition_builder.status import fault_counts
+    sc = scene_from_options("allen-key")
+    rng = np.random.default_rng(seed)
+    poses = sample_start_poses(sc.shape, 200.0, 200.0, n, rng)
+    actions = rng.integers(0, 8, n)
+    status = np.empty(n, dtype=np.int8)
+    with TraySimulator(sc) as sim:
+        for a in range(8):                      # build the worlds outside the timing
+            sim.tilt(poses[:1], a)
+        w0, c0 = time.perf_counter(), time.process_time()
+        for a in range(8):
+            m = actions == a
+            _, status[m] = sim.tilt(poses[m], a)
+        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    return wall, cpu, fault_counts(status)
+
+
+def _naive(n, seed=1):
+    """A naive free body: the key as two boxes, 1/240 s, 10 iterations, default everything,
+    rest checked every step from Python (speed < 1 mm/s and 0.03 rad/s for 0.1 s, max 4 s)."""
+    import pybullet as pb
+    from transition_builder.sampling import sample_start_poses
+    from transition_builder.scene import ACTION_ANGLES_DEG, ACTIONS, scene_from_options
+    sc = scene_from_options("allen-key")
+    rng = np.random.default_rng(seed)
+    poses = sample_start_poses(sc.shape, 200.0, 200.0, n, rng)
+    actions = rng.integers(0, 8, n)
+    cid = pb.connect(pb.DIRECT)
+    pb.setTimeStep(1 / 240, physicsClientId=cid)
+    pb.setPhysicsEngineParameter(numSolverIterations=10, physicsClientId=cid)
+    fl = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.12, 0.12, 0.005], physicsClientId=cid)
+    floor = pb.createMultiBody(0, fl, basePosition=[0.1, 0.1, -0.005], physicsClientId=cid)
+    for (cx, cy), (hx, hy) in [((0.21, 0.1), (0.01, 0.12)), ((-0.01, 0.1), (0.01, 0.12)),
+                               ((0.1, 0.21), (0.12, 0.01)), ((0.1, -0.01), (0.12, 0.01))]:
+        ws = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx, hy, 0.015], physicsClientId=cid)
+        pb.createMultiBody(0, ws, basePosition=[cx, cy, 0.015], physicsClientId=cid)
+    pb.changeDynamics(floor, -1, lateralFriction=math.sqrt(0.3), physicsClientId=cid)
+    he, pos = [], []
+    for part in sc.shape.convex_parts:
+        lo, hi = part.min(axis=0) / 1000, part.max(axis=0) / 1000
+        he.append([(hi[0] - lo[0]) / 2, (hi[1] - lo[1]) / 2, 0.0025])
+        pos.append([(hi[0] + lo[0]) / 2, (hi[1] + lo[1]) / 2, 0.0])
+    cs = pb.createCollisionShapeArray([pb.GEOM_BOX] * len(he), halfExtents=he, collisionFramePositions=pos,
+                                      physicsClientId=cid)
+    body = pb.createMultiBody(sc.shape.mass_kg, cs, basePosition=[0.1, 0.1, 0.0025], physicsClientId=cid)
+    pb.changeDynamics(body, -1, lateralFriction=math.sqrt(0.3), activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
+                      physicsClientId=cid)
+    faults = 0
+    g, a = 9.81, math.radians(30)
+    w0, c0 = time.perf_counter(), time.process_time()
+    for p, act in zip(poses, actions):
+        phi = math.radians(ACTION_ANGLES_DEG[ACTIONS[act]])
+        pb.setGravity(g * math.sin(a) * math.cos(phi), g * math.sin(a) * math.sin(phi), -g * math.cos(a),
+                      physicsClientId=cid)
+        pb.resetBasePositionAndOrientation(body, [p[0] / 1000, p[1] / 1000, 0.0025],
+                                           pb.getQuaternionFromEuler([0, 0, p[2]]), physicsClientId=cid)
+        pb.resetBaseVelocity(body, [0, 0, 0], [0, 0, 0], physicsClientId=cid)
+        still, ok = 0, False
+        for _ in range(960):
+            pb.stepSimulation(physicsClientId=cid)
+            v, w = pb.getBaseVelocity(body, physicsClientId=cid)
+            if math.hypot(v[0], v[1]) < 1e-3 and abs(w[2]) < 0.03:
+                still += 1
+                if still >= 24:
+                    ok = True
+                    break
+            else:
+                still = 0
+        xyz, q = pb.getBasePositionAndOrientation(body, physicsClientId=cid)
+        roll, pitch, _ = pb.getEulerFromQuaternion(q)
+        inside = -0.001 < xyz[0] < 0.201 and -0.001 < xyz[1] < 0.201 and -0.001 < xyz[2] < 0.01
+        if not ok or not inside or abs(roll) > 0.05 or abs(pitch) > 0.05:
+            faults += 1
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    pb.disconnect(cid)
+    return wall, cpu, faults
+
+
+def main():
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"machine: {os.cpu_count()} cores, load average {load:.2f} at start")
+    wall, cpu, faults = _ours(N_TILTS)
+    nf = sum(faults.values())
+    print(f"kruskal simulator : {N_TILTS} tilts  {N_TILTS / cpu:7.1f} tilts/s per core (CPU time)  "
+          f"{N_TILTS / wall:7.1f} tilts/s (wall)  faults {nf} = {nf / N_TILTS:.2e} {faults}")
+    wall, cpu, nf = _naive(N_NAIVE)
+    print(f"naive free body   : {N_NAIVE} tilts  {N_NAIVE / cpu:7.1f} tilts/s per core (CPU time)  "
+          f"{N_NAIVE / wall:7.1f} tilts/s (wall)  faults {nf} = {nf / N_NAIVE:.2e}")
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    print(f"load average {load:.2f} at end (other processes share the machine)")
+
+
+if __name__ == "__main__":
+    main()
