@@ -1,0 +1,180 @@
+"""Tests of kruskal_markov.ensemble: random sequences, Fig. 3 statistics, convergence, best sequence."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kruskal_markov.ensemble import (
+    best_sequence_index,
+    convergence_steps,
+    random_sequences,
+    run_ensemble,
+)
+from kruskal_markov.entropy import batch_entropy, entropy_trajectory
+from kruskal_markov.model import ModelError, TransitionModel
+
+
+def cerny(n: int) -> TransitionModel:
+    """Černý automaton C_n: a = cyclic shift, b merges state 0 into 1; shortest reset word (n-1)^2."""
+    a = [(i + 1) % n for i in range(n)]
+    b = [1] + list(range(1, n))
+    return TransitionModel.from_automaton_json({"states": n, "actions": {"a": a, "b": b}})
+
+
+def image_sizes(model, seq):
+    """Size of the image of the whole state set after every prefix (independent set semantics)."""
+    table = model.deterministic_table()
+    current = np.arange(model.n_states)
+    sizes = [current.size]
+    for a in seq:
+        current = np.unique(table[a][current])
+        sizes.append(current.size)
+    return np.array(sizes)
+
+
+# --------------------------------------------------------------------------- random sequences
+def test_random_sequences_reproducible_and_shaped():
+    a = random_sequences(8, 100, 20, seed=5)
+    b = random_sequences(8, 100, 20, seed=5)
+    c = random_sequences(8, 100, 20, seed=6)
+    assert a.shape == (100, 20) and a.dtype == np.uint8
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+    assert a.min() >= 0 and a.max() <= 7
+    assert random_sequences(300, 2, 3, seed=1).dtype == np.int32
+
+
+def test_random_sequences_uniform_frequencies():
+    s = random_sequences(8, 20000, 10, seed=1)
+    freq = np.bincount(s.ravel(), minlength=8) / s.size
+    # 200,000 draws: standard error of each frequency ~ 7.4e-4
+    assert np.all(np.abs(freq - 1 / 8) < 5e-3)
+
+
+def test_random_sequences_weights():
+    w = [0, 1, 3, 0]
+    s = random_sequences(4, 20000, 5, seed=2, weights=w)
+    freq = np.bincount(s.ravel(), minlength=4) / s.size
+    assert freq[0] == 0 and freq[3] == 0
+    assert abs(freq[1] - 0.25) < 0.01 and abs(freq[2] - 0.75) < 0.01
+    np.testing.assert_array_equal(s, random_sequences(4, 20000, 5, seed=2, weights=np.array(w) * 7.0))
+
+
+@pytest.mark.parametrize("kwargs, pattern", [
+    (dict(weights=[1, 2]), "2 action weights given for 3 actions"),
+    (dict(weights=[1, -1, 1]), "non-negative"),
+    (dict(weights=[0, 0, 0]), "not all be zero"),
+    (dict(weights=[1, np.nan, 1]), "finite"),
+])
+def test_random_sequences_bad_weights(kwargs, pattern):
+    with pytest.raises(ModelError, match=pattern):
+        random_sequences(3, 2, 2, seed=0, **kwargs)
+
+
+def test_random_sequences_bad_sizes():
+    with pytest.raises(ModelError, match="count"):
+        random_sequences(3, -1, 2)
+    with pytest.raises(ModelError, match="length"):
+        random_sequences(3, 1, 2.5)
+
+
+# --------------------------------------------------------------------------- convergence steps
+def test_convergence_steps_by_definition():
+    rng = np.random.default_rng(0)
+    h = rng.random((200, 9))
+    h[rng.random(h.shape) < 0.2] = 0.0
+    eps = 1e-9
+    got = convergence_steps(h, eps)
+    for s in range(200):
+        hits = [t for t in range(9) if h[s, t] <= eps]
+        assert got[s] == (hits[0] if hits else -1)
+    assert convergence_steps(np.zeros((2, 0))).tolist() == [-1, -1]
+
+
+def test_best_sequence_rules():
+    steps = np.array([-1, 4, 2, 2, 3, -1])
+    final = np.array([0.0, 0.0, 0.5, 0.1, 0.0, 0.0])
+    assert best_sequence_index(steps, final) == 3  # first to converge; tie broken by final entropy
+    final2 = np.array([0.0, 0.0, 0.1, 0.1, 0.0, 0.0])
+    assert best_sequence_index(steps, final2) == 2  # full tie: lowest index
+    assert best_sequence_index(np.array([-1, -1, -1]), np.array([0.3, 0.2, 0.2])) == 1
+
+
+def test_best_sequence_matches_brute_force_sort():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        k = int(rng.integers(1, 30))
+        steps = rng.integers(-1, 5, k)
+        final = rng.integers(0, 3, k) / 2
+        ref = sorted(range(k), key=lambda i: (steps[i] if steps[i] >= 0 else 10**9, final[i], i))[0]
+        assert best_sequence_index(steps, final) == ref
+
+
+# --------------------------------------------------------------------------- ensembles
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_cerny_ensemble_against_set_semantics(n):
+    model = cerny(n)
+    res = run_ensemble(model, 400, (n - 1) ** 2 + 12, seed=n, keep_entropy=True)
+    assert res.entropy.shape == (400, (n - 1) ** 2 + 13)
+    for s in range(400):
+        sizes = image_sizes(model, res.sequences[s])
+        # uniform start on a deterministic automaton: entropy 0 exactly when the image is one state
+        first = np.flatnonzero(sizes == 1)
+        expected = int(first[0]) if first.size else -1
+        assert res.convergence_steps[s] == expected
+    conv = res.convergence_steps[res.convergence_steps >= 0]
+    assert res.converged == conv.size > 0
+    assert conv.min() >= (n - 1) ** 2  # Černý: no reset word shorter than (n-1)^2
+    best = res.best_sequence
+    assert image_sizes(model, best)[conv.min()] == 1
+    assert res.convergence_steps[res.best_index] == conv.min()
+
+
+def test_ensemble_statistics_equal_numpy_on_batch():
+    rng = np.random.default_rng(9)
+    n = 12
+    mats = []
+    for _ in range(3):
+        a = rng.random((n, n)) * (rng.random((n, n)) < 0.3) + np.eye(n)[rng.integers(0, n // 3, n)]
+        mats.append(a / a.sum(axis=1, keepdims=True))
+    model = TransitionModel(["x", "y", "z"], mats, partition=np.arange(n) % 4)
+    res = run_ensemble(model, 300, 15, seed=4, epsilon=0.5, weights=[1, 2, 1], keep_entropy=True)
+    seqs = random_sequences(3, 300, 15, seed=4, weights=[1, 2, 1])
+    np.testing.assert_array_equal(res.sequences, seqs)
+    h = np.array([entropy_trajectory(model, s).entropy_bits for s in seqs])
+    np.testing.assert_allclose(res.entropy, h, atol=1e-12)
+    np.testing.assert_allclose(res.mean, h.mean(axis=0), atol=1e-12)
+    np.testing.assert_allclose(res.q25, np.quantile(h, 0.25, axis=0), atol=1e-12)
+    np.testing.assert_allclose(res.q75, np.quantile(h, 0.75, axis=0), atol=1e-12)
+    hs = batch_entropy(model, seqs).entropy_bits_states
+    np.testing.assert_allclose(res.mean_states, hs.mean(axis=0), atol=1e-12)
+    assert res.converged == int(np.sum((h <= 0.5).any(axis=1)))
+    assert res.max_mass_drift <= 1e-12
+
+
+def test_ensemble_reproducible():
+    model = cerny(4)
+    a = run_ensemble(model, 50, 12, seed=1)
+    b = run_ensemble(model, 50, 12, seed=1)
+    np.testing.assert_array_equal(a.sequences, b.sequences)
+    np.testing.assert_array_equal(a.mean, b.mean)
+
+
+def test_never_converging_model():
+    model = TransitionModel.from_automaton_json({"states": 4, "actions": {"a": [1, 0, 3, 2], "b": [0, 1, 2, 3]}})
+    res = run_ensemble(model, 30, 10, seed=0)
+    assert res.converged == 0
+    assert np.all(res.convergence_steps == -1)
+    np.testing.assert_allclose(res.mean, 2.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, pattern", [
+    (dict(count=0, length=3), "count must be a positive integer"),
+    (dict(count=2, length=-1), "length"),
+    (dict(count=2, length=3, epsilon=-1), "epsilon"),
+    (dict(count=2, length=3, epsilon="x"), "epsilon must be a number"),
+    (dict(count=2, length=3, weights=[1]), "1 action weights given for 2 actions"),
+])
+def test_ensemble_bad_input(kwargs, pattern):
+    with pytest.raises(ModelError, match=pattern):
+        run_ensemble(cerny(3), seed=0, **kwargs)

@@ -1,0 +1,93 @@
+"""Tests of kruskal_markov.structure: closed classes and what they imply for the entropy."""
+from __future__ import annotations
+
+import networkx as nx
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from kruskal_markov.ensemble import run_ensemble
+from kruskal_markov.model import TransitionModel
+from kruskal_markov.structure import analyze_structure, closed_classes, support_graph
+
+
+def random_sparse_model(rng, n, k, density):
+    mats = []
+    for _ in range(k):
+        a = rng.random((n, n)) * (rng.random((n, n)) < density)
+        a[np.arange(n), rng.integers(0, n, n)] += 0.5
+        mats.append(sp.csr_matrix(a / a.sum(axis=1, keepdims=True)))
+    return TransitionModel([f"a{i}" for i in range(k)], mats)
+
+
+@pytest.mark.parametrize("seed", range(15))
+def test_closed_classes_match_networkx(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 40))
+    model = random_sparse_model(rng, n, int(rng.integers(1, 4)), float(rng.uniform(0, 0.1)))
+    g = support_graph(model)
+    dense = np.zeros((n, n), dtype=bool)
+    for m in model.matrices:
+        dense |= m.toarray() > 0
+    np.testing.assert_array_equal(g.toarray() > 0, dense)
+    ours = sorted(tuple(c.tolist()) for c in closed_classes(g))
+    ref = sorted(tuple(sorted(c)) for c in nx.attracting_components(nx.DiGraph(dense)))
+    assert ours == ref
+
+
+def test_two_absorbing_states_exclude_zero_entropy():
+    # states 0 and 3 absorbing; 1, 2 transient
+    model = TransitionModel.from_automaton_json(
+        {"states": 4, "actions": {"a": [0, 0, 3, 3], "b": [0, 2, 1, 3]}})
+    rep = analyze_structure(model)
+    assert [c.tolist() for c in rep.closed_classes] == [[0], [3]]
+    assert rep.reachable_classes == [0, 1] and rep.holding_classes == [0, 1]
+    assert rep.class_mass == [0.25, 0.25]
+    assert rep.zero_entropy_excluded and rep.zero_cell_entropy_excluded
+    assert "class 0 = {0}" in rep.message and "class 1 = {3}" in rep.message
+    assert "cannot reach zero" in rep.message
+    # the consequence, checked by brute force over every sequence of length 6
+    res = run_ensemble(model, 2000, 6, seed=0)
+    assert res.converged == 0 and min(res.best_entropy) >= 1.0 - 1e-12
+
+
+def test_reachable_but_not_holding_classes_allow_zero():
+    # from state 0 (the only initial state) action a goes to 1, b to 2; both absorbing
+    model = TransitionModel.from_automaton_json(
+        {"states": 3, "actions": {"a": [1, 1, 2], "b": [2, 1, 2]}, "initial": [1, 0, 0]})
+    rep = analyze_structure(model)
+    assert rep.reachable_classes == [0, 1] and rep.holding_classes == []
+    assert not rep.zero_entropy_excluded
+    assert "not excluded" in rep.message
+
+
+def test_partition_sharing_a_cell():
+    model = TransitionModel.from_automaton_json(
+        {"states": 4, "actions": {"a": [0, 0, 3, 3]}, "partition": [0, 1, 1, 0], "cells": 2})
+    rep = analyze_structure(model)
+    assert rep.zero_entropy_excluded and not rep.zero_cell_entropy_excluded
+    assert "could" in rep.message
+    res = run_ensemble(model, 1, 1, seed=0, keep_entropy=True)
+    assert res.entropy[0, 1] == 0.0  # the report-grid entropy does reach zero
+    separate = TransitionModel.from_automaton_json(
+        {"states": 4, "actions": {"a": [0, 0, 3, 3]}, "partition": [0, 1, 1, 1], "cells": 2})
+    assert analyze_structure(separate).zero_cell_entropy_excluded
+
+
+def test_single_class_synchronizing():
+    n = 5
+    model = TransitionModel.from_automaton_json(
+        {"states": n, "actions": {"a": [(i + 1) % n for i in range(n)], "b": [1] + list(range(1, n))}})
+    rep = analyze_structure(model)
+    assert len(rep.closed_classes) == 1 and rep.closed_classes[0].tolist() == list(range(n))
+    assert not rep.zero_entropy_excluded
+    d = rep.to_dict()
+    assert d["closed_classes"][0]["size"] == n and d["zero_entropy_excluded"] is False
+
+
+def test_analyze_with_initial_override():
+    model = TransitionModel.from_automaton_json({"states": 4, "actions": {"a": [0, 0, 3, 3]}})
+    rep = analyze_structure(model, initial=[0, 1, 0, 0])
+    assert rep.holding_classes == [] and rep.reachable_classes == [0]
+    with pytest.raises(ValueError, match="3 entries"):
+        analyze_structure(model, initial=[1, 0, 0])
