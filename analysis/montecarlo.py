@@ -21,6 +21,7 @@ import atexit
 import csv
 import hashlib
 import math
+import multiprocessing as mp
 import os
 import pickle
 import sys
@@ -30,7 +31,6 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 
-import multiprocessing as mp
 import numpy as np
 
 from kruskal_markov.entropy import histogram_entropy_bits
@@ -38,8 +38,18 @@ from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.sampling import sample_start_poses
 from transition_builder.status import INVALID, OK, STATUS_NAMES
 
-__all__ = ["DirectResult", "run_direct", "shutdown_workers", "write_poses_csv", "read_poses_csv", "PoseRecords",
-           "entropy_by_step", "resolve_sequence", "report_grid_for", "POSES_CSV_COLUMNS"]
+__all__ = [
+    "POSES_CSV_COLUMNS",
+    "DirectResult",
+    "PoseRecords",
+    "entropy_by_step",
+    "read_poses_csv",
+    "report_grid_for",
+    "resolve_sequence",
+    "run_direct",
+    "shutdown_workers",
+    "write_poses_csv",
+]
 
 #: columns of the ``--poses`` CSV file (SPEC.md).
 POSES_CSV_COLUMNS = ("trial", "step", "x_mm", "y_mm", "theta_rad", "status")
@@ -152,7 +162,7 @@ class DirectResult:
     @property
     def tilts(self) -> int:
         """Length N of the sequence."""
-        return int(len(self.sequence))
+        return len(self.sequence)
 
     @property
     def tilts_simulated(self) -> int:
@@ -188,7 +198,7 @@ class DirectResult:
 
 # Simulators are cached per process, keyed by (scene, factory): a worker builds one simulator per
 # scene once and keeps it for later chunks and later calls (at most _SIM_CACHE_SIZE scenes).
-_SIM_CACHE: "OrderedDict[str, object]" = OrderedDict()
+_SIM_CACHE: OrderedDict[str, object] = OrderedDict()
 _SIM_CACHE_SIZE = 4
 # The worker pool is kept between calls (spawning workers costs about a second each time).
 _POOL: tuple[int, ProcessPoolExecutor] | None = None

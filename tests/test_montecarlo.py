@@ -14,7 +14,12 @@ import numpy as np
 import pytest
 
 from analysis.montecarlo import (
-    DirectResult, entropy_by_step, read_poses_csv, resolve_sequence, run_direct, write_poses_csv,
+    DirectResult,
+    entropy_by_step,
+    read_poses_csv,
+    resolve_sequence,
+    run_direct,
+    write_poses_csv,
 )
 from kruskal_markov.entropy import histogram_entropy_bits
 from transition_builder.grid import ReportGrid

@@ -6,12 +6,22 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from shapely.geometry import Polygon
 from shapely.ops import unary_union
 
 from transition_builder.shapes import (
-    MAX_CONVEX_PARTS, Shape, allen_key, check_fits, convex_decomposition, fits_in_tray, make_shape,
-    parse_shape, random_triangle, symmetry_order,
+    MAX_CONVEX_PARTS,
+    Shape,
+    allen_key,
+    check_fits,
+    convex_decomposition,
+    fits_in_tray,
+    make_shape,
+    parse_shape,
+    random_triangle,
+    symmetry_order,
 )
 
 SPECS = ["allen-key", "triangle:0", "triangle:7", "rectangle:40x20", "rectangle:30x30",
@@ -279,8 +289,6 @@ def test_convex_decomposition_function_direct():
     assert sum(Polygon(p).area for p in parts) == pytest.approx(Polygon(_star(4)).area)
 
 
-from hypothesis import given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
 
 
 @st.composite

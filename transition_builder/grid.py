@@ -26,7 +26,7 @@ import re
 
 import numpy as np
 
-__all__ = ["ReportGrid", "parse_grid", "DEFAULT_GRID"]
+__all__ = ["DEFAULT_GRID", "ReportGrid", "parse_grid"]
 
 #: the paper's simulation grid (4 x 4 x 4 = 64 voxels).
 DEFAULT_GRID = "4x4x4"
@@ -92,7 +92,7 @@ class ReportGrid:
 
     @classmethod
     def from_spec(cls, spec: str, tray_x_mm: float, tray_y_mm: float, symmetry_order: int = 1,
-                  theta_offset: float | None = None) -> "ReportGrid":
+                  theta_offset: float | None = None) -> ReportGrid:
         """Build from an ``"AxBxG"`` string (see :func:`parse_grid`)."""
         return cls(tray_x_mm, tray_y_mm, *parse_grid(spec), symmetry_order=symmetry_order,
                    theta_offset=theta_offset)

@@ -15,7 +15,7 @@ import numpy as np
 
 from transition_builder.shapes import Shape, check_fits
 
-__all__ = ["sample_start_poses", "is_collision_free"]
+__all__ = ["is_collision_free", "sample_start_poses"]
 
 # Give up when fewer than this fraction of draws is accepted (the shape barely fits).
 _MIN_ACCEPTANCE = 1e-4

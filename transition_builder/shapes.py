@@ -32,9 +32,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = [
-    "Shape", "parse_shape", "make_shape", "allen_key", "random_triangle", "rectangle",
-    "check_fits", "fits_in_tray", "symmetry_order", "convex_decomposition",
-    "STEEL_DENSITY_KG_M3", "DEFAULT_THICKNESS_MM", "MAX_CONVEX_PARTS",
+    "DEFAULT_THICKNESS_MM",
+    "MAX_CONVEX_PARTS",
+    "STEEL_DENSITY_KG_M3",
+    "Shape",
+    "allen_key",
+    "check_fits",
+    "convex_decomposition",
+    "fits_in_tray",
+    "make_shape",
+    "parse_shape",
+    "random_triangle",
+    "rectangle",
+    "symmetry_order",
 ]
 
 #: density of steel, the allen key's material (kg/m^3); also the default for every other shape.

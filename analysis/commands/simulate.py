@@ -49,12 +49,11 @@ def _scene(args):
     from transition_builder.scene import Scene, scene_from_options
 
     if args.scene:
+        import os
         from dataclasses import replace
 
         from transition_builder.friction import parse_friction
         from transition_builder.shapes import parse_shape
-
-        import os
 
         if not os.path.isfile(args.scene):
             raise InputError(f"scene file {args.scene!r} does not exist")
