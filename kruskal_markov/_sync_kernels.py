@@ -145,17 +145,25 @@ def meet(fstore, flo, fhi, bstore, blo, bhi, n, block):
     """Find ``F`` in forward rows ``flo..fhi-1`` and ``B`` in backward rows ``blo..bhi-1`` with F <= B.
 
     Uses an inverted index (for each state, the bitset of the backward rows containing it), built
-    block by block of ``block`` backward rows. Returns ``(f, b)`` or ``(-1, -1)``.
+    block by block of ``block`` backward rows taken in decreasing size, so that a forward set of
+    size ``s`` only scans the backward sets of size ``>= s``. Returns ``(f, b)`` or ``(-1, -1)``.
     """
     W = fstore.shape[1]
+    nb = bhi - blo
+    bsize = np.empty(nb, dtype=np.int64)
+    for j in range(nb):
+        bsize[j] = set_size(bstore, blo + j)
+    order = np.argsort(-bsize)
     nwords = (block + 63) // 64
     inv = np.zeros((n, nwords), dtype=np.uint64)
     elems = np.empty(n, dtype=np.int64)
-    for start in range(blo, bhi, block):
-        stop = min(bhi, start + block)
+    freq = np.zeros(n, dtype=np.int64)
+    for start in range(0, nb, block):
+        stop = min(nb, start + block)
         inv[:, :] = _ZERO
-        for j in range(start, stop):
-            jj = j - start
+        freq[:] = 0
+        for jj in range(stop - start):
+            j = blo + order[start + jj]
             bit = _ONE << np.uint64(jj & 63)
             for w in range(W):
                 x = bstore[j, w]
@@ -163,7 +171,7 @@ def meet(fstore, flo, fhi, bstore, blo, bhi, n, block):
                     b = _ctz(x)
                     x &= x - _ONE
                     inv[w * 64 + b, jj >> 6] |= bit
-        used = (stop - start + 63) // 64
+                    freq[w * 64 + b] += 1
         for i in range(flo, fhi):
             m = 0
             for w in range(W):
@@ -171,8 +179,27 @@ def meet(fstore, flo, fhi, bstore, blo, bhi, n, block):
                 while x != _ZERO:
                     b = _ctz(x)
                     x &= x - _ONE
-                    elems[m] = w * 64 + b
+                    e = w * 64 + b
+                    # insertion sort by frequency: rare states first make the AND vanish sooner
+                    t = m
+                    while t > 0 and freq[elems[t - 1]] > freq[e]:
+                        elems[t] = elems[t - 1]
+                        t -= 1
+                    elems[t] = e
                     m += 1
+            if m > 0 and freq[elems[0]] == 0:
+                continue
+            # backward sets of this block with size >= m: positions [0, cnt)
+            lo_ = start
+            hi_ = stop
+            while lo_ < hi_:
+                mid = (lo_ + hi_) // 2
+                if bsize[order[mid]] >= m:
+                    lo_ = mid + 1
+                else:
+                    hi_ = mid
+            cnt = lo_ - start
+            used = (cnt + 63) // 64
             for v in range(used):
                 acc = _ALL
                 for t in range(m):
@@ -181,7 +208,7 @@ def meet(fstore, flo, fhi, bstore, blo, bhi, n, block):
                         break
                 if acc != _ZERO:
                     jj = v * 64 + _ctz(acc)
-                    return i, start + jj
+                    return i, blo + order[start + jj]
     return -1, -1
 
 
