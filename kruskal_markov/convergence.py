@@ -161,7 +161,7 @@ def monte_carlo_sync_length(aut: SyncAutomaton, start=None, weights=None, runs: 
 
 # ----------------------------------------------------------------------------- pair chain
 def pair_chain_bounds(aut: SyncAutomaton, start=None, weights=None, max_iterations: int = 200_000,
-                      time_budget: float = 60.0, tol: float = 1e-12):
+                      time_budget: float = 45.0, tol: float = 1e-12):
     """Lower and upper bounds on ``E[T]`` from the chain on pairs (deterministic automata).
 
     Returns ``dict(lower, upper, pairs, memory_mb, iterations, residual)``; bounds are ``inf``
@@ -257,7 +257,7 @@ def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
 # ----------------------------------------------------------------------------- all together
 def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, runs: int = 2000,
                          max_subsets: int = 200_000, max_steps: int = 100_000,
-                         pair_time_budget: float = 60.0) -> dict:
+                         pair_time_budget: float = 45.0) -> dict:
     """``E[T]`` by every method: keys ``exact``, ``monte_carlo``, ``ci95``, ``pair_lower``,
     ``pair_upper`` (None where unavailable or infinite; ``infinite`` True when ``E[T] = inf``)
     plus diagnostics."""

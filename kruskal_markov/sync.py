@@ -396,24 +396,42 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
     bwd.add_roots(singletons)
     total = 0
     block = 1 << 16
+    rate_row = 2e-7            # seconds per generated row (updated from measurements)
+    rate_pair = 5e-11          # seconds per (forward set x backward set) pair in the meet test
     while True:
         (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
+        tm = time.perf_counter()
         f, b = _k.meet(fwd.rows, flo, fhi, bwd.rows, blo, bhi, aut.n, block)
+        pairs = (fhi - flo) * (bhi - blo)
+        if pairs > 10_000_000:
+            rate_pair = (time.perf_counter() - tm) / pairs
         if f >= 0:
             u, _ = fwd.path(f)
             v, _ = bwd.path(b)
             word = u[::-1] + v
             return word, "found", fwd.count + bwd.count, total
-        if time.perf_counter() - t0 > time_budget:
-            return None, "budget", fwd.count + bwd.count, total + 1
         # expand the side with the smaller newest level (inverse steps cost ~ n per set)
         fsize = fhi - flo
         bsize = (bhi - blo) * 2
         forward = fsize <= bsize
         store = fwd if forward else bwd
+        # predicted cost of the next level (expansion + meet test); stop before the budget is blown
+        lo, hi = store.levels[-1]
+        growth = aut.k if len(store.levels) < 2 else \
+            max(1.0, (hi - lo) / max(1, store.levels[-2][1] - store.levels[-2][0]))
+        new_rows = (hi - lo) * min(growth, aut.k)
+        other = (bhi - blo) if forward else (fhi - flo)
+        predicted = new_rows * rate_row + new_rows * other * rate_pair
+        if time.perf_counter() - t0 + predicted > time_budget:
+            return None, "budget", fwd.count + bwd.count, total + 1
+        te = time.perf_counter()
         grown = store.expand(aut, forward)
         if grown is None:
             return None, "budget", fwd.count + bwd.count, total + 1
+        if grown > 10_000:
+            rate_row = max(1e-9, (time.perf_counter() - te) / grown)
+        elif grown > 0:
+            rate_row = max(rate_row, (time.perf_counter() - te) / grown)
         if grown == 0:
             return None, "none", fwd.count + bwd.count, total
         total += 1

@@ -29,8 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="Monte Carlo: letters per run before a run is censored (default 100000)")
     parser.add_argument("--max-subsets", type=int, default=200_000,
                         help="exact answer only if at most this many subsets are reachable (default 200000)")
-    parser.add_argument("--pair-time-budget", type=float, default=60.0, metavar="S",
-                        help="seconds for the pair-chain upper bound iteration (default 60)")
+    parser.add_argument("--pair-time-budget", type=float, default=45.0, metavar="S",
+                        help="seconds for the pair-chain upper bound iteration (default 45)")
     parser.add_argument("--epsilon", type=float, default=None,
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
 

@@ -1,0 +1,97 @@
+"""Synchronization benchmark: exact shortest reset words, greedy bounds, pair-chain bounds.
+
+Targets are the times of a state-of-the-art C++ exact solver (Szykula and Zyzik's, compiled per
+size) measured on this kind of machine (issue 4); we aim to be within 10x with the same exact
+lengths. Numba compile time is excluded: every kernel is warmed up on a small automaton first.
+Instances are seeded random automata; times are wall-clock medians over the listed instances.
+"""
+from __future__ import annotations
+
+import resource
+import statistics
+import time
+
+import numpy as np
+
+from kruskal_markov.convergence import expected_sync_length, pair_chain_bounds
+from kruskal_markov.sync import SyncAutomaton, greedy_synchronizing_word, shortest_synchronizing_word
+
+
+def random_automaton(rng, n, k):
+    return SyncAutomaton.from_table(rng.integers(0, n, size=(k, n)))
+
+
+def contracting_automaton(rng, n, k=8):
+    """Tray-like: every letter maps all states into a random eighth of them."""
+    table = np.empty((k, n), dtype=np.int64)
+    m = max(1, n // 8)
+    for a in range(k):
+        image = rng.choice(n, size=m, replace=False)
+        table[a] = image[rng.integers(0, m, size=n)]
+    return SyncAutomaton.from_table(table)
+
+
+def _warm_up():
+    rng = np.random.default_rng(0)
+    a = random_automaton(rng, 40, 2)
+    shortest_synchronizing_word(a)
+    greedy_synchronizing_word(a)
+    expected_sync_length(SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]]), runs=10)
+    b = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])
+    pair_chain_bounds(b)
+
+
+def main() -> None:
+    t0 = time.perf_counter()
+    _warm_up()
+    print(f"(numba warm-up {time.perf_counter() - t0:.1f} s, excluded from the times below; "
+          f"machine shared with other jobs, times are indicative)")
+    rows = []
+    cases = [
+        ("random binary", 100, 2, random_automaton, 3, "0.03-0.1 s"),
+        ("random binary", 150, 2, random_automaton, 3, "~0.15 s"),
+        ("random binary", 200, 2, random_automaton, 3, "0.6-1.6 s"),
+        ("random 8-letter", 50, 8, random_automaton, 3, "~0.07 s"),
+        ("random 8-letter", 100, 8, random_automaton, 1, "12-16 s"),
+        ("tray-like contracting", 256, 8, contracting_automaton, 3, "0.3-0.45 s"),
+    ]
+    for name, n, k, make, count, target in cases:
+        rng = np.random.default_rng(1000 + n + k)
+        times, lengths, exact = [], [], []
+        for _ in range(count):
+            aut = make(rng, n, k) if make is random_automaton else make(rng, n, k)
+            t = time.perf_counter()
+            res = shortest_synchronizing_word(aut, time_budget=300.0)
+            times.append(time.perf_counter() - t)
+            lengths.append(res.length)
+            exact.append(res.exact)
+        rows.append((name, n, k, ",".join(str(x) for x in lengths), all(exact),
+                     statistics.median(times), target))
+    # random contracting n = 1024: greedy upper bound, then an exact attempt within a budget
+    rng = np.random.default_rng(2024)
+    aut = contracting_automaton(rng, 1024, 8)
+    t = time.perf_counter()
+    word = greedy_synchronizing_word(aut)
+    rows.append(("contracting greedy (Eppstein)", 1024, 8, str(len(word)), False, time.perf_counter() - t,
+                 "<= 1 s"))
+    t = time.perf_counter()
+    res = shortest_synchronizing_word(aut, time_budget=30.0)
+    rows.append((f"contracting exact, 30 s budget (lower bound {res.lower_bound})", 1024, 8, str(res.length),
+                 res.exact, time.perf_counter() - t, "C++ did not finish in 210 s"))
+    print(f"{'case':<52} {'n':>5} {'k':>2} {'length':>12} {'exact':>6} {'seconds':>9}  target (C++)")
+    for name, n, k, length, ex, sec, target in rows:
+        print(f"{name:<52} {n:>5} {k:>2} {length:>12} {str(ex):>6} {sec:>9.3f}  {target}", flush=True)
+    # pair-chain bounds on 3,000 states
+    rng = np.random.default_rng(3000)
+    aut = contracting_automaton(rng, 3000, 8)
+    t = time.perf_counter()
+    pb = pair_chain_bounds(aut, time_budget=45.0)
+    sec = time.perf_counter() - t
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"pair-chain bounds, tray-like contracting n=3000 k=8: lower {pb['lower']:.1f}, upper {pb['upper']:.1f}, "
+          f"{pb['pairs']} reachable pairs, {pb['iterations']} iterations, arrays {pb['memory_mb']:.0f} MB, "
+          f"process peak RSS {peak:.0f} MB, {sec:.1f} s (target <= 60 s)")
+
+
+if __name__ == "__main__":
+    main()
