@@ -137,3 +137,23 @@ def test_rest_poses_lie_inside_the_tray_and_against_walls():
     v = sc.shape.placed(rest)
     assert np.all(np.abs(v[..., 0].max(axis=1) - 200.0) < 1.0)
     assert v.min() > -0.5 and v.max() < 200.5
+
+
+@pytest.mark.parametrize("action", ["NE", "W"])
+@pytest.mark.parametrize("yaw_deg", [0.0, 30.0])
+def test_distributed_support_mode_slides_right(action, yaw_deg):
+    """support_points=4 (four legs, distributed Coulomb friction) passes the same slide check."""
+    sc = scene_from_options("rectangle:40x40", 0.3, support_points=4, solver_iterations=20)
+    with TraySimulator(sc) as sim:
+        phi = sc.downhill_angle(action)
+        u = np.array([math.cos(phi), math.sin(phi)])
+        start = np.array([100.0, 100.0]) - 60.0 * u
+        t, poses, z = sim.trajectory([start[0], start[1], math.radians(yaw_deg)], action, 0.3)
+        d = poses[:, :2] - poses[0, :2]
+        along, side = d @ u, d @ np.array([-u[1], u[0]])
+        acc = np.linalg.lstsq(np.column_stack([np.ones_like(t), t, 0.5 * t * t]), along, rcond=None)[0][2]
+        expected = G * (math.sin(TILT) - 0.3 * math.cos(TILT)) * 1000.0
+        assert abs(acc / expected - 1.0) < 0.03
+        assert np.max(np.abs(side)) < 0.02 * along[-1]
+        rest, status = sim.tilt([[100.0, 100.0, math.radians(yaw_deg)]], action)
+        assert status[0] == OK

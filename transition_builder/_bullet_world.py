@@ -44,6 +44,34 @@ def friction_radius_mm(shape, n: int = 400) -> float:
     return float(r.mean())
 
 
+def support_cells(shape, k: int, n: int = 160, iters: int = 40):
+    """Split the part into ``k`` cells of nearly equal area (Lloyd's k-means on a grid of points
+    inside the polygon; deterministic). Returns cell centroids (k, 2) in mm and area weights (k,)
+    summing to 1; the weighted centroid is the part's centroid (the origin) by construction."""
+    v = shape.vertices
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    h = max(hi - lo) / n
+    xs = np.arange(lo[0] + h / 2, hi[0], h)
+    ys = np.arange(lo[1] + h / 2, hi[1], h)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    pts = np.column_stack([X.ravel(), Y.ravel()])
+    pts = pts[Path(np.vstack([v, v[:1]]), closed=True).contains_points(pts)]
+    # farthest-point initialisation from the centroid
+    c = [pts[np.argmax(np.hypot(pts[:, 0], pts[:, 1]))]]
+    for _ in range(1, k):
+        d = np.min([np.hypot(*(pts - q).T) for q in c], axis=0)
+        c.append(pts[np.argmax(d)])
+    c = np.array(c)
+    for _ in range(iters):
+        lab = np.argmin(((pts[:, None, :] - c[None]) ** 2).sum(-1), axis=1)
+        c = np.array([pts[lab == i].mean(axis=0) if np.any(lab == i) else c[i] for i in range(k)])
+    lab = np.argmin(((pts[:, None, :] - c[None]) ** 2).sum(-1), axis=1)
+    w = np.bincount(lab, minlength=k).astype(float)
+    w /= w.sum()
+    c = c - (w[:, None] * c).sum(axis=0)        # exact centre of mass at the centroid
+    return c, w
+
+
 def _rot(phi):
     c, s = math.cos(phi), math.sin(phi)
     return np.array([[c, -s], [s, c]])
@@ -138,35 +166,56 @@ class BulletWorld:
             part_shapes.append(cs)
         sph = pb.createCollisionShape(pb.GEOM_SPHERE, radius=r, physicsClientId=cid)
         n_parts = len(part_shapes)
-        n = 4 + n_parts + 1
-        masses = [eps, eps, eps, m] + [eps] * (n_parts + 1)
-        shapes = [-1, -1, -1, -1] + part_shapes + [sph]
-        parents = [0, 1, 2, 3] + [4] * (n_parts + 1)      # parent indices are link index + 1 (0 = base)
-        types = [pb.JOINT_PRISMATIC] * 3 + [pb.JOINT_REVOLUTE] + [pb.JOINT_FIXED] * (n_parts + 1)
-        axes = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]] + [[0, 0, 1]] * (n_parts + 1)
+        legs = st.support_points > 1
+        I = shape.inertia_kg_m2
+        tiny = I * _EPS_MASS_FRACTION
+        if legs:
+            # K legs: prismatic-z links under the centroids of K equal-area cells, each carrying its
+            # cell's mass; the hinge link keeps the rest of the z inertia; no global z freedom.
+            pts, w = support_cells(shape, st.support_points)
+            leg_m = m * w
+            leg_xy = pts / 1000.0
+            yaw_m = eps
+            yaw_I = max(I - float(np.sum(leg_m * np.sum(leg_xy ** 2, axis=1))), tiny)
+            n_sup = len(pts)
+        else:
+            leg_m, leg_xy, yaw_m, yaw_I, n_sup = np.array([eps]), np.zeros((1, 2)), m, I, 1
+        n = 4 + n_parts + n_sup
+        masses = [eps, eps, eps, yaw_m] + [eps] * n_parts + [float(v) for v in leg_m]
+        shapes = [-1, -1, -1, -1] + part_shapes + [sph] * n_sup
+        parents = [0, 1, 2, 3] + [4] * (n_parts + n_sup)      # parent = link index + 1 (0 = base)
+        types = ([pb.JOINT_PRISMATIC, pb.JOINT_PRISMATIC, pb.JOINT_FIXED if legs else pb.JOINT_PRISMATIC,
+                  pb.JOINT_REVOLUTE] + [pb.JOINT_FIXED] * n_parts
+                 + [pb.JOINT_PRISMATIC if legs else pb.JOINT_FIXED] * n_sup)
+        axes = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]] + [[0, 0, 1]] * (n_parts + n_sup)
+        positions = [[0, 0, 0]] * (4 + n_parts) + [[float(x), float(y), 0.0] for x, y in leg_xy]
         self.body = ob = pb.createMultiBody(
             baseMass=0, baseCollisionShapeIndex=-1, basePosition=[0, 0, r],
             linkMasses=masses, linkCollisionShapeIndices=shapes, linkVisualShapeIndices=[-1] * n,
-            linkPositions=[[0, 0, 0]] * n, linkOrientations=[[0, 0, 0, 1]] * n,
+            linkPositions=positions, linkOrientations=[[0, 0, 0, 1]] * n,
             linkInertialFramePositions=[[0, 0, 0]] * n, linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
             linkParentIndices=parents, linkJointTypes=types, linkJointAxis=axes,
             useMaximalCoordinates=False, physicsClientId=cid)
         self.n_links = n
-        I = shape.inertia_kg_m2
-        tiny = I * _EPS_MASS_FRACTION
+        self.legs = legs
+        self.support_links = list(range(4 + n_parts, n))
         pb.changeDynamics(ob, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
         for j in range(n):
             pb.setJointMotorControl2(ob, j, pb.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0,
                                      physicsClientId=cid)
             pb.changeDynamics(ob, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
                               restitution=0.0, lateralFriction=1.0, spinningFriction=0.0, rollingFriction=0.0,
-                              localInertiaDiagonal=[I, I, I] if j == J_YAW else [tiny, tiny, tiny],
+                              localInertiaDiagonal=[yaw_I] * 3 if j == J_YAW else [tiny, tiny, tiny],
                               physicsClientId=cid)
         for j in range(4, 4 + n_parts):
             pb.changeDynamics(ob, j, collisionMargin=st.collision_margin_mm / 1000.0, physicsClientId=cid)
         self.sphere_link = n - 1
-        pb.changeDynamics(ob, n - 1, spinningFriction=friction_radius_mm(shape) / 1000.0, physicsClientId=cid)
-        self.far = [0.0, 0.0, 1.0]
+        if not legs:
+            # a single contact under the centroid: its spinning friction gives the friction torque
+            # of uniform pressure for spinning in place (Bullet combines spinning friction as
+            # spin_A * lateral_B + spin_B * lateral_A, so the floor's spinning friction stays 0)
+            pb.changeDynamics(ob, n - 1, spinningFriction=friction_radius_mm(shape) / 1000.0,
+                              physicsClientId=cid)
 
     # ------------------------------------------------------------------ state
     def set_pose(self, pose_mm):
@@ -174,13 +223,22 @@ class BulletWorld:
         cid, ob = self.cid, self.body
         # Move away and run collision detection first: drops every cached contact (and its
         # warm-start impulse), so a trial never depends on the trial before it.
-        for j, q in zip((J_X, J_Y, J_Z), self.far):
-            pb.resetJointState(ob, j, q, 0.0, physicsClientId=cid)
+        pb.resetJointState(ob, J_X, 1.0, 0.0, physicsClientId=cid)      # 1 m away: touches nothing
         pb.performCollisionDetection(physicsClientId=cid)
         wx, wy = self._world_xy(pose_mm[:2])
         yaw = float(pose_mm[2]) - self.phi
         for j, q in ((J_X, wx), (J_Y, wy), (J_Z, 0.0), (J_YAW, yaw)):
             pb.resetJointState(ob, j, float(q), 0.0, physicsClientId=cid)
+        if self.legs:
+            for j in self.support_links:
+                pb.resetJointState(ob, j, 0.0, 0.0, physicsClientId=cid)
+
+    def lift_mm(self) -> float:
+        """Largest height of a support above its resting height (mm)."""
+        if not self.legs:
+            return pb.getJointState(self.body, J_Z, physicsClientId=self.cid)[0] * 1000.0
+        s = pb.getJointStates(self.body, self.support_links, physicsClientId=self.cid)
+        return max(abs(v[0]) for v in s) * 1000.0
 
     def state(self):
         """(x, y, z, yaw, vx, vy, wz) in the world frame (m, rad, m/s, rad/s)."""

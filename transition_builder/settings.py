@@ -33,8 +33,12 @@ class SimSettings:
         ... continuously for this long (s).
     max_time_s : float
         A tilt still moving after this long is ``UNSETTLED``.
+    support_points : int
+        1: the floor contact is one sphere under the centroid, with spinning friction for the
+        friction torque. K > 1: K "legs" (independent prismatic-z links with a sphere each) under
+        K equal-area cells, each carrying its cell's weight, so Coulomb friction is distributed.
     support_radius_mm : float
-        Radius of the support sphere under the centroid that carries the floor contact.
+        Radius of the support sphere(s) that carry the floor contact.
     floor_clearance_mm : float
         Gap between the floor and the bottom of the part's prism; larger than
         ``contact_threshold_mm`` so the prism never makes floor contacts (it only touches walls).
@@ -54,8 +58,9 @@ class SimSettings:
     solver_iterations: int = 100
     rest_speed_mm_s: float = 1.0
     rest_angular_speed_rad_s: float = 0.03
-    dwell_s: float = 0.1
+    dwell_s: float = 0.05
     max_time_s: float = 4.0
+    support_points: int = 1
     support_radius_mm: float = 1.0
     floor_clearance_mm: float = 10.0
     collision_margin_mm: float = 0.1
