@@ -7,7 +7,8 @@
 2. Scale target: 10^6 random sequences x 50 steps on a tray-grid model that contracts like a
    real tray (walls and corners; near-deterministic rows), wall time and peak memory.
 
-Run: ``python -m benchmarks entropy`` (or ``.venv/bin/python -m benchmarks.bench_entropy``).
+Run: ``python -m benchmarks entropy`` (or ``.venv/bin/python -m benchmarks.bench_entropy``);
+``KRUSKAL_BENCH_QUICK=1`` runs 10x fewer sequences.
 """
 from __future__ import annotations
 
@@ -118,7 +119,7 @@ def main(argv=None):
     from kruskal_markov.entropy import batch_entropy
 
     argv = sys.argv[1:] if argv is None else argv
-    quick = "--quick" in argv
+    quick = "--quick" in argv or os.environ.get("KRUSKAL_BENCH_QUICK") == "1"
     print(f"cores: {os.cpu_count()}, numba threads: {numba.get_num_threads()}, "
           f"load average: {os.getloadavg()[0]:.2f}", flush=True)
 

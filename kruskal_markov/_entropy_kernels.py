@@ -25,6 +25,11 @@ import numpy as np
 from numba import njit, prange
 
 
+_INV_LN2 = 1.0 / np.log(2.0)
+#: log2 of small integers (the upper bound of an entropy over that many values)
+_LOG2_INT = np.log2(np.maximum(np.arange(4096, dtype=np.float64), 1.0))
+
+
 @njit(cache=True)
 def pivot_first(indptr, indices, data):
     """In place: move every row's (first) largest entry to the front of the row (the pivot)."""
@@ -78,101 +83,113 @@ def action_images(indptr, indices, n):
 
 
 @njit(cache=True)
-def _step(indptr, indices, data, img_ptr, img_idx, a, src_idx, src_p, src_len, dst_idx, dst_p, q,
-          flag, conservative):
-    """dst = src @ P_a on support lists; ``q`` (float64, n) and ``flag`` (uint8, n) are zero scratch
-    arrays and are left zero. Returns the length of dst (entries that are exactly 0 are dropped).
+def _step(indptr, indices, data, img_ptr, img_idx, a, buf_idx, buf_p, src, src_len, dst, q, flag,
+          conservative):
+    """One step on support lists held in the buffers ``buf_idx`` / ``buf_p``: the distribution at
+    offset ``src`` (``src_len`` entries) times ``P_a`` is written at offset ``dst`` (room for
+    ``n`` entries needed). ``q`` (float64, n) and ``flag`` (uint8, n) are zero scratch arrays and
+    are left zero. Returns the new length (entries that are exactly 0 are dropped).
 
+    Offsets instead of array views and swaps keep Numba from reference counting in the hot loop.
     Two ways to find the result's support, same arithmetic: when the rows of the support hold at
     least a quarter as many non-zeros as the action's image has states, accumulate and then
-    gather by a branch-free scan of the image; otherwise track the touched states with flags.
-    Conservative splitting: every entry gets ``p_i * P[i, j]``, then the row's pivot (its first
-    entry) gets the correction ``p_i - sum_j p_i * P[i, j]`` (round-off sized; clipped so that the
-    pivot's total share is never negative)."""
-    bound = 0
-    for s in range(src_len):
-        i = src_idx[s]
-        bound += indptr[a, i + 1] - indptr[a, i]
+    gather by a branch-free scan of the image; otherwise track the touched states with flags. A
+    point mass on a point-mass row is O(1). Conservative splitting: every entry gets
+    ``p_i * P[i, j]``, then the row's pivot (its first entry) gets the correction
+    ``p_i - sum_j p_i * P[i, j]`` (round-off sized; clipped so that the pivot's total share is
+    never negative)."""
+    if src_len == 1:
+        i = buf_idx[src]
+        lo = indptr[a, i]
+        if indptr[a, i + 1] - lo == 1:
+            v = buf_p[src] if conservative else buf_p[src] * data[lo]
+            buf_idx[dst] = indices[lo]
+            buf_p[dst] = v
+            return 1 if v > 0.0 else 0
     ilo = img_ptr[a]
     ihi = img_ptr[a + 1]
-    if 4 * bound >= ihi - ilo:
-        for s in range(src_len):
-            i = src_idx[s]
-            pi = src_p[s]
-            lo = indptr[a, i]
-            hi = indptr[a, i + 1]
-            acc = 0.0
+    dense = 4 * src_len >= ihi - ilo
+    if not dense:
+        bound = 0
+        for s in range(src, src + src_len):
+            i = buf_idx[s]
+            bound += indptr[a, i + 1] - indptr[a, i]
+        dense = 4 * bound >= ihi - ilo
+    m = 0
+    for s in range(src, src + src_len):
+        i = buf_idx[s]
+        pi = buf_p[s]
+        lo = indptr[a, i]
+        hi = indptr[a, i + 1]
+        acc = 0.0
+        if dense:
             for t in range(lo, hi):
                 c = pi * data[t]
                 acc += c
                 q[indices[t]] += c
-            if conservative:
-                r = pi - acc
-                cp = pi * data[lo]
-                if r < -cp:
-                    r = -cp
-                q[indices[lo]] += r
-        # branch-free gather over the image (a write past the last kept entry is overwritten
-        # by the next one or ignored)
-        out = 0
-        for t in range(ilo, ihi):
-            j = img_idx[t]
-            v = q[j]
-            q[j] = 0.0
-            dst_idx[out] = j
-            dst_p[out] = v
-            out += v > 0.0
-        return out
-    m = 0
-    for s in range(src_len):
-        i = src_idx[s]
-        pi = src_p[s]
-        lo = indptr[a, i]
-        hi = indptr[a, i + 1]
-        acc = 0.0
-        for t in range(lo, hi):
-            c = pi * data[t]
-            acc += c
-            j = indices[t]
-            q[j] += c
-            if flag[j] == 0:
-                flag[j] = 1
-                dst_idx[m] = j
-                m += 1
+        else:
+            for t in range(lo, hi):
+                c = pi * data[t]
+                acc += c
+                j = indices[t]
+                q[j] += c
+                if flag[j] == 0:
+                    flag[j] = 1
+                    buf_idx[dst + m] = j
+                    m += 1
         if conservative:
             r = pi - acc
             cp = pi * data[lo]
             if r < -cp:
                 r = -cp
             q[indices[lo]] += r
-    out = 0
-    for t in range(m):
-        j = dst_idx[t]
-        v = q[j]
-        q[j] = 0.0
-        flag[j] = 0
-        dst_idx[out] = j
-        dst_p[out] = v
-        out += v > 0.0
-    return out
+    out = dst
+    if dense:
+        # branch-free gather over the image (a write past the last kept entry is overwritten
+        # by the next one or ignored)
+        for t in range(ilo, ihi):
+            j = img_idx[t]
+            v = q[j]
+            q[j] = 0.0
+            buf_idx[out] = j
+            buf_p[out] = v
+            out += v > 0.0
+    else:
+        for t in range(dst, dst + m):
+            j = buf_idx[t]
+            v = q[j]
+            q[j] = 0.0
+            flag[j] = 0
+            buf_idx[out] = j
+            buf_p[out] = v
+            out += v > 0.0
+    return out - dst
 
 
 @njit(cache=True)
-def _entropy_of(p, length):
-    """(entropy in bits of p/sum(p), sum(p)) for the first ``length`` values, all > 0.
+def _entropy_of(p, off, length):
+    """(entropy in bits of p/sum(p), sum(p)) for ``p[off:off+length]``, all > 0.
 
     H = log2(m) - sum(p log2 p) / m, clamped to [0, log2(length)] (its exact range), which
     only ever removes round-off."""
+    if length <= 1:
+        return 0.0, (p[off] if length == 1 else 0.0)
     m = 0.0
     s = 0.0
-    for t in range(length):
+    for t in range(off, off + length):
         v = p[t]
         m += v
         s += v * np.log2(v)
-    if length <= 1 or m <= 0.0:
+    if m <= 0.0:
         return 0.0, m
-    h = np.log2(m) - s / m
-    hmax = np.log2(length)
+    d = m - 1.0
+    if abs(d) < 1e-5:
+        # log2(m) by its series about 1 (error < 1e-16; mass is 1 up to round-off here)
+        lm = (d - 0.5 * d * d) * _INV_LN2
+    else:
+        lm = np.log2(m)
+    h = lm - s / m
+    hmax = _LOG2_INT[length] if length < _LOG2_INT.size else np.log2(length)
     if h > hmax:
         h = hmax
     if h < 0.0:
@@ -181,19 +198,20 @@ def _entropy_of(p, length):
 
 
 @njit(cache=True)
-def _entropies(idx, p, length, partition, cell_mass, cell_list, cell_vals, has_partition):
-    """(cell entropy, state entropy, mass) of a support list. ``cell_mass`` (n_cells) must be zero
-    and is left zero; ``cell_list`` / ``cell_vals`` are free scratch of length n_cells."""
-    hs, m = _entropy_of(p, length)
+def _entropies(idx, p, off, length, partition, cell_mass, cell_list, cell_vals, has_partition):
+    """(cell entropy, state entropy, mass) of the support list at ``off``. ``cell_mass``
+    (n_cells) must be zero and is left zero; ``cell_list`` / ``cell_vals`` are free scratch of
+    length n_cells."""
+    if length <= 1:
+        return 0.0, 0.0, (p[off] if length == 1 else 0.0)
+    hs, m = _entropy_of(p, off, length)
     if not has_partition:
         return hs, hs, m
-    if length <= 1:
-        return 0.0, hs, m
     n_cells = cell_mass.size
     nc = 0
     if n_cells <= 4 * length:
         # dense: accumulate, then one branch-free scan of all cells
-        for t in range(length):
+        for t in range(off, off + length):
             cell_mass[partition[idx[t]]] += p[t]
         for c in range(n_cells):
             v = cell_mass[c]
@@ -201,7 +219,7 @@ def _entropies(idx, p, length, partition, cell_mass, cell_list, cell_vals, has_p
             cell_vals[nc] = v
             nc += v > 0.0
     else:
-        for t in range(length):
+        for t in range(off, off + length):
             c = partition[idx[t]]
             if cell_mass[c] == 0.0:
                 cell_list[nc] = c
@@ -211,22 +229,30 @@ def _entropies(idx, p, length, partition, cell_mass, cell_list, cell_vals, has_p
             c = cell_list[t]
             cell_vals[t] = cell_mass[c]
             cell_mass[c] = 0.0
-    hc, _ = _entropy_of(cell_vals, nc)
+    if nc == length:
+        # every state in a cell of its own: the cell masses are the state masses
+        return hs, hs, m
+    hc, _ = _entropy_of(cell_vals, 0, nc)
     return hc, hs, m
 
 
 @njit(cache=True)
-def walk(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, seq, partition, n_cells, has_partition,
-         conservative, out_hc, out_hs, out_mass, out_dist, store_dist):
+def entropy_of(p):
+    """Entropy (bits) of the positive values ``p`` read as a distribution up to its mass."""
+    h, _ = _entropy_of(p, 0, p.size)
+    return h
+
+
+@njit(cache=True)
+def walk(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, seq, partition, n_cells,
+         has_partition, conservative, out_hc, out_hs, out_mass, out_dist, store_dist):
     """One sequence: entropies and mass after every step (``len(seq) + 1`` values each).
 
     With ``store_dist`` the distributions are written densely into ``out_dist`` (``(N+1, n)``,
     zero-filled by the caller)."""
     n = indptr.shape[1] - 1
-    a_idx = np.empty(n, dtype=np.int32)
-    a_p = np.empty(n, dtype=np.float64)
-    b_idx = np.empty(n, dtype=np.int32)
-    b_p = np.empty(n, dtype=np.float64)
+    buf_idx = np.empty(2 * n, dtype=np.int32)
+    buf_p = np.empty(2 * n, dtype=np.float64)
     q = np.zeros(n, dtype=np.float64)
     flag = np.zeros(n, dtype=np.uint8)
     cell_mass = np.zeros(n_cells, dtype=np.float64)
@@ -234,55 +260,51 @@ def walk(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, seq, partiti
     cell_vals = np.empty(n_cells, dtype=np.float64)
     length = init_idx.size
     for t in range(length):
-        a_idx[t] = init_idx[t]
-        a_p[t] = init_p[t]
+        buf_idx[t] = init_idx[t]
+        buf_p[t] = init_p[t]
+    cur = 0
     for step in range(seq.size + 1):
-        hc, hs, m = _entropies(a_idx, a_p, length, partition, cell_mass, cell_list, cell_vals,
-                               has_partition)
+        hc, hs, m = _entropies(buf_idx, buf_p, cur, length, partition, cell_mass, cell_list,
+                               cell_vals, has_partition)
         out_hc[step] = hc
         out_hs[step] = hs
         out_mass[step] = m
         if store_dist:
-            for t in range(length):
-                out_dist[step, a_idx[t]] = a_p[t]
+            for t in range(cur, cur + length):
+                out_dist[step, buf_idx[t]] = buf_p[t]
         if step == seq.size:
             break
-        length = _step(indptr, indices, data, img_ptr, img_idx, seq[step], a_idx, a_p, length, b_idx, b_p, q,
-                       flag, conservative)
-        a_idx, b_idx = b_idx, a_idx
-        a_p, b_p = b_p, a_p
+        nxt = n - cur
+        length = _step(indptr, indices, data, img_ptr, img_idx, seq[step], buf_idx, buf_p, cur,
+                       length, nxt, q, flag, conservative)
+        cur = nxt
 
 
 @njit(cache=True)
-def _record(out_hc, out_hs, drift, order, lo, hi, col, hc, hs, dev):
-    for k in range(lo, hi):
-        r = order[k]
-        out_hc[r, col] = hc
-        out_hs[r, col] = hs
-        if dev > drift[r]:
-            drift[r] = dev
-
-
-@njit(cache=True)
-def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order, tmp_order, lo0, hi0,
-              partition, has_partition, conservative, out_hc, out_hs, drift,
-              q, flag, cell_mass, cell_list, cell_vals, a_idx, a_p, b_idx, b_p, counts,
-              lvl_lo, lvl_hi, lvl_ds, lvl_dl, lvl_cur, bounds, pool_idx, pool_p):
+def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order,
+              tmp_order, lo0, hi0, partition, has_partition, conservative, out_hc, out_hs, drift,
+              q, flag, cell_mass, cell_list, cell_vals, counts, lvl_lo, lvl_hi, lvl_ds, lvl_dl,
+              lvl_cur, lvl_one, bounds, pool_idx, pool_p):
     """Depth-first walk of the prefix trie of the sequences ``order[lo0:hi0]``.
 
     A trie node at depth ``d`` is a range of ``order`` whose sequences share their first ``d``
     actions; its distribution is computed once, its entropies written for all of them, and its
-    range bucketed (counting sort) by action ``d`` into children. A node holding a single sequence
-    walks the rest of that sequence alone. Distributions of the current root-to-node path are kept
-    as support lists in a stack-like pool. Returns the (possibly grown) pool arrays."""
+    range bucketed (counting sort) by action ``d`` into children (a node with one sequence has
+    the one child its next action names). The distributions of the current root-to-node path are
+    support lists stacked in ``pool_idx`` / ``pool_p``, grown when needed (the grown arrays are
+    returned).
+
+    The step and the entropies are written out here rather than called: Numba does not inline
+    :func:`_step` / :func:`_entropies` cheaply, and a call costs more than a whole step on the
+    tiny supports of an oriented part (same arithmetic as those functions)."""
     n = indptr.shape[1] - 1
     k_actions = indptr.shape[0]
     n_steps = seqs.shape[1]
-    # root: the initial distribution
+    n_cells = cell_mass.size
     length = init_idx.size
-    if pool_idx.size < length + n:
-        pool_idx = np.empty(2 * (length + n), dtype=np.int32)
-        pool_p = np.empty(2 * (length + n), dtype=np.float64)
+    if pool_idx.size < length + 2 * n:
+        pool_idx = np.empty(2 * (length + 2 * n), dtype=np.int32)
+        pool_p = np.empty(2 * (length + 2 * n), dtype=np.float64)
     for t in range(length):
         pool_idx[t] = init_idx[t]
         pool_p[t] = init_p[t]
@@ -298,34 +320,78 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
             hi = lvl_hi[d]
             ds = lvl_ds[d]
             dl = lvl_dl[d]
-            hc, hs, m = _entropies(pool_idx[ds:], pool_p[ds:], dl, partition, cell_mass, cell_list,
-                                   cell_vals, has_partition)
-            _record(out_hc, out_hs, drift, order, lo, hi, d, hc, hs, abs(m - m0))
+            # ---- entropies of the support list (as _entropies) ----
+            if dl <= 1:
+                hc = 0.0
+                hs = 0.0
+                m = pool_p[ds] if dl == 1 else 0.0
+            else:
+                m = 0.0
+                sl = 0.0
+                for t in range(ds, ds + dl):
+                    v = pool_p[t]
+                    m += v
+                    sl += v * np.log2(v)
+                hs = 0.0
+                if m > 0.0:
+                    dm = m - 1.0
+                    lm = (dm - 0.5 * dm * dm) * _INV_LN2 if abs(dm) < 1e-5 else np.log2(m)
+                    hs = lm - sl / m
+                    hmax = _LOG2_INT[dl] if dl < _LOG2_INT.size else np.log2(dl)
+                    hs = min(max(hs, 0.0), hmax)
+                hc = hs
+                if has_partition:
+                    nc = 0
+                    if n_cells <= 4 * dl:
+                        for t in range(ds, ds + dl):
+                            cell_mass[partition[pool_idx[t]]] += pool_p[t]
+                        for c in range(n_cells):
+                            v = cell_mass[c]
+                            cell_mass[c] = 0.0
+                            cell_vals[nc] = v
+                            nc += v > 0.0
+                    else:
+                        for t in range(ds, ds + dl):
+                            c = partition[pool_idx[t]]
+                            if cell_mass[c] == 0.0:
+                                cell_list[nc] = c
+                                nc += 1
+                            cell_mass[c] += pool_p[t]
+                        for t in range(nc):
+                            c = cell_list[t]
+                            cell_vals[t] = cell_mass[c]
+                            cell_mass[c] = 0.0
+                    if nc <= 1:
+                        hc = 0.0
+                    elif nc != dl:  # nc == dl: every state in a cell of its own, hc = hs
+                        mc = 0.0
+                        sc = 0.0
+                        for t in range(nc):
+                            v = cell_vals[t]
+                            mc += v
+                            sc += v * np.log2(v)
+                        hc = 0.0
+                        if mc > 0.0:
+                            dm = mc - 1.0
+                            lm = (dm - 0.5 * dm * dm) * _INV_LN2 if abs(dm) < 1e-5 else np.log2(mc)
+                            hc = lm - sc / mc
+                            hmax = _LOG2_INT[nc] if nc < _LOG2_INT.size else np.log2(nc)
+                            hc = min(max(hc, 0.0), hmax)
+            dev = abs(m - m0)
+            for k in range(lo, hi):
+                r = order[k]
+                out_hc[r, d] = hc
+                out_hs[r, d] = hs
+                if dev > drift[r]:
+                    drift[r] = dev
             if d == n_steps:
                 state = 1
             elif hi - lo == 1:
-                # a single sequence: walk the rest alone
-                r = order[lo]
-                for t in range(dl):
-                    a_idx[t] = pool_idx[ds + t]
-                    a_p[t] = pool_p[ds + t]
-                length = dl
-                dev_max = drift[r]
-                for step in range(d, n_steps):
-                    length = _step(indptr, indices, data, img_ptr, img_idx, seqs[r, step], a_idx, a_p, length,
-                                   b_idx, b_p, q, flag, conservative)
-                    a_idx, b_idx = b_idx, a_idx
-                    a_p, b_p = b_p, a_p
-                    hc, hs, m = _entropies(a_idx, a_p, length, partition, cell_mass, cell_list,
-                                           cell_vals, has_partition)
-                    out_hc[r, step + 1] = hc
-                    out_hs[r, step + 1] = hs
-                    dev = abs(m - m0)
-                    if dev > dev_max:
-                        dev_max = dev
-                drift[r] = dev_max
-                state = 1
+                lvl_one[d] = 1
+                lvl_cur[d] = 0
+                state = 2
             else:
+                lvl_one[d] = 0
                 # counting sort of order[lo:hi] by the action at step d
                 for b in range(k_actions):
                     counts[b] = 0
@@ -349,28 +415,105 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
             d -= 1
             state = 2
         else:
-            b = lvl_cur[d]
-            while b < k_actions and bounds[d, b + 1] == bounds[d, b]:
-                b += 1
-            if b == k_actions:
-                state = 1
-                continue
-            lvl_cur[d] = b + 1
+            if lvl_one[d]:
+                if lvl_cur[d] == 1:
+                    state = 1
+                    continue
+                lvl_cur[d] = 1
+                a = seqs[order[lvl_lo[d]], d]
+                clo = lvl_lo[d]
+                chi = lvl_hi[d]
+            else:
+                b = lvl_cur[d]
+                while b < k_actions and bounds[d, b + 1] == bounds[d, b]:
+                    b += 1
+                if b == k_actions:
+                    state = 1
+                    continue
+                lvl_cur[d] = b + 1
+                a = b
+                clo = bounds[d, b]
+                chi = bounds[d, b + 1]
             ds = lvl_ds[d]
             dl = lvl_dl[d]
             top = ds + dl
-            if pool_idx.size < top + n:
-                new_size = 2 * (top + n)
+            if pool_idx.size < top + 2 * n:
+                new_size = 2 * (top + 2 * n)
                 new_idx = np.empty(new_size, dtype=np.int32)
                 new_p = np.empty(new_size, dtype=np.float64)
                 new_idx[:top] = pool_idx[:top]
                 new_p[:top] = pool_p[:top]
                 pool_idx = new_idx
                 pool_p = new_p
-            length = _step(indptr, indices, data, img_ptr, img_idx, b, pool_idx[ds:], pool_p[ds:], dl,
-                           pool_idx[top:], pool_p[top:], q, flag, conservative)
-            lvl_lo[d + 1] = bounds[d, b]
-            lvl_hi[d + 1] = bounds[d, b + 1]
+            # ---- one step: pool[ds:ds+dl] @ P_a -> pool[top:...] (as _step) ----
+            length = -1
+            if dl == 1:
+                i = pool_idx[ds]
+                rlo = indptr[a, i]
+                if indptr[a, i + 1] - rlo == 1:
+                    v = pool_p[ds] if conservative else pool_p[ds] * data[rlo]
+                    pool_idx[top] = indices[rlo]
+                    pool_p[top] = v
+                    length = 1 if v > 0.0 else 0
+            if length < 0:
+                ilo = img_ptr[a]
+                ihi = img_ptr[a + 1]
+                dense = 4 * dl >= ihi - ilo
+                if not dense:
+                    bound = 0
+                    for s_ in range(ds, ds + dl):
+                        i = pool_idx[s_]
+                        bound += indptr[a, i + 1] - indptr[a, i]
+                    dense = 4 * bound >= ihi - ilo
+                mm = 0
+                for s_ in range(ds, ds + dl):
+                    i = pool_idx[s_]
+                    pi = pool_p[s_]
+                    rlo = indptr[a, i]
+                    rhi = indptr[a, i + 1]
+                    acc = 0.0
+                    if dense:
+                        for t in range(rlo, rhi):
+                            c = pi * data[t]
+                            acc += c
+                            q[indices[t]] += c
+                    else:
+                        for t in range(rlo, rhi):
+                            c = pi * data[t]
+                            acc += c
+                            j = indices[t]
+                            q[j] += c
+                            if flag[j] == 0:
+                                flag[j] = 1
+                                pool_idx[top + mm] = j
+                                mm += 1
+                    if conservative:
+                        rr = pi - acc
+                        cp = pi * data[rlo]
+                        if rr < -cp:
+                            rr = -cp
+                        q[indices[rlo]] += rr
+                out = top
+                if dense:
+                    for t in range(ilo, ihi):
+                        j = img_idx[t]
+                        v = q[j]
+                        q[j] = 0.0
+                        pool_idx[out] = j
+                        pool_p[out] = v
+                        out += v > 0.0
+                else:
+                    for t in range(top, top + mm):
+                        j = pool_idx[t]
+                        v = q[j]
+                        q[j] = 0.0
+                        flag[j] = 0
+                        pool_idx[out] = j
+                        pool_p[out] = v
+                        out += v > 0.0
+                length = out - top
+            lvl_lo[d + 1] = clo
+            lvl_hi[d + 1] = chi
             lvl_ds[d + 1] = top
             lvl_dl[d + 1] = length
             d += 1
@@ -379,8 +522,9 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
 
 
 @njit(cache=True, parallel=True)
-def batch(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order, task_lo, task_hi,
-          block_ptr, partition, n_cells, has_partition, conservative, out_hc, out_hs, drift):
+def batch(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order, task_lo,
+          task_hi, block_ptr, partition, n_cells, has_partition, conservative, out_hc, out_hs,
+          drift):
     """Entropies of many sequences, parallel over blocks of tasks.
 
     ``order`` is a permutation of the sequence indices; task ``t`` is the range
@@ -397,22 +541,19 @@ def batch(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, o
         cell_mass = np.zeros(n_cells, dtype=np.float64)
         cell_list = np.empty(n_cells, dtype=np.int64)
         cell_vals = np.empty(n_cells, dtype=np.float64)
-        a_idx = np.empty(n, dtype=np.int32)
-        a_p = np.empty(n, dtype=np.float64)
-        b_idx = np.empty(n, dtype=np.int32)
-        b_p = np.empty(n, dtype=np.float64)
         counts = np.empty(k_actions, dtype=np.int64)
         lvl_lo = np.empty(n_steps + 1, dtype=np.int64)
         lvl_hi = np.empty(n_steps + 1, dtype=np.int64)
         lvl_ds = np.empty(n_steps + 1, dtype=np.int64)
         lvl_dl = np.empty(n_steps + 1, dtype=np.int64)
         lvl_cur = np.empty(n_steps + 1, dtype=np.int64)
+        lvl_one = np.empty(n_steps + 1, dtype=np.uint8)
         bounds = np.empty((n_steps + 1, k_actions + 1), dtype=np.int64)
         pool_idx = np.empty(4 * n, dtype=np.int32)
         pool_p = np.empty(4 * n, dtype=np.float64)
         for t in range(block_ptr[blk], block_ptr[blk + 1]):
             pool_idx, pool_p = _run_task(
-                indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order, tmp_order,
-                task_lo[t], task_hi[t], partition, has_partition, conservative, out_hc, out_hs,
-                drift, q, flag, cell_mass, cell_list, cell_vals, a_idx, a_p, b_idx, b_p, counts,
-                lvl_lo, lvl_hi, lvl_ds, lvl_dl, lvl_cur, bounds, pool_idx, pool_p)
+                indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order,
+                tmp_order, task_lo[t], task_hi[t], partition, has_partition, conservative, out_hc,
+                out_hs, drift, q, flag, cell_mass, cell_list, cell_vals, counts, lvl_lo, lvl_hi,
+                lvl_ds, lvl_dl, lvl_cur, lvl_one, bounds, pool_idx, pool_p)

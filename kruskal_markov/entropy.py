@@ -53,8 +53,7 @@ def distribution_entropy_bits(p) -> float:
     nz = p[p > 0]
     if nz.size == 0:
         return 0.0
-    h, _ = _k._entropy_of(nz, nz.size)
-    return float(h)
+    return float(_k.entropy_of(np.ascontiguousarray(nz)))
 
 
 def partition_entropy_bits(p, partition, n_cells: int | None = None) -> float:
