@@ -90,7 +90,7 @@ def test_escape_is_detected_without_walls_in_the_way():
         def outside(pose):
             orig(pose)
             import pybullet as pb
-            pb.resetJointState(w.body, 0, 0.25, 0.0, physicsClientId=w.cid)   # 250 mm east of centre
+            pb.resetJointState(w.body, 0, 250.0 * w.mm, 0.0, physicsClientId=w.cid)   # 250 mm east of centre
         w.set_pose = outside
         rest, status = sim.tilt([[100.0, 100.0, 0.0]], "E")
     assert status[0] == ESCAPED and np.all(np.isnan(rest))

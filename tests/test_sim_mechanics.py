@@ -72,7 +72,7 @@ def test_no_slide_above_friction_angle(action, yaw_deg):
 @pytest.mark.parametrize("action", ["N", "E", "S", "W"])
 def test_rectangle_rests_flush_against_wall(action):
     """A slender rectangle (80 x 10 mm, mu = 0.1) tilted into a wall from several yaws rests with
-    an edge flush against that wall (within 2 degrees) and touching it (within 1 mm).
+    an edge flush against that wall (within 2 degrees) and touching it (within 0.1 mm).
 
     Low friction on purpose: with Coulomb friction a part that meets a wall nearly end-on can
     rest on a corner (the gravity torque toward flush is smaller than the floor-friction torque),
@@ -92,7 +92,7 @@ def test_rectangle_rests_flush_against_wall(action):
         wall = 200.0 if u.sum() > 0 else 0.0
         v = sc.shape.placed(rest)                              # (n, 4, 2)
         extreme = (v @ np.abs(u)).max(axis=1) if wall else (v @ np.abs(u)).min(axis=1)
-        assert np.all(np.abs(extreme - wall) < 1.0), extreme
+        assert np.all(np.abs(extreme - wall) < 0.1), extreme
     finally:
         sim.close()
 
@@ -129,14 +129,14 @@ def test_rotating_the_problem_by_90_degrees_rotates_the_outcome():
 
 def test_rest_poses_lie_inside_the_tray_and_against_walls():
     """After a tilt toward E every allen key touches the east wall (its easternmost point is
-    within 1 mm of x = 200) and lies inside the tray."""
+    within 0.1 mm of x = 200) and lies inside the tray."""
     sc = scene_from_options("allen-key")
     poses = sample_start_poses(sc.shape, 200.0, 200.0, 40, np.random.default_rng(3))
     rest, status = simulate(sc, poses, "E")
     assert np.all(status == OK)
     v = sc.shape.placed(rest)
-    assert np.all(np.abs(v[..., 0].max(axis=1) - 200.0) < 1.0)
-    assert v.min() > -0.5 and v.max() < 200.5
+    assert np.all(np.abs(v[..., 0].max(axis=1) - 200.0) < 0.1)
+    assert v.min() > -0.1 and v.max() < 200.1
 
 
 @pytest.mark.parametrize("action", ["NE", "W"])

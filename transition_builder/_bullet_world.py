@@ -21,8 +21,10 @@ from matplotlib.path import Path
 from transition_builder.friction import friction_map
 
 G = 9.81
+#: PyBullet's collision margin of a convex hull made from vertices, in world units.
+BULLET_HULL_MARGIN_UNITS = 0.001
 _EPS_MASS_FRACTION = 1e-4      # mass of each massless-in-spirit link, relative to the part
-_FLOOR_T = 0.01                 # floor slab thickness (m)
+_FLOOR_T_MM = 10.0              # floor slab thickness (mm)
 J_X, J_Y, J_Z, J_YAW = 0, 1, 2, 3
 
 
@@ -72,6 +74,30 @@ def support_cells(shape, k: int, n: int = 160, iters: int = 40):
     return c, w
 
 
+def inset_convex(poly, d: float) -> np.ndarray:
+    """Move every edge of a CCW convex polygon inward by ``d`` (mitred corners).
+
+    Bullet inflates a convex hull by its collision margin, so the inset hull plus the margin is
+    the true outline (with corners rounded by ``d``). A part too thin to inset is returned as is.
+    """
+    v = np.asarray(poly, float)
+    m = len(v)
+    e = np.roll(v, -1, axis=0) - v
+    nrm = np.column_stack([e[:, 1], -e[:, 0]]) / np.hypot(e[:, 0], e[:, 1])[:, None]   # outward
+    off = (nrm * v).sum(axis=1) - d                 # edge i: nrm_i . x = off_i
+    out = np.empty_like(v)
+    for i in range(m):                              # vertex i = edges i-1 and i
+        a = np.array([nrm[i - 1], nrm[i]])
+        out[i] = np.linalg.solve(a, [off[i - 1], off[i]])
+    # valid iff still convex, CCW, and every inset vertex is inside the original by >= d
+    e2 = np.roll(out, -1, axis=0) - out
+    cross = e[:, 0] * e2[:, 1] - e[:, 1] * e2[:, 0]
+    same_dir = (e * e2).sum(axis=1) > 0
+    if not (np.all(same_dir) and np.all(cross > -1e-12)):
+        return v
+    return out
+
+
 def _rot(phi):
     c, s = math.cos(phi), math.sin(phi)
     return np.array([[c, -s], [s, c]])
@@ -86,6 +112,8 @@ class BulletWorld:
         st = scene.settings
         self.R = _rot(-self.phi)              # tray frame -> world (downhill) frame
         self.centre = np.array([scene.tray_x_mm, scene.tray_y_mm]) / 2.0
+        self.mm = st.world_units_per_m / 1000.0     # world units per millimetre
+        self.inv_scale = 1.0 / st.world_units_per_m  # metres per world unit
         self.cid = cid = pb.connect(pb.DIRECT)
         try:
             self._build(scene, st, cid)
@@ -96,7 +124,7 @@ class BulletWorld:
     # ------------------------------------------------------------------ construction
     def _world_xy(self, p_mm):
         """Tray-frame point(s) (mm) -> world xy (m)."""
-        return ((np.asarray(p_mm, float) - self.centre) @ self.R.T) / 1000.0
+        return ((np.asarray(p_mm, float) - self.centre) @ self.R.T) * self.mm
 
     def _quat(self, yaw):
         return pb.getQuaternionFromEuler([0.0, 0.0, yaw])
@@ -107,8 +135,9 @@ class BulletWorld:
         pb.setPhysicsEngineParameter(
             fixedTimeStep=st.time_step_s * st.substeps, numSubSteps=st.substeps,
             numSolverIterations=st.solver_iterations, deterministicOverlappingPairs=1,
-            contactBreakingThreshold=st.contact_threshold_mm / 1000.0, physicsClientId=cid)
-        pb.setGravity(G * math.sin(a), 0.0, -G * math.cos(a), physicsClientId=cid)
+            contactBreakingThreshold=st.contact_threshold_mm * self.mm, physicsClientId=cid)
+        g = G * st.world_units_per_m
+        pb.setGravity(g * math.sin(a), 0.0, -g * math.cos(a), physicsClientId=cid)
         yaw_tray = -self.phi
         q_tray = self._quat(yaw_tray)
         W, H = scene.tray_x_mm, scene.tray_y_mm
@@ -128,10 +157,10 @@ class BulletWorld:
                     y0, y1 = j * tile, min((j + 1) * tile, H)
                     boxes.append((((x0 + x1) / 2, (y0 + y1) / 2), ((x1 - x0) / 2, (y1 - y0) / 2), mu[i, j]))
         for (cx, cy), (hx, hy), m in boxes:
-            cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx / 1000, hy / 1000, _FLOOR_T / 2],
+            cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx * self.mm, hy * self.mm, _FLOOR_T_MM * self.mm / 2],
                                          physicsClientId=cid)
             wx, wy = self._world_xy((cx, cy))
-            b = pb.createMultiBody(0, cs, basePosition=[wx, wy, -_FLOOR_T / 2], baseOrientation=q_tray,
+            b = pb.createMultiBody(0, cs, basePosition=[wx, wy, -_FLOOR_T_MM * self.mm / 2], baseOrientation=q_tray,
                                    physicsClientId=cid)
             pb.changeDynamics(b, -1, lateralFriction=float(m), spinningFriction=0.0, rollingFriction=0.0,
                               restitution=0.0, physicsClientId=cid)
@@ -143,10 +172,10 @@ class BulletWorld:
                  ((W / 2, H + T / 2), (W / 2 + T, T / 2)), ((W / 2, -T / 2), (W / 2 + T, T / 2))]
         self.walls = []
         for (cx, cy), (hx, hy) in walls:
-            cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx / 1000, hy / 1000, WH / 2000],
+            cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx * self.mm, hy * self.mm, WH * self.mm / 2],
                                          physicsClientId=cid)
             wx, wy = self._world_xy((cx, cy))
-            b = pb.createMultiBody(0, cs, basePosition=[wx, wy, WH / 2000], baseOrientation=q_tray,
+            b = pb.createMultiBody(0, cs, basePosition=[wx, wy, WH * self.mm / 2], baseOrientation=q_tray,
                                    physicsClientId=cid)
             pb.changeDynamics(b, -1, lateralFriction=wall_mu, restitution=0.0, physicsClientId=cid)
             self.walls.append(b)
@@ -155,26 +184,27 @@ class BulletWorld:
         shape = scene.shape
         m = shape.mass_kg
         eps = m * _EPS_MASS_FRACTION
-        r = st.support_radius_mm / 1000.0
-        z0 = st.floor_clearance_mm / 1000.0 - r          # prism bottom relative to the sphere centre
-        t = shape.thickness_mm / 1000.0
+        r = st.support_radius_mm * self.mm
+        z0 = st.floor_clearance_mm * self.mm - r          # prism bottom relative to the sphere centre
+        t = shape.thickness_mm * self.mm
+        margin_mm = BULLET_HULL_MARGIN_UNITS / self.mm
         part_shapes = []
         for part in shape.convex_parts:
-            p2 = np.asarray(part, float) / 1000.0
+            p2 = inset_convex(np.asarray(part, float), margin_mm) * self.mm
             verts = [[x, y, z0] for x, y in p2] + [[x, y, z0 + t] for x, y in p2]
             cs = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
             part_shapes.append(cs)
         sph = pb.createCollisionShape(pb.GEOM_SPHERE, radius=r, physicsClientId=cid)
         n_parts = len(part_shapes)
         legs = st.support_points > 1
-        I = shape.inertia_kg_m2
+        I = shape.inertia_kg_m2 * st.world_units_per_m ** 2
         tiny = I * _EPS_MASS_FRACTION
         if legs:
             # K legs: prismatic-z links under the centroids of K equal-area cells, each carrying its
             # cell's mass; the hinge link keeps the rest of the z inertia; no global z freedom.
             pts, w = support_cells(shape, st.support_points)
             leg_m = m * w
-            leg_xy = pts / 1000.0
+            leg_xy = pts * self.mm
             yaw_m = eps
             yaw_I = max(I - float(np.sum(leg_m * np.sum(leg_xy ** 2, axis=1))), tiny)
             n_sup = len(pts)
@@ -207,23 +237,26 @@ class BulletWorld:
                               restitution=0.0, lateralFriction=1.0, spinningFriction=0.0, rollingFriction=0.0,
                               localInertiaDiagonal=[yaw_I] * 3 if j == J_YAW else [tiny, tiny, tiny],
                               physicsClientId=cid)
-        for j in range(4, 4 + n_parts):
-            pb.changeDynamics(ob, j, collisionMargin=st.collision_margin_mm / 1000.0, physicsClientId=cid)
+        margin = pb.getDynamicsInfo(ob, 4, physicsClientId=cid)[11]
+        if abs(margin - BULLET_HULL_MARGIN_UNITS) > 1e-12:
+            raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
+                               f"expected {BULLET_HULL_MARGIN_UNITS}")
+        pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
         self.sphere_link = n - 1
         if not legs:
             # a single contact under the centroid: its spinning friction gives the friction torque
             # of uniform pressure for spinning in place (Bullet combines spinning friction as
             # spin_A * lateral_B + spin_B * lateral_A, so the floor's spinning friction stays 0)
-            pb.changeDynamics(ob, n - 1, spinningFriction=friction_radius_mm(shape) / 1000.0,
+            pb.changeDynamics(ob, n - 1, spinningFriction=friction_radius_mm(shape) * self.mm,
                               physicsClientId=cid)
 
     # ------------------------------------------------------------------ state
-    def set_pose(self, pose_mm):
+    def set_pose(self, pose_mm):  # noqa: D401
         """Place the part at a tray-frame pose (x, y in mm, theta in rad), at rest on the floor."""
         cid, ob = self.cid, self.body
         # Move away and run collision detection first: drops every cached contact (and its
         # warm-start impulse), so a trial never depends on the trial before it.
-        pb.resetJointState(ob, J_X, 1.0, 0.0, physicsClientId=cid)      # 1 m away: touches nothing
+        pb.resetJointState(ob, J_X, 1000.0 * self.mm, 0.0, physicsClientId=cid)   # 1 m away: touches nothing
         pb.performCollisionDetection(physicsClientId=cid)
         wx, wy = self._world_xy(pose_mm[:2])
         yaw = float(pose_mm[2]) - self.phi
@@ -236,14 +269,15 @@ class BulletWorld:
     def lift_mm(self) -> float:
         """Largest height of a support above its resting height (mm)."""
         if not self.legs:
-            return pb.getJointState(self.body, J_Z, physicsClientId=self.cid)[0] * 1000.0
+            return pb.getJointState(self.body, J_Z, physicsClientId=self.cid)[0] / self.mm
         s = pb.getJointStates(self.body, self.support_links, physicsClientId=self.cid)
-        return max(abs(v[0]) for v in s) * 1000.0
+        return max(abs(v[0]) for v in s) / self.mm
 
     def state(self):
         """(x, y, z, yaw, vx, vy, wz) in the world frame (m, rad, m/s, rad/s)."""
         s = pb.getJointStates(self.body, (J_X, J_Y, J_Z, J_YAW), physicsClientId=self.cid)
-        return (s[0][0], s[1][0], s[2][0], s[3][0], s[0][1], s[1][1], s[3][1])
+        k = self.inv_scale
+        return (s[0][0] * k, s[1][0] * k, s[2][0] * k, s[3][0], s[0][1] * k, s[1][1] * k, s[3][1])
 
     def to_tray(self, x, y, yaw):
         """World (m, rad) -> tray-frame pose (mm, rad in [0, 2 pi))."""

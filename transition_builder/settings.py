@@ -42,8 +42,11 @@ class SimSettings:
     floor_clearance_mm : float
         Gap between the floor and the bottom of the part's prism; larger than
         ``contact_threshold_mm`` so the prism never makes floor contacts (it only touches walls).
-    collision_margin_mm : float
-        Bullet collision margin of the object's prism parts.
+    world_units_per_m : float
+        Length scale of the PyBullet world (100: one world unit is a centimetre). PyBullet fixes
+        the collision margin of a convex hull at 0.001 world units (1 mm in a metre world, 0.3 of a
+        5 mm part); at 100 units per metre it is 0.01 mm, and the convex parts are inset by it so
+        hull + margin is the true outline.
     contact_threshold_mm : float
         Bullet contact breaking threshold: contacts are made this far ahead of touching (must exceed
         the distance travelled in one step, about 5 mm at 1.3 m/s and 1/240 s, or parts tunnel).
@@ -63,7 +66,7 @@ class SimSettings:
     support_points: int = 1
     support_radius_mm: float = 1.0
     floor_clearance_mm: float = 10.0
-    collision_margin_mm: float = 0.1
+    world_units_per_m: float = 100.0
     contact_threshold_mm: float = 8.0
     escape_tolerance_mm: float = 1.0
     lift_tolerance_mm: float = 2.0

@@ -14,7 +14,7 @@ Measured with a naive set-up first (a free body, or a joint chain on a box floor
 tray, gravity rotated toward the action), as in PHYSICS_NOTES.md: a 40 x 40 x 5 mm plate with
 mu = 0.3 on a 30 degree tilt slid 9-17% too far with 100-230 degrees of spurious rotation in a
 naive x/y/z/yaw joint chain (Bullet's box-box manifold put all the weight on one corner, whose
-friction then spun the part), and free bodies tip and jump walls. Four decisions fix it:
+friction then spun the part), and free bodies tip and jump walls. Five decisions fix it:
 
 1. **Planar by construction.** The part is a fixed-base multibody chain: prismatic x, prismatic
    y, prismatic z, revolute yaw (the part's mass and exact z inertia about its centroid), with the
@@ -34,7 +34,11 @@ friction then spun the part), and free bodies tip and jump walls. Four decisions
 3. **Downhill along world +x.** Each action has its own world in which the tray is rotated about
    its centre so that the downhill direction is +x (Bullet's friction is otherwise anisotropic
    for off-axis sliding, PHYSICS_NOTES.md). Poses are mapped in and out exactly.
-4. **Enough solver iterations and no stale contacts.** 100 iterations (Bullet stops early once
+4. **A centimetre world.** PyBullet gives every convex hull a fixed collision margin of 0.001
+   world units; in a metre world that is 1 mm (a part rested 0.97 mm off the wall and its outline
+   was inflated by 1 mm). The world is built at 100 units per metre, where the margin is 0.01 mm,
+   and the convex parts are inset by it: rest poses touch the wall within 0.001 mm.
+5. **Enough solver iterations and no stale contacts.** 100 iterations (Bullet stops early once
    converged, so the cost is small: at 10 iterations 3% of tilts crept along a wall at about
    1 mm/s and never settled). Before every trial the part is moved 1 m away and collision
    detection is run, which drops cached contacts and their warm-start impulses, so a trial's
@@ -84,13 +88,17 @@ SIMULATOR_VERSION = "planar-chain-1"
 
 
 def valid_start(scene: Scene, poses) -> np.ndarray:
-    """True for every pose that is finite and whose outline lies inside the tray (collision-free)."""
+    """True for every pose that is finite and whose outline lies inside the tray (collision-free).
+
+    An outline may poke ``settings.escape_tolerance_mm`` into a wall: rest poses sit in contact
+    (a few hundredths of a millimetre of penetration) and must be valid starts of the next tilt.
+    """
     p = np.asarray(poses, dtype=np.float64)
     fin = np.all(np.isfinite(p), axis=1)
     ok = np.zeros(len(p), dtype=bool)
     if fin.any():
         v = scene.shape.placed(p[fin])
-        tol = 1e-9
+        tol = scene.settings.escape_tolerance_mm
         inside = ((v[..., 0] >= -tol) & (v[..., 0] <= scene.tray_x_mm + tol)
                   & (v[..., 1] >= -tol) & (v[..., 1] <= scene.tray_y_mm + tol)).all(axis=1)
         ok[fin] = inside
