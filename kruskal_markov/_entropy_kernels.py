@@ -83,6 +83,86 @@ def action_images(indptr, indices, n):
 
 
 @njit(cache=True)
+def image_blocks(indptr, indices, data, img_ptr, img_idx, n, conservative):
+    """Per pair (previous action b, action a): ``P_a`` restricted to the rows of ``b``'s image,
+    transposed (one row per state of ``a``'s image), with image-local indices.
+
+    After action ``b`` a distribution lives on ``b``'s image; when it fills that image its
+    support list is a dense vector over it, and the next step is a gather ``out[j] =
+    sum_i p[i] P_a[i, j]`` over this block: no scatter, no scratch, no support search. With
+    ``conservative`` each row's pivot value (its first entry) is raised by ``1 - sum(row)``
+    computed with a compensated (TwoSum) sum, so the block's rows sum to 1 within half an ulp
+    -- the gather form of the conservative splitting of :func:`_step`.
+
+    Returns ``(blk_rp_off, blk_en_off, blk_rowptr, blk_src, blk_val)``: block ``g = b * K + a``
+    has row pointers ``blk_rowptr[blk_rp_off[g]:...]`` (``|img_a| + 1`` of them) relative to
+    ``blk_en_off[g]`` in ``blk_src`` (int32, local index into ``b``'s image) / ``blk_val``."""
+    k = indptr.shape[0]
+    corr = np.zeros(indptr[k - 1, n], dtype=np.float64)
+    if conservative:
+        for a in range(k):
+            for i in range(n):
+                lo = indptr[a, i]
+                hi = indptr[a, i + 1]
+                s = 0.0
+                c = 0.0
+                for t in range(lo, hi):  # TwoSum: s + c is the sum to ~1e-32
+                    x = data[t]
+                    y = s + x
+                    bp = y - s
+                    c += (s - (y - bp)) + (x - bp)
+                    s = y
+                corr[lo] = (1.0 - s) - c
+    loc_src = np.full(n, -1, dtype=np.int64)
+    loc_dst = np.full(n, -1, dtype=np.int64)
+    blk_rp_off = np.zeros(k * k + 1, dtype=np.int64)
+    blk_en_off = np.zeros(k * k + 1, dtype=np.int64)
+    for b in range(k):
+        for a in range(k):
+            g = b * k + a
+            na = img_ptr[a + 1] - img_ptr[a]
+            cnt = 0
+            for t in range(img_ptr[b], img_ptr[b + 1]):
+                i = img_idx[t]
+                cnt += indptr[a, i + 1] - indptr[a, i]
+            blk_rp_off[g + 1] = blk_rp_off[g] + na + 1
+            blk_en_off[g + 1] = blk_en_off[g] + cnt
+    blk_rowptr = np.zeros(blk_rp_off[k * k], dtype=np.int64)
+    blk_src = np.empty(blk_en_off[k * k], dtype=np.int32)
+    blk_val = np.empty(blk_en_off[k * k], dtype=np.float64)
+    for b in range(k):
+        for t in range(img_ptr[b], img_ptr[b + 1]):
+            loc_src[img_idx[t]] = t - img_ptr[b]
+        for a in range(k):
+            g = b * k + a
+            for t in range(img_ptr[a], img_ptr[a + 1]):
+                loc_dst[img_idx[t]] = t - img_ptr[a]
+            rp = blk_rp_off[g]
+            na = img_ptr[a + 1] - img_ptr[a]
+            for t in range(img_ptr[b], img_ptr[b + 1]):
+                i = img_idx[t]
+                for e in range(indptr[a, i], indptr[a, i + 1]):
+                    blk_rowptr[rp + 1 + loc_dst[indices[e]]] += 1
+            for jl in range(na):
+                blk_rowptr[rp + jl + 1] += blk_rowptr[rp + jl]
+            fill = blk_rowptr[rp:rp + na].copy()
+            eo = blk_en_off[g]
+            for t in range(img_ptr[b], img_ptr[b + 1]):
+                i = img_idx[t]
+                for e in range(indptr[a, i], indptr[a, i + 1]):
+                    jl = loc_dst[indices[e]]
+                    pos = eo + fill[jl]
+                    fill[jl] += 1
+                    blk_src[pos] = loc_src[i]
+                    blk_val[pos] = data[e] + corr[e]
+            for t in range(img_ptr[a], img_ptr[a + 1]):
+                loc_dst[img_idx[t]] = -1
+        for t in range(img_ptr[b], img_ptr[b + 1]):
+            loc_src[img_idx[t]] = -1
+    return blk_rp_off, blk_en_off, blk_rowptr, blk_src, blk_val
+
+
+@njit(cache=True)
 def _step(indptr, indices, data, img_ptr, img_idx, a, buf_idx, buf_p, src, src_len, dst, q, flag,
           conservative):
     """One step on support lists held in the buffers ``buf_idx`` / ``buf_p``: the distribution at
@@ -281,10 +361,11 @@ def walk(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, seq, partiti
 
 
 @njit(cache=True)
-def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order,
-              tmp_order, lo0, hi0, partition, has_partition, conservative, out_hc, out_hs, drift,
-              q, flag, cell_mass, cell_list, cell_vals, counts, lvl_lo, lvl_hi, lvl_ds, lvl_dl,
-              lvl_cur, lvl_one, bounds, pool_idx, pool_p):
+def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, blk_en_off,
+              blk_rowptr, blk_src, blk_val, init_idx, init_p, m0, seqs, order, tmp_order, lo0, hi0,
+              partition, has_partition, conservative, out_hc, out_hs, drift, q, flag, cell_mass,
+              cell_list, cell_vals, counts, lvl_lo, lvl_hi, lvl_ds, lvl_dl, lvl_cur, lvl_one,
+              lvl_act, lvl_full, bounds, pool_idx, pool_p):
     """Depth-first walk of the prefix trie of the sequences ``order[lo0:hi0]``.
 
     A trie node at depth ``d`` is a range of ``order`` whose sequences share their first ``d``
@@ -313,6 +394,8 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
     lvl_hi[0] = hi0
     lvl_ds[0] = 0
     lvl_dl[0] = length
+    lvl_act[0] = -1
+    lvl_full[0] = 0
     state = 0  # 0 enter node, 1 go up, 2 next child
     while True:
         if state == 0:
@@ -326,18 +409,22 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
                 hs = 0.0
                 m = pool_p[ds] if dl == 1 else 0.0
             else:
+                # (lists written in image-block mode may hold zeros: skipped, 0 log 0 = 0)
                 m = 0.0
                 sl = 0.0
+                kpos = 0
                 for t in range(ds, ds + dl):
                     v = pool_p[t]
-                    m += v
-                    sl += v * np.log2(v)
+                    if v > 0.0:
+                        m += v
+                        sl += v * np.log2(v)
+                        kpos += 1
                 hs = 0.0
-                if m > 0.0:
+                if m > 0.0 and kpos > 1:
                     dm = m - 1.0
                     lm = (dm - 0.5 * dm * dm) * _INV_LN2 if abs(dm) < 1e-5 else np.log2(m)
                     hs = lm - sl / m
-                    hmax = _LOG2_INT[dl] if dl < _LOG2_INT.size else np.log2(dl)
+                    hmax = _LOG2_INT[kpos] if kpos < _LOG2_INT.size else np.log2(kpos)
                     hs = min(max(hs, 0.0), hmax)
                 hc = hs
                 if has_partition:
@@ -352,18 +439,20 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
                             nc += v > 0.0
                     else:
                         for t in range(ds, ds + dl):
-                            c = partition[pool_idx[t]]
-                            if cell_mass[c] == 0.0:
-                                cell_list[nc] = c
-                                nc += 1
-                            cell_mass[c] += pool_p[t]
+                            v = pool_p[t]
+                            if v > 0.0:
+                                c = partition[pool_idx[t]]
+                                if cell_mass[c] == 0.0:
+                                    cell_list[nc] = c
+                                    nc += 1
+                                cell_mass[c] += v
                         for t in range(nc):
                             c = cell_list[t]
                             cell_vals[t] = cell_mass[c]
                             cell_mass[c] = 0.0
                     if nc <= 1:
                         hc = 0.0
-                    elif nc != dl:  # nc == dl: every state in a cell of its own, hc = hs
+                    elif nc != kpos:  # nc == kpos: every state in a cell of its own, hc = hs
                         mc = 0.0
                         sc = 0.0
                         for t in range(nc):
@@ -447,7 +536,26 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
                 pool_p = new_p
             # ---- one step: pool[ds:ds+dl] @ P_a -> pool[top:...] (as _step) ----
             length = -1
-            if dl == 1:
+            full = 0
+            prev = lvl_act[d]
+            if use_blocks and lvl_full[d] and dl > 1:
+                # the support is exactly the previous action's image, in image order: gather
+                g = prev * k_actions + a
+                rp = blk_rp_off[g]
+                eo = blk_en_off[g]
+                ilo = img_ptr[a]
+                na = img_ptr[a + 1] - ilo
+                out = top
+                for jl in range(na):
+                    acc = 0.0
+                    for e in range(eo + blk_rowptr[rp + jl], eo + blk_rowptr[rp + jl + 1]):
+                        acc += pool_p[ds + blk_src[e]] * blk_val[e]
+                    pool_idx[out] = img_idx[ilo + jl]
+                    pool_p[out] = acc
+                    out += 1  # zeros kept: the list stays the image, in image order
+                length = out - top
+                full = 1
+            if length < 0 and dl == 1:
                 i = pool_idx[ds]
                 rlo = indptr[a, i]
                 if indptr[a, i + 1] - rlo == 1:
@@ -501,7 +609,8 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
                         q[j] = 0.0
                         pool_idx[out] = j
                         pool_p[out] = v
-                        out += v > 0.0
+                        out += (v > 0.0) or use_blocks  # image-block mode keeps zeros
+                    full = out - top == ihi - ilo
                 else:
                     for t in range(top, top + mm):
                         j = pool_idx[t]
@@ -516,15 +625,17 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seq
             lvl_hi[d + 1] = chi
             lvl_ds[d + 1] = top
             lvl_dl[d + 1] = length
+            lvl_act[d + 1] = a
+            lvl_full[d + 1] = full
             d += 1
             state = 0
     return pool_idx, pool_p
 
 
 @njit(cache=True, parallel=True)
-def batch(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order, task_lo,
-          task_hi, block_ptr, partition, n_cells, has_partition, conservative, out_hc, out_hs,
-          drift):
+def batch(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, blk_en_off, blk_rowptr,
+          blk_src, blk_val, init_idx, init_p, m0, seqs, order, task_lo, task_hi, block_ptr,
+          partition, n_cells, has_partition, conservative, out_hc, out_hs, drift):
     """Entropies of many sequences, parallel over blocks of tasks.
 
     ``order`` is a permutation of the sequence indices; task ``t`` is the range
@@ -548,12 +659,15 @@ def batch(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, o
         lvl_dl = np.empty(n_steps + 1, dtype=np.int64)
         lvl_cur = np.empty(n_steps + 1, dtype=np.int64)
         lvl_one = np.empty(n_steps + 1, dtype=np.uint8)
+        lvl_act = np.empty(n_steps + 1, dtype=np.int64)
+        lvl_full = np.empty(n_steps + 1, dtype=np.uint8)
         bounds = np.empty((n_steps + 1, k_actions + 1), dtype=np.int64)
         pool_idx = np.empty(4 * n, dtype=np.int32)
         pool_p = np.empty(4 * n, dtype=np.float64)
         for t in range(block_ptr[blk], block_ptr[blk + 1]):
             pool_idx, pool_p = _run_task(
-                indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order,
-                tmp_order, task_lo[t], task_hi[t], partition, has_partition, conservative, out_hc,
-                out_hs, drift, q, flag, cell_mass, cell_list, cell_vals, counts, lvl_lo, lvl_hi,
-                lvl_ds, lvl_dl, lvl_cur, lvl_one, bounds, pool_idx, pool_p)
+                indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, blk_en_off,
+                blk_rowptr, blk_src, blk_val, init_idx, init_p, m0, seqs, order, tmp_order,
+                task_lo[t], task_hi[t], partition, has_partition, conservative, out_hc, out_hs,
+                drift, q, flag, cell_mass, cell_list, cell_vals, counts, lvl_lo, lvl_hi, lvl_ds,
+                lvl_dl, lvl_cur, lvl_one, lvl_act, lvl_full, bounds, pool_idx, pool_p)

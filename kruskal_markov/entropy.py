@@ -161,6 +161,34 @@ def _kernel_arrays(model: TransitionModel):
     return indptr, indices, data, img_ptr, img_idx, partition, n_cells, has
 
 
+_NO_BLOCKS = (np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
+              np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.float64))
+
+#: image blocks are built when they hold at most this many times the model's non-zeros
+_BLOCK_BUDGET = 2.0
+
+
+def _image_blocks(model: TransitionModel, conservative: bool):
+    """The per-(previous action, action) gather blocks of :func:`_entropy_kernels.image_blocks`,
+    cached on the model; None when they would be too large (images close to the full state set)."""
+    key = ("image_blocks", bool(conservative))
+    if key not in model._cache:
+        indptr, indices, data, img_ptr, img_idx, _, _, _ = _kernel_arrays(model)
+        row_len = np.diff(indptr, axis=1)
+        total = sum(int(row_len[a, img_idx[img_ptr[b]:img_ptr[b + 1]]].sum())
+                    for b in range(model.n_actions) for a in range(model.n_actions))
+        nnz = int(indptr[-1, -1])
+        if total > _BLOCK_BUDGET * nnz + 10_000:
+            model._cache[key] = None
+        else:
+            blocks = _k.image_blocks(indptr, indices, data, img_ptr, img_idx, model.n_states,
+                                     bool(conservative))
+            for arr in blocks:
+                arr.flags.writeable = False
+            model._cache[key] = blocks
+    return model._cache[key]
+
+
 @dataclasses.dataclass(frozen=True)
 class EntropyTrajectory:
     """Entropy along one sequence.
@@ -243,7 +271,8 @@ class BatchEntropy:
 
 
 def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_prefixes: bool = True,
-                  conservative: bool = True, threads: int | None = None) -> BatchEntropy:
+                  conservative: bool = True, threads: int | None = None,
+                  image_blocks: bool | None = None) -> BatchEntropy:
     """Entropies after every step of S sequences of length N, in parallel (Numba).
 
     Parameters
@@ -261,6 +290,10 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         Mass-conservative row splitting (see :func:`entropy_trajectory`).
     threads : int, optional
         Numba threads (default: Numba's setting).
+    image_blocks : bool, optional
+        Use the gather blocks of :func:`kruskal_markov._entropy_kernels.image_blocks` for steps
+        whose support fills the previous action's image (default: when the blocks are small,
+        i.e. when actions map into small images as tray tilts do; False: never).
 
     Notes
     -----
@@ -316,9 +349,12 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
             task_hi = order + 1
             n_blocks = min(s_count, 8 * n_threads)
             block_ptr = np.linspace(0, s_count, n_blocks + 1).astype(np.int64)
+        blocks = _image_blocks(model, conservative) if image_blocks is not False else None
         with numba.parallel_chunksize(1):
-            _k.batch(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, m0, seqs, order, task_lo,
-                     task_hi, block_ptr, partition, n_cells, has, conservative, hc, hs, drift)
+            _k.batch(indptr, indices, data, img_ptr, img_idx, blocks is not None,
+                     *(blocks if blocks is not None else _NO_BLOCKS), init_idx, init_p, m0, seqs,
+                     order, task_lo, task_hi, block_ptr, partition, n_cells, has, conservative, hc,
+                     hs, drift)
     finally:
         if threads is not None:
             numba.set_num_threads(prev_threads)
