@@ -30,6 +30,46 @@ _INV_LN2 = 1.0 / np.log(2.0)
 _LOG2_INT = np.log2(np.maximum(np.arange(4096, dtype=np.float64), 1.0))
 
 
+_TAB_N = 128
+_TAB_C = 1.0 + (2.0 * np.arange(_TAB_N) + 1.0) / (2.0 * _TAB_N)
+_TAB_INVC = 1.0 / _TAB_C
+_TAB_LOG2C = np.log2(_TAB_C)
+_TINY = 2.2250738585072014e-308  # smallest normal float64
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"})
+def _plogp(p, bits, off, length):
+    """``(sum p log2 p, sum p, #positive, #subnormal)`` over ``p[off:off+length]``; zeros and
+    subnormals contribute nothing here (the caller adds the subnormals exactly).
+
+    ``bits`` is ``p.view(np.int64)``. A branch-free log2 that the compiler vectorizes: exponent
+    from the bits, mantissa ``1 + f`` against the centre ``c`` of its 1/128 table interval,
+    ``log2(1+f) = log2(c) + log1p(r) / ln 2`` with ``r = (1+f-c)/c``, ``|r| < 2^-8``, and
+    ``log1p`` by its Taylor polynomial to ``r^7`` (truncation < 1e-17, relative error of the
+    result ~ 5e-16). Reassociated sums (fastmath) change only the order of additions."""
+    s = 0.0
+    m = 0.0
+    kpos = 0
+    nsub = 0
+    for t in range(off, off + length):
+        v = p[t]
+        b = bits[t]
+        e = (b >> 52) - 1023
+        idx = (b >> 45) & 127
+        mm = 1.0 + np.float64(b & 0xFFFFFFFFFFFFF) * 2.220446049250313e-16
+        r = (mm - _TAB_C[idx]) * _TAB_INVC[idx]
+        r2 = r * r
+        l1p = r - r2 * (0.5 - r * (0.3333333333333333 - r * (0.25 - r * (
+            0.2 - r * (0.16666666666666666 - r * 0.14285714285714285)))))
+        lg = np.float64(e) + _TAB_LOG2C[idx] + l1p * 1.4426950408889634
+        normal = v >= _TINY
+        s += v * lg if normal else 0.0
+        m += v
+        kpos += v > 0.0
+        nsub += (v > 0.0) and not normal
+    return s, m, kpos, nsub
+
+
 @njit(cache=True)
 def pivot_first(indptr, indices, data):
     """In place: move every row's (first) largest entry to the front of the row (the pivot)."""
@@ -389,6 +429,8 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
     for t in range(length):
         pool_idx[t] = init_idx[t]
         pool_p[t] = init_p[t]
+    pool_bits = pool_p.view(np.int64)
+    cell_bits = cell_vals.view(np.int64)
     d = 0
     lvl_lo[0] = lo0
     lvl_hi[0] = hi0
@@ -410,15 +452,23 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
                 m = pool_p[ds] if dl == 1 else 0.0
             else:
                 # (lists written in image-block mode may hold zeros: skipped, 0 log 0 = 0)
-                m = 0.0
-                sl = 0.0
-                kpos = 0
-                for t in range(ds, ds + dl):
-                    v = pool_p[t]
-                    if v > 0.0:
-                        m += v
-                        sl += v * np.log2(v)
-                        kpos += 1
+                if dl >= 8:
+                    sl, m, kpos, nsub = _plogp(pool_p, pool_bits, ds, dl)
+                    if nsub:
+                        for t in range(ds, ds + dl):
+                            v = pool_p[t]
+                            if 0.0 < v < _TINY:
+                                sl += v * np.log2(v)
+                else:
+                    m = 0.0
+                    sl = 0.0
+                    kpos = 0
+                    for t in range(ds, ds + dl):
+                        v = pool_p[t]
+                        if v > 0.0:
+                            m += v
+                            sl += v * np.log2(v)
+                            kpos += 1
                 hs = 0.0
                 if m > 0.0 and kpos > 1:
                     dm = m - 1.0
@@ -453,12 +503,20 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
                     if nc <= 1:
                         hc = 0.0
                     elif nc != kpos:  # nc == kpos: every state in a cell of its own, hc = hs
-                        mc = 0.0
-                        sc = 0.0
-                        for t in range(nc):
-                            v = cell_vals[t]
-                            mc += v
-                            sc += v * np.log2(v)
+                        if nc >= 8:
+                            sc, mc, _, nsub = _plogp(cell_vals, cell_bits, 0, nc)
+                            if nsub:
+                                for t in range(nc):
+                                    v = cell_vals[t]
+                                    if v < _TINY:
+                                        sc += v * np.log2(v)
+                        else:
+                            mc = 0.0
+                            sc = 0.0
+                            for t in range(nc):
+                                v = cell_vals[t]
+                                mc += v
+                                sc += v * np.log2(v)
                         hc = 0.0
                         if mc > 0.0:
                             dm = mc - 1.0
@@ -534,6 +592,7 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
                 new_p[:top] = pool_p[:top]
                 pool_idx = new_idx
                 pool_p = new_p
+                pool_bits = pool_p.view(np.int64)
             # ---- one step: pool[ds:ds+dl] @ P_a -> pool[top:...] (as _step) ----
             length = -1
             full = 0
