@@ -26,7 +26,8 @@ class SimSettings:
     solver_iterations : int
         Sequential-impulse solver iterations per step.
     rest_speed_mm_s : float
-        The object is at rest while its centroid speed is below this (mm/s) ...
+        The object is at rest while its centroid speed (mean over each rest-test interval) is
+        below this (mm/s) ...
     rest_angular_speed_rad_s : float
         ... and its yaw rate is below this (rad/s) ...
     dwell_s : float
@@ -48,8 +49,10 @@ class SimSettings:
         5 mm part); at 100 units per metre it is 0.01 mm, and the convex parts are inset by it so
         hull + margin is the true outline.
     contact_threshold_mm : float
-        Bullet contact breaking threshold: contacts are made this far ahead of touching (must exceed
-        the distance travelled in one step, about 5 mm at 1.3 m/s and 1/240 s, or parts tunnel).
+        Bullet contact breaking threshold: contact points are made (and kept) up to this far
+        apart. Large values (8 mm) kept stale wall contacts that made sharp corners jitter and
+        creep along walls (4% of second tilts of ``triangle:1`` never settled); walls are 20 mm
+        thick, so a step of up to 5.4 mm (1.3 m/s at 1/240 s) cannot pass through them.
     escape_tolerance_mm : float
         A rest pose whose outline is outside the tray by more than this is ``ESCAPED``.
     lift_tolerance_mm : float
@@ -65,9 +68,9 @@ class SimSettings:
     max_time_s: float = 4.0
     support_points: int = 1
     support_radius_mm: float = 1.0
-    floor_clearance_mm: float = 10.0
+    floor_clearance_mm: float = 4.0
     world_units_per_m: float = 100.0
-    contact_threshold_mm: float = 8.0
+    contact_threshold_mm: float = 2.0
     escape_tolerance_mm: float = 1.0
     lift_tolerance_mm: float = 2.0
 

@@ -3,7 +3,8 @@
 A tilt = gravity ``g (sin a, 0, -cos a)`` in a world whose +x axis is the action's downhill
 direction (``a`` = tilt angle), stepped until the part is at rest (centroid speed below
 ``rest_speed_mm_s`` and yaw rate below ``rest_angular_speed_rad_s`` for ``dwell_s``) or until
-``max_time_s`` (``UNSETTLED``). The tray is then levelled: the part stays where it came to rest, so
+``max_time_s`` (``UNSETTLED``); the speeds are mean speeds over each rest-test interval
+(``substeps`` steps), so a contact that jitters without moving the part still counts as rest. The tray is then levelled: the part stays where it came to rest, so
 the rest pose is read and mapped back to the tray frame. A faulted trial is never returned as a
 pose (NaN pose, status code from :mod:`transition_builder.status`). Sleeping is irrelevant: the part
 is a multibody whose joints are reset before every trial.
@@ -177,6 +178,12 @@ class TraySimulator:
         still = 0
         r_out2 = self._r_out ** 2
         lift = self.scene.settings.lift_tolerance_mm / 1000.0
+        # rest test on the mean velocity over each check interval (the displacement since the last
+        # check): a part resting on a sharp corner can jitter in yaw at the contact while its
+        # pose does not change, and instantaneous velocities would never settle
+        d_lin = self._v_rest * self._dt_check
+        d_ang = self._w_rest * self._dt_check
+        px, py, _, pyaw = w.state()[:4]
         for _ in range(self._max_checks):
             w.step()
             x, y, z, yaw, vx, vy, wz = w.state()
@@ -185,7 +192,9 @@ class TraySimulator:
                 return None, st_codes.INVALID
             if x * x + y * y > r_out2 or z < -lift:
                 return None, st_codes.ESCAPED
-            if vx * vx + vy * vy < self._v_rest ** 2 and abs(wz) < self._w_rest:
+            dx, dy, dyaw = x - px, y - py, yaw - pyaw
+            px, py, pyaw = x, y, yaw
+            if dx * dx + dy * dy < d_lin * d_lin and abs(dyaw) < d_ang:
                 still += 1
                 if still >= self._dwell_checks:
                     break
