@@ -129,30 +129,33 @@ def main(argv=None):
     s_count = 10_000 if quick else 100_000
     seqs = rng.integers(0, 8, size=(s_count, 50)).astype(np.uint8)
     batch_entropy(model, seqs[:64])  # compile / load the cached kernels
-    batch_entropy(model, seqs[:64], share_prefixes=False)
-    t0 = time.perf_counter()
-    res = batch_entropy(model, seqs)
-    t_engine = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    res_ind = batch_entropy(model, seqs, share_prefixes=False)
-    t_indep = time.perf_counter() - t0
+    batch_entropy(model, seqs[:64], share_prefixes=False, image_blocks=False)
+
+    def timed(fn):
+        w0, c0 = time.perf_counter(), time.process_time()
+        out = fn()
+        return out, time.perf_counter() - w0, time.process_time() - c0
+
+    res, t_engine, c_engine = timed(lambda: batch_entropy(model, seqs))
+    res_plain, t_plain, c_plain = timed(lambda: batch_entropy(model, seqs, share_prefixes=False,
+                                                              image_blocks=False))
     sub = 1_000 if quick else 2_000
-    t0 = time.perf_counter()
-    ref_c, ref_s = scipy_loop(model, seqs[:sub])
-    t_sub = time.perf_counter() - t0
-    t_scipy = t_sub * s_count / sub
+    (ref_c, ref_s), t_sub, c_sub = timed(lambda: scipy_loop(model, seqs[:sub]))
+    t_scipy, c_scipy = t_sub * s_count / sub, c_sub * s_count / sub
     err = max(np.abs(res.entropy_bits[:sub] - ref_c).max(), np.abs(res.entropy_bits_states[:sub] - ref_s).max())
-    err_ind = np.abs(res.entropy_bits - res_ind.entropy_bits).max()
+    err_plain = np.abs(res.entropy_bits - res_plain.entropy_bits).max()
     nnz_row = np.mean([m.nnz / m.shape[0] for m in model.matrices])
-    print(f"[tray-like n={model.n_states}, {nnz_row:.1f} nnz/row] {s_count} sequences x 50 steps")
-    print(f"  numba engine, prefix trie:     {t_engine:8.2f} s")
-    print(f"  numba engine, independent:     {t_indep:8.2f} s")
-    print(f"  plain scipy.sparse loop:       {t_scipy:8.2f} s (timed on {sub} sequences: {t_sub:.2f} s, "
-          f"extrapolated x{s_count // sub})")
-    print(f"  speed-up over scipy: trie {t_scipy / t_engine:.1f}x, independent {t_scipy / t_indep:.1f}x")
-    print(f"  max |engine - scipy| entropy on the subset: {err:.2e} bits; trie vs independent: {err_ind:.2e}")
-    print(f"  max mass drift: {res.mass_drift.max():.2e}", flush=True)
-    del res, res_ind
+    print(f"[tray-like n={model.n_states}, {nnz_row:.1f} nnz/row] {s_count} sequences x 50 steps "
+          f"(wall s / process CPU s)")
+    print(f"  numba engine (prefix trie + image blocks):   {t_engine:8.2f} / {c_engine:8.2f}")
+    print(f"  numba, independent sequences, scatter only:  {t_plain:8.2f} / {c_plain:8.2f}")
+    print(f"  plain scipy.sparse loop:                     {t_scipy:8.2f} / {c_scipy:8.2f}  (timed on {sub} "
+          f"sequences: {t_sub:.2f} s, extrapolated x{s_count // sub})")
+    print(f"  speed-up over scipy, wall: engine {t_scipy / t_engine:.1f}x, independent {t_scipy / t_plain:.1f}x; "
+          f"CPU time (= single-core equivalent): engine {c_scipy / c_engine:.1f}x")
+    print(f"  max |engine - scipy| entropy on the subset: {err:.2e} bits; engine vs independent: {err_plain:.2e}")
+    print(f"  max mass drift: {res.mass_drift.max():.2e}; load average now {os.getloadavg()[0]:.2f}", flush=True)
+    del res, res_plain
 
     # --- 2. 10^6 x 50 on a contracting tray-grid model --------------------------------------
     model = tray_grid_model()
@@ -161,30 +164,26 @@ def main(argv=None):
     seqs = rng.integers(0, 8, size=(s_count, 50)).astype(np.uint8)
     batch_entropy(model, seqs[:64])
     tracemalloc.start()
-    t0 = time.perf_counter()
-    res = batch_entropy(model, seqs)
-    t_big = time.perf_counter() - t0
+    res, t_big, c_big = timed(lambda: batch_entropy(model, seqs))
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     nnz_row = np.mean([m.nnz / m.shape[0] for m in model.matrices])
     det = np.mean([np.mean(np.diff(m.indptr) == 1) for m in model.matrices])
     print(f"[tray-grid n={model.n_states}, {nnz_row:.2f} nnz/row, {100 * det:.0f}% point-mass rows, "
           f"report grid {model.n_cells} cells] {s_count} sequences x 50 steps")
-    print(f"  numba engine, prefix trie: {t_big:.2f} s")
+    print(f"  numba engine: {t_big:.2f} s wall, {c_big:.2f} s process CPU "
+          f"(load average now {os.getloadavg()[0]:.2f})")
     print(f"  peak traced numpy memory: {peak / 2**20:.0f} MiB; process max RSS: {_maxrss_mb():.0f} MiB")
     h = res.entropy_bits
     print(f"  mean entropy (report grid) at steps 0,1,2,5,10,50: "
           f"{', '.join(f'{h[:, t].mean():.3f}' for t in (0, 1, 2, 5, 10, 50))}")
     print(f"  max mass drift: {res.mass_drift.max():.2e}")
+    del res, h
     sub = 2_000
-    t0 = time.perf_counter()
-    batch_entropy(model, seqs[:sub * 10], share_prefixes=False)
-    t_ind = (time.perf_counter() - t0) * s_count / (sub * 10)
-    t0 = time.perf_counter()
-    scipy_loop(model, seqs[:sub])
-    t_sc = (time.perf_counter() - t0) * s_count / sub
-    print(f"  for comparison (extrapolated from subsets): independent numba {t_ind:.1f} s, "
-          f"plain scipy loop {t_sc:.0f} s", flush=True)
+    _, t_ind, _ = timed(lambda: batch_entropy(model, seqs[:sub * 10], share_prefixes=False, image_blocks=False))
+    _, t_sc, _ = timed(lambda: scipy_loop(model, seqs[:sub]))
+    print(f"  for comparison (extrapolated from subsets): independent numba {t_ind * s_count / (sub * 10):.1f} s, "
+          f"plain scipy loop {t_sc * s_count / sub:.0f} s", flush=True)
 
 
 if __name__ == "__main__":

@@ -35,6 +35,8 @@ _TAB_C = 1.0 + (2.0 * np.arange(_TAB_N) + 1.0) / (2.0 * _TAB_N)
 _TAB_INVC = 1.0 / _TAB_C
 _TAB_LOG2C = np.log2(_TAB_C)
 _TINY = 2.2250738585072014e-308  # smallest normal float64
+#: images smaller than this are never kept dense (zeros included) for the gather blocks
+_MIN_BLOCK_IMAGE = 16
 
 
 @njit(cache=True, fastmath={"reassoc", "contract"})
@@ -604,6 +606,7 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
                 eo = blk_en_off[g]
                 ilo = img_ptr[a]
                 na = img_ptr[a + 1] - ilo
+                keep = na >= _MIN_BLOCK_IMAGE  # zeros kept: the list stays the image, in order
                 out = top
                 for jl in range(na):
                     acc = 0.0
@@ -611,9 +614,9 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
                         acc += pool_p[ds + blk_src[e]] * blk_val[e]
                     pool_idx[out] = img_idx[ilo + jl]
                     pool_p[out] = acc
-                    out += 1  # zeros kept: the list stays the image, in image order
+                    out += keep or acc > 0.0
                 length = out - top
-                full = 1
+                full = keep
             if length < 0 and dl == 1:
                 i = pool_idx[ds]
                 rlo = indptr[a, i]
@@ -662,14 +665,15 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
                         q[indices[rlo]] += rr
                 out = top
                 if dense:
+                    keep = use_blocks and ihi - ilo >= _MIN_BLOCK_IMAGE
                     for t in range(ilo, ihi):
                         j = img_idx[t]
                         v = q[j]
                         q[j] = 0.0
                         pool_idx[out] = j
                         pool_p[out] = v
-                        out += (v > 0.0) or use_blocks  # image-block mode keeps zeros
-                    full = out - top == ihi - ilo
+                        out += (v > 0.0) or keep  # image-block mode keeps zeros
+                    full = keep
                 else:
                     for t in range(top, top + mm):
                         j = pool_idx[t]
