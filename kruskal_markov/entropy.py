@@ -1,4 +1,22 @@
-"""Entropy of distributions and histograms (bits, plug-in Shannon estimate, 0 log 0 = 0)."""
+"""Entropy of distributions and histograms, and its evolution under action sequences.
+
+Bits, Shannon, 0 log 0 = 0. :func:`histogram_entropy_bits` / :func:`distribution_entropy_bits`
+for single histograms and vectors; :func:`entropy_trajectory` (one sequence: entropies on the
+report partition and on the states, the total mass, optionally the distributions) and
+:func:`batch_entropy` (S sequences x N steps, Numba-parallel) for the model.
+
+Numerics (see :mod:`kruskal_markov._entropy_kernels`): distributions are sparse support lists
+propagated with mass-conservative row splitting; no renormalisation, the total mass is tracked
+and returned (``mass``, ``mass_drift``); probabilities can never come out negative (products and
+sums of non-negative numbers; the one subtraction, a row's round-off correction, is clipped at
+0); entropies are clamped to their exact range ``[0, log2(#support)]``, which only removes
+round-off; subnormal probabilities count exactly.
+
+The batch engine exploits the structure of tilt sequences (Mannam et al.'s Kruskal effect):
+sequences that share their first actions share those distributions (a depth-first walk of the
+prefix trie), an oriented part is a point mass whose steps cost O(1), and when actions map into
+small images a distribution filling an image is advanced by a precomputed gather block.
+"""
 from __future__ import annotations
 
 import numpy as np
