@@ -133,3 +133,20 @@ def test_friction_map_changes_outcomes_but_stays_sane():
     r_m, s_m = simulate(scene_from_options("allen-key", "map:high:1"), poses, "NE")
     assert np.all(s_u == OK) and np.all(s_m == OK)
     assert not np.allclose(r_u, r_m, atol=1e-3)
+
+
+@pytest.mark.parametrize("spec", [f"triangle:{i}" for i in range(1, 16)] + ["rectangle:80x10"])
+def test_sequences_of_tilts_of_other_shapes_do_not_fault(spec):
+    """The paper's random triangles (sharp corners) and a slender rectangle through 4-tilt random
+    sequences, each tilt starting from the previous rest pose: no faults in 4 x 25 tilts."""
+    sc = scene_from_options(spec)
+    rng = np.random.default_rng(5)
+    poses = sample_start_poses(sc.shape, 200.0, 200.0, 25, rng)
+    with TraySimulator(sc) as sim:
+        for _ in range(4):
+            actions = rng.integers(0, 8, len(poses))
+            status = np.empty(len(poses), dtype=np.int8)
+            for a in range(8):
+                m = actions == a
+                poses[m], status[m] = sim.tilt(poses[m], a)
+            assert np.all(status == OK), fault_counts(status)

@@ -2,12 +2,12 @@
 
 A tilt = gravity ``g (sin a, 0, -cos a)`` in a world whose +x axis is the action's downhill
 direction (``a`` = tilt angle), stepped until the part is at rest (centroid speed below
-``rest_speed_mm_s`` and yaw rate below ``rest_angular_speed_rad_s`` for ``dwell_s``) or until
-``max_time_s`` (``UNSETTLED``); the speeds are mean speeds over each rest-test interval
-(``substeps`` steps), so a contact that jitters without moving the part still counts as rest. The tray is then levelled: the part stays where it came to rest, so
-the rest pose is read and mapped back to the tray frame. A faulted trial is never returned as a
-pose (NaN pose, status code from :mod:`transition_builder.status`). Sleeping is irrelevant: the part
-is a multibody whose joints are reset before every trial.
+``rest_speed_mm_s`` and yaw rate below ``rest_angular_speed_rad_s`` for ``dwell_s``; speeds are
+mean speeds over each rest-test interval of ``substeps`` steps, so a contact that jitters
+without moving the part counts as rest) or until ``max_time_s`` (``UNSETTLED``). The tray is then
+levelled: the part stays where it came to rest, so the rest pose is read and mapped back to the
+tray frame. A faulted trial is never returned as a pose (NaN pose, status code from
+:mod:`transition_builder.status`). Sleeping is disabled and every joint is reset before a trial.
 
 How the mechanics are made right
 --------------------------------
@@ -15,7 +15,7 @@ Measured with a naive set-up first (a free body, or a joint chain on a box floor
 tray, gravity rotated toward the action), as in PHYSICS_NOTES.md: a 40 x 40 x 5 mm plate with
 mu = 0.3 on a 30 degree tilt slid 9-17% too far with 100-230 degrees of spurious rotation in a
 naive x/y/z/yaw joint chain (Bullet's box-box manifold put all the weight on one corner, whose
-friction then spun the part), and free bodies tip and jump walls. Five decisions fix it:
+friction then spun the part), and free bodies tip and jump walls. Six decisions fix it:
 
 1. **Planar by construction.** The part is a fixed-base multibody chain: prismatic x, prismatic
    y, prismatic z, revolute yaw (the part's mass and exact z inertia about its centroid), with the
@@ -27,11 +27,11 @@ friction then spun the part), and free bodies tip and jump walls. Five decisions
    farther than the contact threshold, so it only ever touches the walls; the weight rests on one
    small sphere under the centroid (a sphere-box contact is a single exact point with a vertical
    normal). Its lateral friction gives ``mu N`` opposite the centroid's velocity; its spinning
-   friction, set to the part's friction radius ``(1/A) int |r| dA`` (Bullet combines spinning
-   friction as ``spin_A * lateral_B + spin_B * lateral_A``, so the floor's spinning friction must
-   stay 0), gives the friction torque of uniform pressure for spinning in place. The friction of a
-   contact is the product of both bodies' values: the part has lateral friction 1 and every floor
-   tile its own ``mu``, so a contact's coefficient is the tile's.
+   friction, set to the part's friction radius ``(1/A) int |r| dA``, gives the friction torque of
+   uniform pressure for spinning in place. Bullet combines spinning friction as
+   ``spin_A * lateral_B + spin_B * lateral_A`` (setting the floor's spinning friction too froze
+   every rotation), and lateral friction as the product: the part has lateral friction 1 and every
+   floor tile its own ``mu``, so a contact's coefficients are the tile's.
 3. **Downhill along world +x.** Each action has its own world in which the tray is rotated about
    its centre so that the downhill direction is +x (Bullet's friction is otherwise anisotropic
    for off-axis sliding, PHYSICS_NOTES.md). Poses are mapped in and out exactly.
@@ -39,29 +39,31 @@ friction then spun the part), and free bodies tip and jump walls. Five decisions
    world units; in a metre world that is 1 mm (a part rested 0.97 mm off the wall and its outline
    was inflated by 1 mm). The world is built at 100 units per metre, where the margin is 0.01 mm,
    and the convex parts are inset by it: rest poses touch the wall within 0.001 mm.
-5. **Enough solver iterations and no stale contacts.** 100 iterations (Bullet stops early once
-   converged, so the cost is small: at 10 iterations 3% of tilts crept along a wall at about
-   1 mm/s and never settled). Before every trial the part is moved 1 m away and collision
-   detection is run, which drops cached contacts and their warm-start impulses, so a trial's
-   outcome does not depend on the trial before it (bit-identical in any batch order and across
-   processes).
+5. **Enough solver iterations, a tight contact threshold.** 100 iterations (Bullet stops early
+   once converged, so the cost is small: at 10 iterations 3% of tilts crept along a wall at about
+   1 mm/s and never settled). Contact threshold 2 mm instead of 8: stale wall contacts made sharp
+   triangle corners jitter and creep along a wall (4% of second tilts of ``triangle:1``).
+6. **No memory between trials.** Before every trial the part is moved 1 m away and collision
+   detection is run, which drops cached contacts and their warm-start impulses: a trial's outcome
+   does not depend on the trial before it (bit-identical in any batch order and across processes).
 
-Measured (``tests/test_sim_mechanics.py``; pybullet 3.2.7, 1/240 s steps):
+Measured (``tests/test_sim_mechanics.py``, ``tests/test_sim_faults.py``; pybullet 3.2.7, 1/240 s):
 
 - free slide, 40 x 40 mm block, mu = 0.3, each of the 8 directions x yaws 0, 30, 45 deg: the
-  acceleration fitted to distance vs time over 0.3 s is within 0.02% of g (sin a - mu cos a)
-  (identical in all 24 cases), sideways drift < 0.01 mm over 107 mm, no rotation; mu = 0.7 >
+  acceleration fitted to distance vs time over 0.3 s is within 0.03% of g (sin a - mu cos a)
+  (the same in all 24 cases), sideways drift < 0.01 mm over 107 mm, no rotation; mu = 0.7 >
   tan 30 deg: no motion (< 1e-3 mm);
-- a slender 80 x 10 mm rectangle (mu = 0.1) tilted into a wall from 8 yaws rests flush within 0.02
-  deg. At mu = 0.3 a part that meets a wall nearly end-on can rest on a corner: the gravity
-  torque toward flush is then smaller than the floor-friction torque - true Coulomb behaviour;
-- rotating pose and action by 90 degrees: rest poses agree within 0.3 mm / 0.4 deg (worst of 192
-  tilts), 95% within 0.05 mm / 0.05 deg (each direction has its own rotated world, so round-off
-  differs and a few chaotic trials amplify it);
-- faults: none in 20,000 random allen-key tilts (``tests/test_sim_faults.py``);
-- against a 1/480 s reference, 91% of random allen-key tilts rest within 1 mm and 1 degree of the
-  reference pose (median 0.06 mm); the rest are different resting configurations reached from a
-  near-critical start (chaotic sensitivity, not drift).
+- a slender 80 x 10 mm rectangle (mu = 0.1) tilted into a wall from 8 yaws rests flush within 0.03
+  deg, touching the wall. At mu = 0.3 a part that meets a wall nearly end-on can rest on a corner:
+  the gravity torque toward flush is then smaller than the floor-friction torque - true Coulomb
+  behaviour, not an engine artefact;
+- rotating pose and action by 90 degrees: rest poses agree within 0.51 mm / 0.68 deg (worst of 400
+  allen-key tilts), median 1e-5 mm (each direction has its own rotated world, so round-off
+  differs and a few near-critical trials amplify it);
+- faults: FAULTS_20K;
+- against a 1/480 s reference, 93% of random allen-key tilts rest within 1 mm and 1 degree of the
+  reference pose (median 0.05 mm); the rest reach a different resting configuration from a
+  near-critical start (sensitivity, not drift). Contact thresholds 2, 4 and 8 mm agree equally.
 
 Known limitation: with a single contact the friction force and torque are limited independently
 (a "box" limit surface), which over-resists rotation about a far point (a part pivoting on a
