@@ -6,7 +6,7 @@ Randomness never originates here: letters are drawn in Python and passed in.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 _ONE = np.uint64(1)
 _ZERO = np.uint64(0)
@@ -173,7 +173,7 @@ def pair_images(delta, pairs, local):
     first = np.empty(n + 1, dtype=np.int64)
     for p in range(n + 1):
         first[p] = p * n - (p * (p + 1)) // 2
-    out = np.empty((pairs.shape[0], k), dtype=np.int64)
+    out = np.empty((pairs.shape[0], k), dtype=np.int32)
     for i in range(pairs.shape[0]):
         idx = pairs[i]
         p = np.searchsorted(first, idx, side="right") - 1
@@ -285,3 +285,20 @@ def start_pair_stats(delta, start_pairs, local, w, h, v1):
         if e > best:
             best = e
     return best
+
+
+@njit(cache=True, parallel=True)
+def pair_survival_step(img, w, u, out, v1):
+    """``out = Q u`` (gather form: ``out[i] = sum_a w_a u[image of i under a]``, merged = 0);
+    returns ``v1 . out``. Independent outputs, so ``prange`` is safe."""
+    R, k = img.shape
+    tot = 0.0
+    for i in prange(R):
+        s = 0.0
+        for a in range(k):
+            j = img[i, a]
+            if j >= 0:
+                s += w[a] * u[j]
+        out[i] = s
+        tot += v1[i] * s
+    return tot

@@ -214,26 +214,32 @@ def pair_chain_bounds(aut: SyncAutomaton, start=None, weights=None, max_iteratio
         if R <= 30_000:
             h = spla.spsolve(A.tocsc(), np.ones(R))
         else:
-            h, info = spla.gmres(A, np.ones(R), rtol=1e-12, restart=200, maxiter=200)
+            h, info = spla.bicgstab(A, np.ones(R), rtol=1e-12, maxiter=20_000)
             if info != 0:
-                h, info = spla.bicgstab(A, np.ones(R), x0=h, rtol=1e-12, maxiter=5000)
+                h, info = spla.gmres(A, np.ones(R), x0=h, rtol=1e-12, restart=50, maxiter=100)
         h = np.asarray(h, dtype=np.float64)
         tmp = np.empty(R)
         _ck.pair_value_step(img, w_use, h, tmp)
         residual = float(np.max(np.abs(tmp - h))) if R else 0.0
     v = np.zeros(R)
     lower = _ck.start_pair_stats(d_use, start_pairs, local, w_use, h, v)
-    # upper bound: sum_{t < t0} min(1, m_t) + v_{t0} . h
-    upper_head = min(1.0, float(start_pairs.size))    # t = 0
+    # upper bound: sum_{t < T} min(1, m_t) + sum_{t >= T} m_t, with m_0 = #start pairs,
+    # m_t = v_1 . u_{t-1} (u_s = Q^s 1 = survival probabilities of the pairs) and
+    # sum_{t >= T} m_t = v_1 . h - sum_{t=1}^{T-1} m_t   (h = sum_s u_s)
+    vh = float(v @ h)
+    head = min(1.0, float(start_pairs.size))           # t = 0
+    m = float(v.sum())                                  # m_1 = v_1 . u_0
+    seen = 0.0                                          # sum_{t=1}^{T-1} m_t
     t = 1
-    m = float(v.sum())
+    u = np.ones(R)
     nxt = np.empty(R)
     while m >= 1.0 and t < max_iterations and time.perf_counter() - t0 < time_budget:
-        upper_head += 1.0
-        m = _ck.pair_mass_step(img, w_use, v, nxt)
-        v, nxt = nxt, v
+        head += 1.0                                     # min(1, m_t) with m_t >= 1
+        seen += m
+        m = _ck.pair_survival_step(img, w_use, u, nxt, v)   # m_{t+1} = v_1 . u_t
+        u, nxt = nxt, u
         t += 1
-    upper = upper_head + float(v @ h)
+    upper = head + max(0.0, vh - seen)
     return {"lower": float(lower), "upper": float(upper), "pairs": int(R), "memory_mb": float(mem),
             "iterations": int(t), "residual": residual}
 

@@ -374,6 +374,24 @@ class _Store:
         return self.rows.nbytes + self.parent.nbytes + self.letter.nbytes + self.table.nbytes
 
 
+_BACKWARD_WEIGHT = 1.0
+_BLOCK = 1 << 16
+
+
+def _growth(store, k):
+    if len(store.levels) < 2:
+        return float(k)
+    (a, b), (c, d) = store.levels[-2], store.levels[-1]
+    return (d - c) / max(1, b - a)
+
+
+def _choose_forward(fwd, bwd, k):
+    """Which side to expand: the smaller newest level (an inverse step costs ~ n per set, so the
+    backward level counts ``_BACKWARD_WEIGHT`` times)."""
+    (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
+    return (fhi - flo) <= _BACKWARD_WEIGHT * (bhi - blo)
+
+
 def _pow2(x):
     return 1 << max(4, int(x - 1).bit_length())
 
@@ -395,7 +413,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
         singletons.append(b)
     bwd.add_roots(singletons)
     total = 0
-    block = 1 << 16
+    block = _BLOCK
     rate_row = 2e-7            # seconds per generated row (updated from measurements)
     rate_pair = 5e-11          # seconds per (forward set x backward set) pair in the meet test
     while True:
@@ -411,9 +429,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
             word = u[::-1] + v
             return word, "found", fwd.count + bwd.count, total
         # expand the side with the smaller newest level (inverse steps cost ~ n per set)
-        fsize = fhi - flo
-        bsize = (bhi - blo) * 2
-        forward = fsize <= bsize
+        forward = _choose_forward(fwd, bwd, aut.k)
         store = fwd if forward else bwd
         # predicted cost of the next level (expansion + meet test); stop before the budget is blown
         lo, hi = store.levels[-1]
