@@ -104,6 +104,7 @@ def test_ensemble_cli(capsys, cerny4):
             assert len(cur) == 1
             break
     assert all(q25 <= m + 1e-12 or q75 >= m - 1e-12 for m, q25, q75 in zip(res["mean"], res["q25"], res["q75"]))
+    assert res["zero_entropy_excluded"] is False and "one closed class" in res["structure"]
     again = run_json(capsys, ["ensemble", "--automaton", str(cerny4), "--count", "500", "--length", "20",
                               "--seed", "3"])[1]
     assert again["mean"] == res["mean"] and again["best_sequence"] == res["best_sequence"]
@@ -179,3 +180,11 @@ def test_real_binary_exit_code(tmp_path, cerny4):
                            "--sequence", "b,a", "--json"], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0
     assert set(json.loads(proc.stdout)) >= {"entropy_bits", "entropy_bits_model", "seconds"}
+
+
+def test_ensemble_cli_reports_closed_classes(capsys, tmp_path):
+    path = tmp_path / "two.json"
+    path.write_text(json.dumps({"states": 4, "actions": {"a": [0, 0, 3, 3], "b": [0, 2, 1, 3]}}))
+    rc, res, _ = run_json(capsys, ["ensemble", "--automaton", str(path), "--count", "100", "--length", "8"])
+    assert rc == 0 and res["converged"] == 0
+    assert res["zero_entropy_excluded"] is True and "cannot reach zero" in res["structure"]

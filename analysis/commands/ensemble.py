@@ -51,6 +51,9 @@ def run(args: argparse.Namespace) -> dict:
     res = run_ensemble(model, args.count, args.length, seed=args.seed, epsilon=args.epsilon,
                        weights=weights, threads=args.threads)
     steps = [None if s < 0 else int(s) for s in res.convergence_steps.tolist()]
+    from kruskal_markov.structure import analyze_structure
+
+    structure = analyze_structure(model)
     return {
         "mean": res.mean.tolist(),
         "q25": res.q25.tolist(),
@@ -66,6 +69,9 @@ def run(args: argparse.Namespace) -> dict:
         "seed": args.seed,
         "epsilon": res.epsilon,
         "max_mass_drift": res.max_mass_drift,
+        "zero_entropy_excluded": (structure.zero_cell_entropy_excluded if model.partition is not None
+                                  else structure.zero_entropy_excluded),
+        "structure": structure.message,
     }
 
 
@@ -78,5 +84,6 @@ def format_text(result: dict) -> str:
         lines.append(f"{t:4d}  {m:8.4f}  {a:8.4f}  {b:8.4f}")
     lines.append(f"converged (entropy <= {result['epsilon']:g}): {result['converged']} of {result['count']}")
     lines.append(f"best sequence: {','.join(result['best_sequence'])}")
+    lines.append(f"structure: {result['structure']}")
     lines.append(f"seconds: {result['seconds']:.2f}")
     return "\n".join(lines)
