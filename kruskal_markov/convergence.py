@@ -121,12 +121,14 @@ def _popcount_row(row):
 
 # ----------------------------------------------------------------------------- Monte Carlo
 def monte_carlo_sync_length(aut: SyncAutomaton, start=None, weights=None, runs: int = 2000, seed=0,
-                            max_steps: int = 100_000, chunk: int = 64):
+                            max_steps: int = 100_000, chunk: int = 64, time_budget: float = 60.0):
     """Monte Carlo estimate of ``E[T]`` over ``runs`` random words (seeded).
 
     Returns ``dict(mean, ci95, runs, censored, std)``; runs that are not synchronized after
-    ``max_steps`` letters are censored (the mean then only counts finished runs and is flagged).
+    ``max_steps`` letters (or still running after ``time_budget`` seconds) are censored (the mean
+    then only counts finished runs and ``censored`` says how many were left out).
     """
+    t0 = time.perf_counter()
     if runs < 2:
         raise ValueError("Monte Carlo needs at least 2 runs")
     s = _as_start(aut, start)
@@ -137,8 +139,10 @@ def monte_carlo_sync_length(aut: SyncAutomaton, start=None, weights=None, runs: 
     done = np.zeros(runs, dtype=bool)
     if s.size == 1:
         done[:] = True
-    while not np.all(done) and steps[~done].max(initial=0) < max_steps:
+    while (not np.all(done) and steps[~done].max(initial=0) < max_steps
+           and time.perf_counter() - t0 < time_budget):
         active = np.flatnonzero(~done)
+        chunk = min(chunk, max_steps - int(steps[active].max()))
         letters = rng.choice(aut.k, size=(active.size, chunk), p=w).astype(np.int64)
         sub_cur = cur[active]
         sub_steps = steps[active]
@@ -263,7 +267,7 @@ def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
 # ----------------------------------------------------------------------------- all together
 def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, runs: int = 2000,
                          max_subsets: int = 200_000, max_steps: int = 100_000,
-                         pair_time_budget: float = 45.0) -> dict:
+                         pair_time_budget: float = 45.0, mc_time_budget: float = 60.0) -> dict:
     """``E[T]`` by every method: keys ``exact``, ``monte_carlo``, ``ci95``, ``pair_lower``,
     ``pair_upper`` (None where unavailable or infinite; ``infinite`` True when ``E[T] = inf``)
     plus diagnostics."""
@@ -284,7 +288,8 @@ def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, r
     if infinite:
         mc = {"mean": None, "ci95": [None, None], "runs": 0, "censored": 0}
     else:
-        mc = monte_carlo_sync_length(aut, start, weights, runs=runs, seed=seed, max_steps=max_steps)
+        mc = monte_carlo_sync_length(aut, start, weights, runs=runs, seed=seed, max_steps=max_steps,
+                                     time_budget=mc_time_budget)
     out["monte_carlo"] = mc["mean"]
     out["ci95"] = mc["ci95"]
     out["mc_runs"] = mc["runs"]

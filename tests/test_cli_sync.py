@@ -77,3 +77,57 @@ def test_cli_bad_input(capsys, cerny5, tmp_path):
     assert main(["sync", "--automaton", str(cerny5), "--threshold", "2"]) == 2
     capsys.readouterr()
     assert main(["sync"]) == 2
+
+
+def _tray_like_model(seed, n=24, k=4):
+    """A small stochastic 'tray' model: each action pushes every state into a few wall states,
+    mostly deterministically, sometimes splitting between two of them."""
+    import scipy.sparse as sp
+
+    from kruskal_markov.model import TransitionModel
+
+    rng = np.random.default_rng(seed)
+    mats = []
+    for _ in range(k):
+        walls = rng.choice(n, size=n // 4, replace=False)
+        rows, cols, vals = [], [], []
+        for q in range(n):
+            if rng.random() < 0.2:
+                c = rng.choice(walls, size=2, replace=False)
+                rows += [q, q]
+                cols += list(c)
+                vals += [0.7, 0.3]
+            else:
+                rows.append(q)
+                cols.append(int(rng.choice(walls)))
+                vals.append(1.0)
+        mats.append(sp.csr_matrix((vals, (rows, cols)), shape=(n, n)))
+    initial = np.zeros(n)
+    initial[rng.choice(n, size=n // 2, replace=False)] = 1.0
+    return TransitionModel(["N", "E", "S", "W"][:k], mats, initial=initial / initial.sum(),
+                           partition=np.arange(n) % 6, n_cells=6)
+
+
+def test_model_path_sync_and_convergence(capsys, tmp_path):
+    from kruskal_markov.sync import support_automaton
+
+    model = _tray_like_model(3)
+    path = tmp_path / "tray.npz"
+    model.save(path)
+    rc, res, _ = run_json(capsys, ["sync", "--model", str(path)])
+    assert rc == 0 and res["start_states"] == 12 and res["deterministic"] is False
+    aut = support_automaton(model)
+    start = np.flatnonzero(model.initial > 0)
+    if res["word"] is not None:
+        # every state of the initial support ends in the same single state (union of supports)
+        assert len(aut.image(start, [model.actions.index(a) for a in res["word"]])) == 1
+    else:
+        assert res["witness"] or res["exact"] is False
+    # a threshold keeps only the 0.7 branches: drops mass 0.3 and makes the automaton deterministic
+    rc, thr, _ = run_json(capsys, ["sync", "--model", str(path), "--threshold", "0.5"])
+    assert rc == 0 and thr["mass_dropped"] == pytest.approx(0.3) and thr["deterministic"] is True
+    rc, eps, _ = run_json(capsys, ["sync", "--model", str(path), "--epsilon", "0.5"])
+    assert rc == 0 and "word" in eps and "exact" in eps
+    rc, conv, _ = run_json(capsys, ["convergence", "--model", str(path), "--runs", "200", "--epsilon", "0.5",
+                                    "--mc-time-budget", "20"])
+    assert rc == 0 and "entropy_tilts" in conv and "expected_length" in conv

@@ -31,6 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="exact answer only if at most this many subsets are reachable (default 200000)")
     parser.add_argument("--pair-time-budget", type=float, default=45.0, metavar="S",
                         help="seconds for the pair-chain upper bound iteration (default 45)")
+    parser.add_argument("--mc-time-budget", type=float, default=60.0, metavar="S",
+                        help="seconds for the Monte Carlo runs; runs still going are censored (default 60)")
     parser.add_argument("--epsilon", type=float, default=None,
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
 
@@ -64,6 +66,8 @@ def run(args: argparse.Namespace) -> dict:
 
     if args.runs < 2:
         raise InputError("--runs must be >= 2")
+    if args.pair_time_budget <= 0 or args.mc_time_budget <= 0:
+        raise InputError("--pair-time-budget and --mc-time-budget must be positive")
     if args.max_steps < 1 or args.max_subsets < 1:
         raise InputError("--max-steps and --max-subsets must be >= 1")
     if not 0.0 <= args.threshold <= 1.0:
@@ -78,7 +82,7 @@ def run(args: argparse.Namespace) -> dict:
     start = start_set(model, whole)
     res = expected_sync_length(aut, start, w, seed=args.seed, runs=args.runs,
                                max_subsets=args.max_subsets, max_steps=args.max_steps,
-                               pair_time_budget=args.pair_time_budget)
+                               pair_time_budget=args.pair_time_budget, mc_time_budget=args.mc_time_budget)
     keys = ("exact", "monte_carlo", "ci95", "pair_lower", "pair_upper")
     out = {"expected_length": {k: res[k] for k in keys}}
     out.update({k: v for k, v in res.items() if k not in keys})
