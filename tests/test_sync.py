@@ -123,30 +123,74 @@ def test_random_small_automata_match_brute_force():
     assert checked_none > 10
 
 
-@pytest.mark.parametrize("k", [2, 8])
-def test_medium_random_automata_match_plain_bfs(k):
+def brute_bitmask(table, start=None):
+    """Plain BFS with subsets as Python ints; images via per-letter, per-byte lookup tables."""
+    table = np.asarray(table)
+    k, n = table.shape
+    nb = (n + 7) // 8
+    tabs = [[[0] * 256 for _ in range(nb)] for _ in range(k)]
+    for a in range(k):
+        for b in range(nb):
+            t = tabs[a][b]
+            for v in range(1, 256):
+                low = v & -v
+                q = b * 8 + low.bit_length() - 1
+                t[v] = t[v ^ low] | ((1 << int(table[a][q])) if q < n else 0)
+    s = sum(1 << int(q) for q in (range(n) if start is None else start))
+    if s & (s - 1) == 0:
+        return 0
+    seen = {s}
+    queue = deque([(s, 0)])
+    while queue:
+        x, d = queue.popleft()
+        for a in range(k):
+            ta, y, b, xx = tabs[a], 0, 0, x
+            while xx:
+                y |= ta[b][xx & 255]
+                xx >>= 8
+                b += 1
+            if y & (y - 1) == 0:
+                return d + 1
+            if y not in seen:
+                seen.add(y)
+                queue.append((y, d + 1))
+    return None
+
+
+def test_bitmask_brute_agrees_with_frozenset_brute():
+    rng = np.random.default_rng(2)
+    for _ in range(50):
+        n = int(rng.integers(1, 12))
+        table = random_table(rng, n, int(rng.integers(1, 4)))
+        assert brute_bitmask(table) == brute_det(table)
+
+
+@pytest.mark.parametrize("k,sizes", [(2, list(range(20, 61, 2))), (8, [20, 22, 24, 26, 28, 30, 20, 24, 28, 32])])
+def test_medium_random_automata_match_plain_bfs(k, sizes):
     rng = np.random.default_rng(7 + k)
-    sizes = [20, 24, 28, 32, 40] if k == 2 else [20, 22, 24, 26, 30]
     for n in sizes:
         table = random_table(rng, n, k)
-        res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
+        start = None
+        if rng.random() < 0.25:
+            start = rng.choice(n, size=n // 2, replace=False)
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table), start)
         assert res.exact is True
-        assert res.length == brute_det(table)
+        assert res.length == brute_bitmask(table, start)
         if res.word is not None:
-            assert len(plain_image(table, range(n), res.word)) == 1
+            assert len(plain_image(table, range(n) if start is None else start, res.word)) == 1
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("k", [2, 8])
 def test_larger_random_automata_match_plain_bfs(k):
     rng = np.random.default_rng(100 + k)
-    sizes = [44, 50, 60] if k == 2 else [34, 40]
+    sizes = [60, 64, 70, 80] if k == 2 else [36, 40, 50]
     for n in sizes:
         for _ in range(2):
             table = random_table(rng, n, k)
             res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
             assert res.exact is True
-            assert res.length == brute_det(table)
+            assert res.length == brute_bitmask(table)
 
 
 def test_structured_slowly_synchronizing_match_brute():
