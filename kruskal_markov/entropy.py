@@ -19,7 +19,13 @@ small images a distribution filling an image is advanced by a precomputed gather
 """
 from __future__ import annotations
 
+import dataclasses
+
+import numba
 import numpy as np
+
+from kruskal_markov import _entropy_kernels as _k
+from kruskal_markov.model import ModelError, TransitionModel
 
 
 def histogram_entropy_bits(counts) -> float:
@@ -43,13 +49,6 @@ def histogram_entropy_bits(counts) -> float:
 # --------------------------------------------------------------------------------------------
 # Entropy evolution under action sequences (the engine; kernels in _entropy_kernels.py)
 # --------------------------------------------------------------------------------------------
-import dataclasses  # noqa: E402
-
-import numba  # noqa: E402
-
-from kruskal_markov import _entropy_kernels as _k  # noqa: E402
-from kruskal_markov.model import ModelError, TransitionModel  # noqa: E402
-
 __all__ = ["histogram_entropy_bits", "distribution_entropy_bits", "partition_entropy_bits",
            "EntropyTrajectory", "BatchEntropy", "entropy_trajectory", "propagate", "batch_entropy",
            "as_sequence", "as_sequences"]
