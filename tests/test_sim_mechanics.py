@@ -54,7 +54,7 @@ def test_free_slide_acceleration_and_drift(block_sim, action, yaw_deg):
     assert np.max(np.abs(z)) < 0.1                           # stays on the floor (mm)
 
 
-@pytest.mark.parametrize("action", ["N", "NE", "E", "SW"])
+@pytest.mark.parametrize("action", ACTIONS)
 @pytest.mark.parametrize("yaw_deg", [0.0, 30.0, 45.0])
 def test_no_slide_above_friction_angle(action, yaw_deg):
     """mu = 0.7 > tan 30 deg = 0.577: the block does not move."""
@@ -157,3 +157,42 @@ def test_distributed_support_mode_slides_right(action, yaw_deg):
         assert np.max(np.abs(side)) < 0.02 * along[-1]
         rest, status = sim.tilt([[100.0, 100.0, math.radians(yaw_deg)]], action)
         assert status[0] == OK
+
+
+@pytest.mark.parametrize("mu", [0.05, 0.2, 0.45])
+def test_slide_acceleration_follows_the_floor_coefficient(mu):
+    """The floor's coefficient is the contact's (the part's lateral friction is 1 and Bullet
+    multiplies the two): acceleration g (sin a - mu cos a) within 3% for several mu."""
+    with TraySimulator(scene_from_options("rectangle:30x30", mu)) as sim:
+        t, poses, _ = sim.trajectory([60.0, 60.0, 0.4], "NE", 0.25)
+        along = (poses[:, :2] - poses[0, :2]) @ np.array([1.0, 1.0]) / math.sqrt(2.0)
+        acc = np.linalg.lstsq(np.column_stack([np.ones_like(t), t, 0.5 * t * t]), along, rcond=None)[0][2]
+        expected = G * (math.sin(TILT) - mu * math.cos(TILT)) * 1000.0
+        assert abs(acc / expected - 1.0) < 0.03
+
+
+def test_friction_map_tile_sets_the_local_coefficient():
+    """On a friction map the part feels the coefficient of the tile under it: a small block sliding
+    east along one row of tiles follows the 1-D motion x'' = g (sin a - mu(x) cos a), integrated
+    finely from the map, within 2% of the distance travelled and without sideways drift."""
+    from transition_builder.friction import friction_map
+    sc = scene_from_options("rectangle:10x10", "map:high:2")
+    mu, tile = friction_map(sc.friction, 200.0, 200.0)
+    with TraySimulator(sc) as sim:
+        t, poses, _ = sim.trajectory([15.0, 105.0, 0.0], "E", 0.35)
+    x, v, dt = 15.0, 0.0, 1e-5
+    ts, xs = [0.0], [x]
+    for k in range(int(round(0.35 / dt))):
+        acc = G * (math.sin(TILT) - mu[min(int(x // tile), mu.shape[0] - 1), 10] * math.cos(TILT)) * 1000.0
+        v = max(v + acc * dt, 0.0)
+        x += v * dt
+        ts.append((k + 1) * dt)
+        xs.append(x)
+    expected = np.interp(t, ts, xs)
+    travelled = expected[-1] - expected[0]
+    assert travelled > 100.0
+    assert np.max(np.abs(poses[:, 0] - expected)) < 0.02 * travelled
+    assert np.max(np.abs(poses[:, 1] - 105.0)) < 0.01
+    # the uniform floor at the map's mean gives a clearly different path (the map matters)
+    uniform = 15.0 + 0.5 * G * (math.sin(TILT) - 0.3 * math.cos(TILT)) * 1000.0 * t ** 2
+    assert np.max(np.abs(poses[:, 0] - uniform)) > 0.05 * travelled

@@ -18,7 +18,7 @@ import numpy as np
 import pybullet as pb
 from matplotlib.path import Path
 
-from transition_builder.friction import friction_map
+from transition_builder.friction import friction_map, parse_friction
 
 G = 9.81
 #: PyBullet's collision margin of a convex hull made from vertices, in world units.
@@ -132,8 +132,12 @@ class BulletWorld:
     def _build(self, scene, st, cid):
         a = math.radians(scene.tilt_deg)
         pb.resetSimulation(physicsClientId=cid)
+        # with a friction map the support's coefficient is updated before every step, so Python
+        # steps one physics step at a time; otherwise one call runs ``substeps`` steps
+        self.substeps = st.substeps
+        n_sub = 1 if parse_friction(scene.friction).kind == "map" else st.substeps
         pb.setPhysicsEngineParameter(
-            fixedTimeStep=st.time_step_s * st.substeps, numSubSteps=st.substeps,
+            fixedTimeStep=st.time_step_s * n_sub, numSubSteps=n_sub,
             numSolverIterations=st.solver_iterations, deterministicOverlappingPairs=1,
             contactBreakingThreshold=st.contact_threshold_mm * self.mm, physicsClientId=cid)
         g = G * st.world_units_per_m
@@ -143,28 +147,23 @@ class BulletWorld:
         W, H = scene.tray_x_mm, scene.tray_y_mm
         T, WH = scene.wall_thickness_mm, scene.wall_height_mm
 
-        # floor tiles
+        # the floor: one slab (no seams) of lateral friction 1. The floor coefficient is carried by
+        # the part's support contact(s), and Bullet multiplies the two. A friction map is applied
+        # by updating the support's coefficient to the map value under it before every step
+        # (separate tile bodies made the support sphere catch on the tile seams: Bullet's
+        # speculative contacts with the next tile's edge braked a 10 x 10 mm block by up to 57 mm
+        # over 0.35 s on map:high:2).
         mu, tile = friction_map(scene.friction, W, H)
-        self.tiles = []
-        nx, ny = mu.shape
-        if nx == 1 and ny == 1:
-            boxes = [((W / 2, H / 2), ((W + 2 * T) / 2, (H + 2 * T) / 2), mu[0, 0])]
-        else:
-            boxes = []
-            for i in range(nx):
-                x0, x1 = i * tile, min((i + 1) * tile, W)
-                for j in range(ny):
-                    y0, y1 = j * tile, min((j + 1) * tile, H)
-                    boxes.append((((x0 + x1) / 2, (y0 + y1) / 2), ((x1 - x0) / 2, (y1 - y0) / 2), mu[i, j]))
-        for (cx, cy), (hx, hy), m in boxes:
-            cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[hx * self.mm, hy * self.mm, _FLOOR_T_MM * self.mm / 2],
-                                         physicsClientId=cid)
-            wx, wy = self._world_xy((cx, cy))
-            b = pb.createMultiBody(0, cs, basePosition=[wx, wy, -_FLOOR_T_MM * self.mm / 2], baseOrientation=q_tray,
-                                   physicsClientId=cid)
-            pb.changeDynamics(b, -1, lateralFriction=float(m), spinningFriction=0.0, rollingFriction=0.0,
-                              restitution=0.0, physicsClientId=cid)
-            self.tiles.append(b)
+        self.mu_grid = mu
+        self.tile_mm = tile
+        self.has_map = mu.size > 1
+        cs = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[(W / 2 + T) * self.mm, (H / 2 + T) * self.mm,
+                                                               _FLOOR_T_MM * self.mm / 2], physicsClientId=cid)
+        wx, wy = self._world_xy((W / 2, H / 2))
+        self.floor = pb.createMultiBody(0, cs, basePosition=[wx, wy, -_FLOOR_T_MM * self.mm / 2],
+                                        baseOrientation=q_tray, physicsClientId=cid)
+        pb.changeDynamics(self.floor, -1, lateralFriction=1.0, spinningFriction=0.0, rollingFriction=0.0,
+                          restitution=0.0, physicsClientId=cid)
 
         # walls (east, west, north, south), full outer length so corners are closed
         wall_mu = scene.effective_wall_mu
@@ -209,10 +208,11 @@ class BulletWorld:
             yaw_I = max(I - float(np.sum(leg_m * np.sum(leg_xy ** 2, axis=1))), tiny)
             n_sup = len(pts)
         else:
-            leg_m, leg_xy, yaw_m, yaw_I, n_sup = np.array([eps]), np.zeros((1, 2)), m, I, 1
+            # the sphere is the hinge link's own collision shape (one link fewer to step)
+            leg_m, leg_xy, yaw_m, yaw_I, n_sup = np.zeros(0), np.zeros((0, 2)), m, I, 0
         n = 4 + n_parts + n_sup
         masses = [eps, eps, eps, yaw_m] + [eps] * n_parts + [float(v) for v in leg_m]
-        shapes = [-1, -1, -1, -1] + part_shapes + [sph] * n_sup
+        shapes = [-1, -1, -1, -1 if legs else sph] + part_shapes + [sph] * n_sup
         parents = [0, 1, 2, 3] + [4] * (n_parts + n_sup)      # parent = link index + 1 (0 = base)
         types = ([pb.JOINT_PRISMATIC, pb.JOINT_PRISMATIC, pb.JOINT_FIXED if legs else pb.JOINT_PRISMATIC,
                   pb.JOINT_REVOLUTE] + [pb.JOINT_FIXED] * n_parts
@@ -228,7 +228,7 @@ class BulletWorld:
             useMaximalCoordinates=False, physicsClientId=cid)
         self.n_links = n
         self.legs = legs
-        self.support_links = list(range(4 + n_parts, n))
+        self.support_links = list(range(4 + n_parts, n)) if legs else [J_YAW]
         pb.changeDynamics(ob, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
         for j in range(n):
             pb.setJointMotorControl2(ob, j, pb.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0,
@@ -242,13 +242,17 @@ class BulletWorld:
             raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
                                f"expected {BULLET_HULL_MARGIN_UNITS}")
         pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
-        self.sphere_link = n - 1
-        if not legs:
-            # a single contact under the centroid: its spinning friction gives the friction torque
-            # of uniform pressure for spinning in place (Bullet combines spinning friction as
-            # spin_A * lateral_B + spin_B * lateral_A, so the floor's spinning friction stays 0)
-            pb.changeDynamics(ob, n - 1, spinningFriction=friction_radius_mm(shape) * self.mm,
-                              physicsClientId=cid)
+        # a single contact under the centroid: its spinning friction gives the friction torque of
+        # uniform pressure for spinning in place (Bullet combines spinning friction as
+        # spin_A * lateral_B + spin_B * lateral_A; the floor's spinning friction stays 0)
+        self.spin_radius = 0.0 if legs else friction_radius_mm(shape) * self.mm
+        self.leg_offsets = [(float(x), float(y)) for x, y in leg_xy] if legs else [(0.0, 0.0)]
+        self._mu_now = [None] * len(self.support_links)
+        for k in range(len(self.support_links)):
+            self._set_support_mu(k, float(mu.flat[0]))
+        c, sn = math.cos(self.phi), math.sin(self.phi)
+        self._to_tray = (c / self.mm, -sn / self.mm, sn / self.mm, c / self.mm)   # world units -> mm
+        self._nx, self._ny = mu.shape
 
     # ------------------------------------------------------------------ state
     def set_pose(self, pose_mm):  # noqa: D401
@@ -287,8 +291,36 @@ class BulletWorld:
             th = 0.0
         return p[0], p[1], th
 
+    def _set_support_mu(self, k: int, mu: float):
+        if self._mu_now[k] != mu:
+            pb.changeDynamics(self.body, self.support_links[k], lateralFriction=mu,
+                              spinningFriction=self.spin_radius * mu, physicsClientId=self.cid)
+            self._mu_now[k] = mu
+
+    def _apply_map(self):
+        """Give every support the coefficient of the map tile under it."""
+        cid, ob = self.cid, self.body
+        s = pb.getJointStates(ob, (J_X, J_Y, J_YAW), physicsClientId=cid)
+        x, y, yaw = s[0][0], s[1][0], s[2][0]
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        a, b, c, d = self._to_tray
+        cx, cyy = self.centre
+        t = self.tile_mm
+        for k, (ox, oy) in enumerate(self.leg_offsets):
+            wx, wy = x + cy * ox - sy * oy, y + sy * ox + cy * oy
+            px, py = a * wx + b * wy + cx, c * wx + d * wy + cyy
+            i = min(max(int(px // t), 0), self._nx - 1)
+            j = min(max(int(py // t), 0), self._ny - 1)
+            self._set_support_mu(k, float(self.mu_grid[i, j]))
+
     def step(self):
-        pb.stepSimulation(physicsClientId=self.cid)
+        """Advance one rest-test interval (``substeps`` physics steps)."""
+        if self.has_map:
+            for _ in range(self.substeps):
+                self._apply_map()
+                pb.stepSimulation(physicsClientId=self.cid)
+        else:
+            pb.stepSimulation(physicsClientId=self.cid)
 
     def close(self):
         if self.cid is not None:

@@ -30,8 +30,12 @@ friction then spun the part), and free bodies tip and jump walls. Six decisions 
    friction, set to the part's friction radius ``(1/A) int |r| dA``, gives the friction torque of
    uniform pressure for spinning in place. Bullet combines spinning friction as
    ``spin_A * lateral_B + spin_B * lateral_A`` (setting the floor's spinning friction too froze
-   every rotation), and lateral friction as the product: the part has lateral friction 1 and every
-   floor tile its own ``mu``, so a contact's coefficients are the tile's.
+   every rotation), and lateral friction as the product: the floor has lateral friction 1 and the
+   support sphere carries ``mu`` (and ``mu`` x friction radius). A friction map (``map:LEVEL:SEED``)
+   sets the sphere's coefficient to the tile under it before every physics step; separate tile
+   bodies, each with its own friction, made the small sphere catch on tile seams (Bullet's
+   speculative contact with the next tile's edge braked a sliding block by up to 57 mm in
+   0.35 s). On a map a sliding block follows x'' = g (sin a - mu(x) cos a) within 1.2%.
 3. **Downhill along world +x.** Each action has its own world in which the tray is rotated about
    its centre so that the downhill direction is +x (Bullet's friction is otherwise anisotropic
    for off-axis sliding, PHYSICS_NOTES.md). Poses are mapped in and out exactly.
@@ -39,10 +43,13 @@ friction then spun the part), and free bodies tip and jump walls. Six decisions 
    world units; in a metre world that is 1 mm (a part rested 0.97 mm off the wall and its outline
    was inflated by 1 mm). The world is built at 100 units per metre, where the margin is 0.01 mm,
    and the convex parts are inset by it: rest poses touch the wall within 0.001 mm.
-5. **Enough solver iterations, a tight contact threshold.** 100 iterations (Bullet stops early
-   once converged, so the cost is small: at 10 iterations 3% of tilts crept along a wall at about
-   1 mm/s and never settled). Contact threshold 2 mm instead of 8: stale wall contacts made sharp
-   triangle corners jitter and creep along a wall (4% of second tilts of ``triangle:1``).
+5. **A tight contact threshold and a robust rest test.** With Bullet's contacts kept up to 8 mm
+   apart, stale wall contacts made parts creep along walls at about 1 mm/s (3% of allen-key tilts
+   at 10 solver iterations never settled) and sharp triangle corners jitter (4% of second tilts of
+   ``triangle:1``); at 2 mm and with the rest test on mean velocities both are gone for the key,
+   even at 10 iterations. A triangle wedged between two walls still crept (about 1 mm/s, never
+   settling) in 7 of 16 four-tilt test sequences at 30 iterations, 3 at 50, none at 100: 100 are
+   used (Bullet stops iterating once the residual is small, so they cost little in free slides).
 6. **No memory between trials.** Before every trial the part is moved 1 m away and collision
    detection is run, which drops cached contacts and their warm-start impulses: a trial's outcome
    does not depend on the trial before it (bit-identical in any batch order and across processes).
