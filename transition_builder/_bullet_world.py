@@ -139,6 +139,7 @@ class BulletWorld:
         pb.setPhysicsEngineParameter(
             fixedTimeStep=st.time_step_s * n_sub, numSubSteps=n_sub,
             numSolverIterations=st.solver_iterations, deterministicOverlappingPairs=1,
+            solverResidualThreshold=st.solver_residual_threshold,
             contactBreakingThreshold=st.contact_threshold_mm * self.mm, physicsClientId=cid)
         g = G * st.world_units_per_m
         pb.setGravity(g * math.sin(a), 0.0, -g * math.cos(a), physicsClientId=cid)

@@ -25,6 +25,9 @@ class SimSettings:
         per call, i.e. every ``substeps * time_step_s`` seconds.
     solver_iterations : int
         Sequential-impulse solver iterations per step.
+    solver_residual_threshold : float
+        The solver stops iterating early once its residual is below this (PyBullet
+        ``solverResidualThreshold``, in world units; PyBullet's default is 1e-7).
     rest_speed_mm_s : float
         The object is at rest while its centroid speed (mean over each rest-test interval) is
         below this (mm/s) ...
@@ -62,6 +65,7 @@ class SimSettings:
     time_step_s: float = 1.0 / 240.0
     substeps: int = 4
     solver_iterations: int = 100
+    solver_residual_threshold: float = 1e-4
     rest_speed_mm_s: float = 1.0
     rest_angular_speed_rad_s: float = 0.03
     dwell_s: float = 0.05
