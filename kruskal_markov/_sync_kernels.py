@@ -372,3 +372,83 @@ def eppstein_greedy(delta, start, dist, nxt, out_word):
                     mm += 1
             m = mm
     return length
+
+
+@njit(cache=True)
+def mark_dominated(rows, lo, hi, n, drop_containers, block, out):
+    """Dominance within one breadth-first level (rows ``lo..hi-1``, pairwise distinct).
+
+    ``drop_containers`` (forward search): ``out[i - lo]`` becomes True when row ``i`` contains
+    another row of the level (a smaller image at the same depth is at least as good).
+    Otherwise (inverse search): when row ``i`` is contained in another row of the level.
+    """
+    W = rows.shape[1]
+    nb = hi - lo
+    size = np.empty(nb, dtype=np.int64)
+    for j in range(nb):
+        size[j] = set_size(rows, lo + j)
+    order = np.argsort(-size)
+    nwords = (block + 63) // 64
+    inv = np.zeros((n, nwords), dtype=np.uint64)
+    freq = np.zeros(n, dtype=np.int64)
+    elems = np.empty(n, dtype=np.int64)
+    for start in range(0, nb, block):
+        stop = min(nb, start + block)
+        inv[:, :] = _ZERO
+        freq[:] = 0
+        for jj in range(stop - start):
+            j = lo + order[start + jj]
+            bit = _ONE << np.uint64(jj & 63)
+            for w in range(W):
+                x = rows[j, w]
+                while x != _ZERO:
+                    b = _ctz(x)
+                    x &= x - _ONE
+                    inv[w * 64 + b, jj >> 6] |= bit
+                    freq[w * 64 + b] += 1
+        for i in range(nb):
+            if not drop_containers and out[i]:
+                continue
+            m = 0
+            for w in range(W):
+                x = rows[lo + i, w]
+                while x != _ZERO:
+                    b = _ctz(x)
+                    x &= x - _ONE
+                    e = w * 64 + b
+                    t = m
+                    while t > 0 and freq[elems[t - 1]] > freq[e]:
+                        elems[t] = elems[t - 1]
+                        t -= 1
+                    elems[t] = e
+                    m += 1
+            if m > 0 and freq[elems[0]] == 0:
+                continue
+            # containers must be strictly larger (rows are distinct): positions with size > m
+            lo_ = start
+            hi_ = stop
+            while lo_ < hi_:
+                mid = (lo_ + hi_) // 2
+                if size[order[mid]] > m:
+                    lo_ = mid + 1
+                else:
+                    hi_ = mid
+            cnt = lo_ - start
+            used = (cnt + 63) // 64
+            for v in range(used):
+                acc = _ALL
+                for t in range(m):
+                    acc &= inv[elems[t], v]
+                    if acc == _ZERO:
+                        break
+                if v == used - 1 and (cnt & 63) != 0:
+                    acc &= (_ONE << np.uint64(cnt & 63)) - _ONE
+                if acc != _ZERO:
+                    if drop_containers:
+                        while acc != _ZERO:
+                            jj = v * 64 + _ctz(acc)
+                            acc &= acc - _ONE
+                            out[order[start + jj]] = True
+                    else:
+                        out[i] = True
+                        break

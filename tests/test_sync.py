@@ -400,3 +400,16 @@ def test_epsilon_word_matches_exhaustive_enumeration():
             for a in res.word:
                 p = p @ mats[a]
             assert _entropy(p, partition) <= eps + 1e-9
+
+
+def test_dominance_pruning_mode_matches_brute_force(monkeypatch):
+    import kruskal_markov.sync as sync_mod
+
+    monkeypatch.setattr(sync_mod, "_PRUNE", True)
+    rng = np.random.default_rng(77)
+    for _ in range(60):
+        n = int(rng.integers(2, 40))
+        k = int(rng.choice([2, 3, 8])) if n <= 30 else 2
+        table = random_table(rng, n, k)
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
+        assert res.exact and res.length == brute_bitmask(table)
