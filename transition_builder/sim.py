@@ -64,10 +64,14 @@ Measured (``tests/test_sim_mechanics.py``, ``tests/test_sim_faults.py``; pybulle
   deg, touching the wall. At mu = 0.3 a part that meets a wall nearly end-on can rest on a corner:
   the gravity torque toward flush is then smaller than the floor-friction torque - true Coulomb
   behaviour, not an engine artefact;
-- rotating pose and action by 90 degrees: rest poses agree within 0.51 mm / 0.68 deg (worst of 400
-  allen-key tilts), median 1e-5 mm (each direction has its own rotated world, so round-off
+- rotating pose and action by 90 degrees: rest poses agree within 0.51 mm / 0.69 deg (worst of 400
+  allen-key tilts), median below 0.001 mm (each direction has its own rotated world, so round-off
   differs and a few near-critical trials amplify it);
-- faults: FAULTS_20K;
+- faults: 0 in 20,000 random allen-key tilts from uniform start poses; 0 in 14,400 tilts of
+  8-tilt random sequences of the 15 paper-style triangles, two rectangles and the key;
+- speed (``python -m benchmarks sim``, shared 2-core machine at load 2.6-3.6): 310-330 allen-key
+  tilts/s per core (CPU time), about 105 physics steps per tilt; the naive free body measured
+  side by side: 410-460 tilts/s with 0.7-2% faults;
 - against a 1/480 s reference, 93% of random allen-key tilts rest within 1 mm and 1 degree of the
   reference pose (median 0.05 mm); the rest reach a different resting configuration from a
   near-critical start (sensitivity, not drift). Contact thresholds 2, 4 and 8 mm agree equally.
@@ -77,8 +81,10 @@ Known limitation: with a single contact the friction force and torque are limite
 wall corner) compared with distributed Coulomb friction. ``SimSettings(support_points=K)`` with
 K > 1 replaces the sphere by K legs (independent prismatic-z links under K equal-area cells, each
 carrying its cell's weight), i.e. distributed point-contact Coulomb friction; it passes the same
-slide tests but costs 1.4-3x more per step. On 400 random allen-key tilts the two models agree
-within 1 mm / 1 deg for 58% (the key rests flush against a wall after 25% vs 32% of tilts).
+slide tests but is 2-3x slower (about 140 tilts/s with K = 4). On 400 and 1,000 random allen-key tilts
+the two models rest within 1 mm / 1 deg of each other for 56-59% (the key ends flush against a
+wall after 25% vs 32% of tilts): where a part comes to rest after pivoting is sensitive to the
+friction model, and the paper's Simscape contact model is a third, different choice.
 """
 from __future__ import annotations
 
@@ -94,7 +100,7 @@ from transition_builder.scene import Scene
 __all__ = ["TraySimulator", "simulate", "SIMULATOR_VERSION", "valid_start"]
 
 #: bump when the simulator's model changes in a way that changes results (part of the scene hash).
-SIMULATOR_VERSION = "planar-chain-1"
+SIMULATOR_VERSION = "planar-chain-2"
 
 
 def valid_start(scene: Scene, poses) -> np.ndarray:
