@@ -96,3 +96,25 @@ def run(args: argparse.Namespace) -> dict:
                                                          seed=args.seed, max_steps=min(args.max_steps, 2000))
         out["epsilon"] = args.epsilon
     return out
+
+
+def format_text(result: dict) -> str:
+    """Human-readable summary (``--json`` gives everything)."""
+    e = result["expected_length"]
+
+    def f(x):
+        return "n/a" if x is None else f"{x:.4g}"
+
+    lines = []
+    if result.get("infinite"):
+        lines.append("expected length: infinite (some start states are never merged)")
+    lines += [f"exact:       {f(e['exact'])}",
+              f"monte carlo: {f(e['monte_carlo'])}  95% CI [{f(e['ci95'][0])}, {f(e['ci95'][1])}]"
+              + (f"  ({result['mc_censored']} runs censored)" if result.get("mc_censored") else ""),
+              f"pair bounds: [{f(e['pair_lower'])}, {f(e['pair_upper'])}]"]
+    if "entropy_tilts" in result:
+        t = result["entropy_tilts"]
+        lines.append(f"tilts until entropy <= {result['epsilon']}: {f(t['mean'])}  95% CI "
+                     f"[{f(t['ci95'][0])}, {f(t['ci95'][1])}]")
+    lines.append(f"seconds: {result['seconds']:.3f}")
+    return "\n".join(lines)

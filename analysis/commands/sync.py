@@ -63,3 +63,27 @@ def run(args: argparse.Namespace) -> dict:
                 "deterministic": aut.deterministic, "threshold": args.threshold,
                 "mass_dropped": aut.mass_dropped, "mass_dropped_mean": aut.mass_dropped_mean})
     return out
+
+
+def format_text(result: dict) -> str:
+    """Human-readable summary (``--json`` gives everything)."""
+    lines = []
+    if result.get("word") is None:
+        if result.get("exact"):
+            w = result.get("witness") or {}
+            lines.append(f"no synchronizing word exists: {w.get('reason', w)}")
+        else:
+            lines.append("no synchronizing word found within the budgets")
+    else:
+        word = ",".join(result["word"]) if result["word"] else "(empty word)"
+        kind = "shortest (proven)" if result["exact"] else "not proven shortest"
+        lines.append(f"word: {word}")
+        lines.append(f"length: {result['length']}  [{kind}; method {result['method']}]")
+    if result.get("lower_bound") is not None and not result.get("exact"):
+        lines.append(f"lower bound: {result['lower_bound']}")
+    if result.get("mass_dropped"):
+        lines.append(f"probability mass dropped by the threshold: {result['mass_dropped']:.3g} (largest row)")
+    for note in result.get("notes") or []:
+        lines.append(f"note: {note}")
+    lines.append(f"seconds: {result['seconds']:.3f}")
+    return "\n".join(lines)
