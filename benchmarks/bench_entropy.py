@@ -2,8 +2,9 @@
 
 1. Synthetic tray-like model: 2,000 states, 8 actions, each action maps every state into about an
    eighth of the states with ~5 non-zeros per row; 10^5 random sequences x 50 steps with the Numba
-   engine, against a plain ``scipy.sparse`` loop (one sparse mat-vec plus a numpy entropy per step
-   and sequence) timed side by side in the same run on a subset and extrapolated.
+   engine (its automatic choice, the image engine here, and the prefix trie), against a plain
+   ``scipy.sparse`` loop (one sparse mat-vec plus numpy entropies per step and sequence) timed
+   side by side in the same run on a subset and extrapolated.
 2. Scale target: 10^6 random sequences x 50 steps on a tray-grid model that contracts like a
    real tray (walls and corners; near-deterministic rows), wall time and peak memory.
 
@@ -136,7 +137,13 @@ def main(argv=None):
         out = fn()
         return out, time.perf_counter() - w0, time.process_time() - c0
 
+    from kruskal_markov.entropy import _prefer_images
+
+    batch_entropy(model, seqs[:512], method="images")
+    batch_entropy(model, seqs[:512], method="trie")
+    chosen = "images" if _prefer_images(model, True) else "trie"
     res, t_engine, c_engine = timed(lambda: batch_entropy(model, seqs))
+    _, t_trie, c_trie = timed(lambda: batch_entropy(model, seqs, method="trie"))
     res_plain, t_plain, c_plain = timed(lambda: batch_entropy(model, seqs, share_prefixes=False,
                                                               image_blocks=False))
     sub = 1_000 if quick else 2_000
@@ -147,12 +154,14 @@ def main(argv=None):
     nnz_row = np.mean([m.nnz / m.shape[0] for m in model.matrices])
     print(f"[tray-like n={model.n_states}, {nnz_row:.1f} nnz/row] {s_count} sequences x 50 steps "
           f"(wall s / process CPU s)")
-    print(f"  numba engine (prefix trie + image blocks):   {t_engine:8.2f} / {c_engine:8.2f}")
+    print(f"  numba engine, method auto (= {chosen}):      {t_engine:8.2f} / {c_engine:8.2f}")
+    print(f"  numba engine, method trie (+ image blocks):  {t_trie:8.2f} / {c_trie:8.2f}")
     print(f"  numba, independent sequences, scatter only:  {t_plain:8.2f} / {c_plain:8.2f}")
     print(f"  plain scipy.sparse loop:                     {t_scipy:8.2f} / {c_scipy:8.2f}  (timed on {sub} "
           f"sequences: {t_sub:.2f} s, extrapolated x{s_count // sub})")
-    print(f"  speed-up over scipy, wall: engine {t_scipy / t_engine:.1f}x, independent {t_scipy / t_plain:.1f}x; "
-          f"CPU time (= single-core equivalent): engine {c_scipy / c_engine:.1f}x")
+    print(f"  speed-up over scipy, wall: engine {t_scipy / t_engine:.1f}x, trie {t_scipy / t_trie:.1f}x, "
+          f"independent {t_scipy / t_plain:.1f}x; CPU time (= single-core equivalent): engine "
+          f"{c_scipy / c_engine:.1f}x, trie {c_scipy / c_trie:.1f}x")
     print(f"  max |engine - scipy| entropy on the subset: {err:.2e} bits; engine vs independent: {err_plain:.2e}")
     print(f"  max mass drift: {res.mass_drift.max():.2e}; load average now {os.getloadavg()[0]:.2f}", flush=True)
     del res, res_plain

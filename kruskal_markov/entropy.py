@@ -220,12 +220,15 @@ class EntropyTrajectory:
         Total probability mass after every step (1 up to round-off; never renormalised).
     distributions : ndarray (N+1, n) or None
         The distributions, when asked for.
+    support : ndarray (N+1,) or None
+        Number of states with positive probability after every step.
     """
 
     entropy_bits: np.ndarray
     entropy_bits_states: np.ndarray
     mass: np.ndarray
     distributions: np.ndarray | None = None
+    support: np.ndarray | None = None
 
     @property
     def mass_drift(self) -> float:
@@ -264,9 +267,11 @@ def entropy_trajectory(model: TransitionModel, sequence, initial=None, return_di
     mass = np.empty(n_out)
     dist = np.zeros((n_out, model.n_states)) if return_distributions else np.zeros((1, 1))
     hs_buf = hs if has else np.empty(n_out)
+    support = np.empty(n_out, dtype=np.int64)
     _k.walk(indptr, indices, data, img_ptr, img_idx, init_idx, init_p, seq, partition, n_cells, has,
-            conservative, hc, hs_buf, mass, dist, return_distributions)
-    return EntropyTrajectory(hc, hs_buf if has else hc, mass, dist if return_distributions else None)
+            conservative, hc, hs_buf, mass, support, dist, return_distributions)
+    return EntropyTrajectory(hc, hs_buf if has else hc, mass, dist if return_distributions else None,
+                             support)
 
 
 def propagate(model: TransitionModel, sequence, initial=None) -> np.ndarray:
@@ -287,9 +292,46 @@ class BatchEntropy:
     mass_drift: np.ndarray
 
 
+def _images_layout(model: TransitionModel):
+    """Per action: local report cell of every image state (for the image engine)."""
+    if "images_layout" not in model._cache:
+        _, _, _, img_ptr, img_idx, partition, _, has = _kernel_arrays(model)
+        k = model.n_actions
+        cell_ptr = img_ptr[:-1].astype(np.int64)
+        cell_loc = np.zeros(img_idx.size, dtype=np.int64)
+        n_cells_img = np.ones(k, dtype=np.int64)
+        if has:
+            for a in range(k):
+                uniq, loc = np.unique(partition[img_idx[img_ptr[a]:img_ptr[a + 1]]], return_inverse=True)
+                cell_loc[img_ptr[a]:img_ptr[a + 1]] = loc
+                n_cells_img[a] = max(1, uniq.size)
+        model._cache["images_layout"] = (cell_ptr, cell_loc, n_cells_img)
+    return model._cache["images_layout"]
+
+
+def _prefer_images(model: TransitionModel, conservative: bool) -> bool:
+    """Deterministic choice of the image engine: the gather blocks exist, every image has at
+    least 64 states, and on 16 fixed random sequences the support fills on average at least
+    half of the image after each of the first 6 steps (mixing, tray-like models -- not a
+    contracting tray whose supports shrink to a few states, where the trie is faster)."""
+    key = ("prefer_images", bool(conservative))
+    if key not in model._cache:
+        verdict = False
+        img_ptr = _kernel_arrays(model)[3]
+        sizes = np.diff(img_ptr)
+        if sizes.min() >= 64 and _image_blocks(model, conservative) is not None:
+            rng = np.random.default_rng(12345)
+            fills = [entropy_trajectory(model, seq, conservative=conservative).support[1:] / sizes[seq]
+                     for seq in rng.integers(0, model.n_actions, size=(16, 6))]
+            verdict = bool(np.mean(fills) >= 0.5)
+        model._cache[key] = verdict
+    return model._cache[key]
+
+
 def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_prefixes: bool = True,
                   conservative: bool = True, threads: int | None = None,
-                  image_blocks: bool | None = None) -> BatchEntropy:
+                  image_blocks: bool | None = None, method: str = "auto",
+                  chunk: int = 4096) -> BatchEntropy:
     """Entropies after every step of S sequences of length N, in parallel (Numba).
 
     Parameters
@@ -311,6 +353,17 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         Use the gather blocks of :func:`kruskal_markov._entropy_kernels.image_blocks` for steps
         whose support fills the previous action's image (default: when the blocks are small,
         i.e. when actions map into small images as tray tilts do; False: never).
+    method : {"auto", "trie", "independent", "images"}
+        ``"trie"``: the prefix-trie walk on sparse supports (``share_prefixes=False`` means
+        ``"independent"``: every sequence on its own). ``"images"``: level-synchronous dense
+        image vectors, ``chunk`` sequences at a time, grouped at every step by (previous action,
+        action) and advanced by vectorized sparse-times-dense products
+        (:func:`kruskal_markov._entropy_kernels.batch_images`) -- for models whose
+        distributions fill the actions' images. ``"auto"``: ``"images"`` when a deterministic
+        test on the model says so (:func:`_prefer_images`), else ``"trie"``. All methods agree
+        to round-off (~1e-14).
+    chunk : int
+        Sequences per task of the image engine (memory: 3 x largest image x chunk float64).
 
     Notes
     -----
@@ -322,8 +375,20 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
     Parallel tasks are the groups of sequences sharing their first ``L`` actions
     (``K**L >= 16 * threads``), handed out dynamically (chunk size 1).
     """
+    if method not in ("auto", "trie", "independent", "images"):
+        raise ValueError(f"unknown method {method!r}; expected auto, trie, independent or images")
+    if isinstance(chunk, bool) or int(chunk) != chunk or chunk < 1:
+        raise ValueError(f"chunk must be a positive integer, got {chunk!r}")
     seqs = as_sequences(model, sequences)
     s_count, n_steps = seqs.shape
+    if not share_prefixes and method in ("auto", "trie"):
+        method = "independent"
+    if method == "auto":
+        method = "images" if (image_blocks is not False and s_count >= 256 and n_steps >= 1
+                              and _prefer_images(model, conservative)) else "trie"
+    if method == "images" and _image_blocks(model, conservative) is None:
+        raise ValueError("method 'images' needs gather blocks, too large for this model (its actions "
+                         "do not map into small images)")
     init_idx, init_p, m0 = _initial_support(model, initial)
     indptr, indices, data, img_ptr, img_idx, partition, n_cells, has = _kernel_arrays(model)
     hc = np.zeros((s_count, n_steps + 1))
@@ -340,7 +405,24 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
     try:
         n_threads = numba.get_num_threads()
         k = model.n_actions
-        if share_prefixes:
+        if method == "images":
+            p0 = np.zeros(model.n_states)
+            p0[init_idx] = init_p
+            sizes = np.diff(img_ptr)
+            first = np.zeros((k, int(sizes.max())))
+            for a in range(k):
+                d1 = entropy_trajectory(model, [a], p0, return_distributions=True,
+                                        conservative=conservative).distributions[1]
+                first[a, :sizes[a]] = d1[img_idx[img_ptr[a]:img_ptr[a + 1]]]
+            start = entropy_trajectory(model, [], p0)
+            cell_ptr, cell_loc, n_cells_img = _images_layout(model)
+            chunk = int(min(chunk, max(1, -(-s_count // n_threads))))
+            with numba.parallel_chunksize(1):
+                _k.batch_images(img_ptr, img_idx, *_image_blocks(model, conservative), first, cell_ptr,
+                                cell_loc, n_cells_img, float(start.entropy_bits[0]),
+                                float(start.entropy_bits_states[0]), m0, seqs, chunk, has, hc, hs, drift)
+            return BatchEntropy(hc, hs, drift)
+        if method == "trie":
             depth = 0
             while k ** depth < 16 * n_threads and depth < n_steps and k ** depth < s_count and k > 1:
                 depth += 1

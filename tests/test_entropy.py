@@ -402,3 +402,58 @@ def test_batch_tiny_probabilities_long_supports():
     big = TransitionModel(["id"], [sp.identity(300, format="csr")], initial=p)
     got = batch_entropy(big, np.zeros((3, 2), dtype=np.int64)).entropy_bits_states
     np.testing.assert_allclose(got, brute_entropy(p), rtol=1e-14, atol=0)
+
+
+def _imagey_model(rng, n=300, k=4, img=70, nnz=4, cells=None):
+    mats = []
+    for _ in range(k):
+        targets = rng.choice(n, size=img, replace=False)
+        cols = targets[rng.integers(0, img, size=(n, nnz))]
+        probs = rng.dirichlet(np.ones(nnz), size=n)
+        mats.append(sp.csr_matrix((probs.ravel(), (np.repeat(np.arange(n), nnz), cols.ravel())), shape=(n, n)))
+    init = rng.random(n)
+    init /= init.sum()
+    return TransitionModel([f"a{i}" for i in range(k)], mats, initial=init,
+                           partition=None if cells is None else rng.integers(0, cells, n), n_cells=cells)
+
+
+@pytest.mark.parametrize("cells, chunk", [(None, 4096), (9, 7), (40, 64)])
+def test_image_engine_matches_brute_force_and_trie(cells, chunk):
+    rng = np.random.default_rng(cells or 1)
+    model = _imagey_model(rng, cells=cells)
+    seqs = rng.integers(0, 4, size=(300, 9))
+    seqs[:20] = seqs[0]
+    img = batch_entropy(model, seqs, method="images", chunk=chunk)
+    trie = batch_entropy(model, seqs, method="trie")
+    np.testing.assert_allclose(img.entropy_bits, trie.entropy_bits, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(img.entropy_bits_states, trie.entropy_bits_states, rtol=0, atol=1e-12)
+    for s in range(0, 300, 23):
+        _, hc, hs = brute_trajectory(model, seqs[s])
+        np.testing.assert_allclose(img.entropy_bits[s], hc, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(img.entropy_bits_states[s], hs, rtol=0, atol=1e-12)
+    assert img.mass_drift.max() <= 1e-12
+    if cells is None:
+        assert img.entropy_bits is img.entropy_bits_states
+
+
+def test_image_engine_auto_choice_and_errors():
+    rng = np.random.default_rng(4)
+    mixing = _imagey_model(rng, cells=5)
+    seqs = rng.integers(0, 4, size=(400, 5))
+    from kruskal_markov.entropy import _prefer_images
+    assert _prefer_images(mixing, True)
+    auto = batch_entropy(mixing, seqs)
+    np.testing.assert_allclose(auto.entropy_bits, batch_entropy(mixing, seqs, method="trie").entropy_bits,
+                               rtol=0, atol=1e-12)
+    # a contracting model (every tilt halves the support, like a tray) keeps the trie
+    n = 200
+    halve = np.arange(n) // 2
+    det = TransitionModel(["a", "b"], [np.eye(n)[halve], np.eye(n)[halve + 100]])
+    assert not _prefer_images(det, True)
+    with pytest.raises(ValueError, match="unknown method"):
+        batch_entropy(mixing, seqs, method="fast")
+    with pytest.raises(ValueError, match="chunk"):
+        batch_entropy(mixing, seqs, method="images", chunk=0)
+    full = random_model(rng, 50, 4, density=0.5)
+    with pytest.raises(ValueError, match="gather blocks"):
+        batch_entropy(full, rng.integers(0, 4, size=(3, 3)), method="images")
