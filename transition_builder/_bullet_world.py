@@ -197,8 +197,8 @@ class BulletWorld:
         sph = pb.createCollisionShape(pb.GEOM_SPHERE, radius=r, physicsClientId=cid)
         n_parts = len(part_shapes)
         legs = st.support_points > 1
-        I = shape.inertia_kg_m2 * st.world_units_per_m ** 2
-        tiny = I * _EPS_MASS_FRACTION
+        izz = shape.inertia_kg_m2 * st.world_units_per_m ** 2
+        tiny = izz * _EPS_MASS_FRACTION
         if legs:
             # K legs: prismatic-z links under the centroids of K equal-area cells, each carrying its
             # cell's mass; the hinge link keeps the rest of the z inertia; no global z freedom.
@@ -206,11 +206,11 @@ class BulletWorld:
             leg_m = m * w
             leg_xy = pts * self.mm
             yaw_m = eps
-            yaw_I = max(I - float(np.sum(leg_m * np.sum(leg_xy ** 2, axis=1))), tiny)
+            yaw_I = max(izz - float(np.sum(leg_m * np.sum(leg_xy ** 2, axis=1))), tiny)
             n_sup = len(pts)
         else:
             # the sphere is the hinge link's own collision shape (one link fewer to step)
-            leg_m, leg_xy, yaw_m, yaw_I, n_sup = np.zeros(0), np.zeros((0, 2)), m, I, 0
+            leg_m, leg_xy, yaw_m, yaw_I, n_sup = np.zeros(0), np.zeros((0, 2)), m, izz, 0
         n = 4 + n_parts + n_sup
         masses = [eps, eps, eps, yaw_m] + [eps] * n_parts + [float(v) for v in leg_m]
         shapes = [-1, -1, -1, -1 if legs else sph] + part_shapes + [sph] * n_sup

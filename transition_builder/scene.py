@@ -44,7 +44,8 @@ def _pybullet_version() -> str:
 
 
 def _positive(name, val, upper=None):
-    if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)) or not math.isfinite(val) or val <= 0:
+    if (isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating))
+            or not math.isfinite(val) or val <= 0):
         raise ValueError(f"{name} must be a positive finite number, got {val!r}")
     if upper is not None and val >= upper:
         raise ValueError(f"{name} must be below {upper}, got {val!r}")
