@@ -86,22 +86,28 @@ def _insert_last(store, count, table):
 
 
 @njit(cache=True)
-def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, letter, max_count):
+def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, letter, max_count,
+                 inv_ptr, inv_idx, supcount):
     """Append to ``store`` the new images (``forward``) or non-empty preimages of rows ``lo..hi-1``.
 
     Rows are appended from ``count``; ``parent``/``letter`` record where each new row came from.
+    Preimages use the inverse adjacency (``inv_ptr[a, r]..inv_ptr[a, r+1]`` indexes into ``inv_idx``
+    the states ``q`` with ``r`` in ``supp(q, a)``) and ``supcount[a, q] = |supp(q, a)|``: ``q`` is in
+    the preimage of ``S`` when all its successors are in ``S``.
     Returns the new count, or ``-1`` if ``max_count`` would be exceeded (the store then holds a
     partial level that the caller discards).
     """
     k = delta.shape[0]
     n = delta.shape[1]
     W = store.shape[1]
+    cnt = np.zeros(n, dtype=np.int64)
     for i in range(lo, hi):
         for a in range(k):
             if count >= max_count:
                 return -1
             for w in range(W):
                 store[count, w] = _ZERO
+            empty = True
             if forward:
                 for w in range(W):
                     x = store[i, w]
@@ -117,20 +123,36 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
                                 store[count, v] |= sup[a, q, v]
                 empty = False
             else:
-                empty = True
-                for q in range(n):
-                    ok = True
-                    if det:
-                        r = delta[a, q]
-                        ok = ((store[i, r >> 6] >> np.uint64(r & 63)) & _ONE) == _ONE
-                    else:
-                        for v in range(W):
-                            if (sup[a, q, v] & ~store[i, v]) != _ZERO:
-                                ok = False
-                                break
-                    if ok:
-                        store[count, q >> 6] |= _ONE << np.uint64(q & 63)
-                        empty = False
+                for w in range(W):
+                    x = store[i, w]
+                    while x != _ZERO:
+                        b = _ctz(x)
+                        x &= x - _ONE
+                        r = w * 64 + b
+                        for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                            q = inv_idx[e]
+                            cnt[q] += 1
+                            if cnt[q] == supcount[a, q]:
+                                store[count, q >> 6] |= _ONE << np.uint64(q & 63)
+                                empty = False
+                if not det:
+                    for w in range(W):
+                        x = store[i, w]
+                        while x != _ZERO:
+                            b = _ctz(x)
+                            x &= x - _ONE
+                            r = w * 64 + b
+                            for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                                cnt[inv_idx[e]] = 0
+                else:
+                    for w in range(W):
+                        x = store[i, w]
+                        while x != _ZERO:
+                            b = _ctz(x)
+                            x &= x - _ONE
+                            r = w * 64 + b
+                            for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                                cnt[inv_idx[e]] = 0
             if empty:
                 continue
             if _insert_last(store, count, table):

@@ -121,6 +121,28 @@ class SyncAutomaton:
             self._cache["sup"] = s
         return self._cache["sup"]
 
+    @property
+    def inverse(self):
+        """Inverse adjacency ``(inv_ptr (k, n+1), inv_idx, supcount (k, n))``: the states ``q`` with
+        ``r`` in ``supp(q, a)`` are ``inv_idx[inv_ptr[a, r]:inv_ptr[a, r + 1]]``."""
+        if "inverse" not in self._cache:
+            k, n = self.k, self.n
+            inv_ptr = np.zeros((k, n + 1), dtype=np.int64)
+            parts = []
+            supcount = np.diff(self.indptr, axis=1).astype(np.int64)
+            offset = 0
+            for a in range(k):
+                seg = self.indices[self.indptr[a, 0]:self.indptr[a, n]].astype(np.int64)
+                src = np.repeat(np.arange(n, dtype=np.int64), supcount[a])
+                order = np.argsort(seg, kind="stable")
+                parts.append(src[order].astype(np.int32))
+                inv_ptr[a, 1:] = offset + np.cumsum(np.bincount(seg, minlength=n))
+                inv_ptr[a, 0] = offset
+                offset += seg.size
+            inv_idx = np.concatenate(parts) if parts else np.zeros(0, dtype=np.int32)
+            self._cache["inverse"] = (inv_ptr, inv_idx, supcount)
+        return self._cache["inverse"]
+
     def bits(self, states) -> np.ndarray:
         """Bitset of a collection of states."""
         out = np.zeros(self.n_words, dtype=np.uint64)
@@ -353,8 +375,10 @@ class _Store:
     def expand(self, aut, forward):
         lo, hi = self.levels[-1]
         self.ensure(self.count + (hi - lo) * aut.k)
+        inv_ptr, inv_idx, supcount = aut.inverse
         new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.sup, aut.deterministic,
-                              forward, self.table, self.parent, self.letter, self.rows.shape[0])
+                              forward, self.table, self.parent, self.letter, self.rows.shape[0],
+                              inv_ptr, inv_idx, supcount)
         if new < 0:
             _k.rehash(self.rows, self.count, self.table)   # drop the partial level
             return None
@@ -458,8 +482,6 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
             return None, "budget", fwd.count + bwd.count, total + 1
         if grown > 10_000:
             rate_row = max(1e-9, (time.perf_counter() - te) / grown)
-        elif grown > 0:
-            rate_row = max(rate_row, (time.perf_counter() - te) / grown)
         if grown == 0:
             return None, "none", fwd.count + bwd.count, total
         total += 1
