@@ -202,26 +202,6 @@ def pair_value_step(img, w, h, out):
 
 
 @njit(cache=True)
-def pair_mass_step(img, w, v, out):
-    """``out = v Q`` (mass propagation on the pair chain); returns the total mass of ``out``."""
-    R, k = img.shape
-    for i in range(R):
-        out[i] = 0.0
-    for i in range(R):
-        x = v[i]
-        if x == 0.0:
-            continue
-        for a in range(k):
-            j = img[i, a]
-            if j >= 0:
-                out[j] += w[a] * x
-    tot = 0.0
-    for i in range(R):
-        tot += out[i]
-    return tot
-
-
-@njit(cache=True)
 def mc_entropy_steps(p0, indptr, indices, data, partition, n_cells, letters, epsilon, out_steps):
     """For each run ``i``, propagate ``p0`` through ``letters[i, :]`` until the partition entropy
     (bits) is ``<= epsilon``; ``out_steps[i]`` = number of tilts, or ``-1`` if never within the row."""
@@ -282,8 +262,7 @@ def start_pair_stats(delta, start_pairs, local, w, h, v1):
                 j = local[_pair_index(pp, qq, n)]
                 e += w[a] * h[j]
                 v1[j] += w[a]
-        if e > best:
-            best = e
+        best = max(best, e)
     return best
 
 

@@ -135,24 +135,14 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
                             if cnt[q] == supcount[a, q]:
                                 store[count, q >> 6] |= _ONE << np.uint64(q & 63)
                                 empty = False
-                if not det:
-                    for w in range(W):
-                        x = store[i, w]
-                        while x != _ZERO:
-                            b = _ctz(x)
-                            x &= x - _ONE
-                            r = w * 64 + b
-                            for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                                cnt[inv_idx[e]] = 0
-                else:
-                    for w in range(W):
-                        x = store[i, w]
-                        while x != _ZERO:
-                            b = _ctz(x)
-                            x &= x - _ONE
-                            r = w * 64 + b
-                            for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                                cnt[inv_idx[e]] = 0
+                for w in range(W):          # reset the counters touched above
+                    x = store[i, w]
+                    while x != _ZERO:
+                        b = _ctz(x)
+                        x &= x - _ONE
+                        r = w * 64 + b
+                        for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                            cnt[inv_idx[e]] = 0
             if empty:
                 continue
             if _insert_last(store, count, table):
@@ -265,18 +255,6 @@ def pair_index(p, q, n):
     if p > q:
         p, q = q, p
     return p * n - (p * (p + 1)) // 2 + (q - p - 1)
-
-
-@njit(cache=True)
-def pair_edges_count(indptr, indices, n):
-    """Number of (pair, letter, image pair) edges of the 'exists a choice' pair graph, and merges."""
-    k = indptr.shape[0]
-    total = 0
-    for a in range(k):
-        for p in range(n):
-            for q in range(p + 1, n):
-                total += (indptr[a, p + 1] - indptr[a, p]) * (indptr[a, q + 1] - indptr[a, q])
-    return total
 
 
 @njit(cache=True)

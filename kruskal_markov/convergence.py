@@ -26,14 +26,20 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
+from scipy.sparse import csgraph
 
 from kruskal_markov import _convergence_kernels as _ck
 from kruskal_markov.sync import SyncAutomaton, _as_start, _Store
 
-__all__ = ["letter_weights", "exact_expected_length", "monte_carlo_sync_length", "pair_chain_bounds",
-           "expected_sync_length", "monte_carlo_entropy_tilts"]
+__all__ = [
+    "exact_expected_length",
+    "expected_sync_length",
+    "letter_weights",
+    "monte_carlo_entropy_tilts",
+    "monte_carlo_sync_length",
+    "pair_chain_bounds",
+]
 
 
 def letter_weights(k: int, weights=None) -> np.ndarray:
@@ -116,7 +122,7 @@ def exact_expected_length(aut: SyncAutomaton, start=None, weights=None, max_subs
 
 
 def _popcount_row(row):
-    return sum(bin(int(v)).count("1") for v in row)
+    return sum(int(v).bit_count() for v in row)
 
 
 # ----------------------------------------------------------------------------- Monte Carlo

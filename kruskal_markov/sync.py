@@ -33,9 +33,15 @@ import scipy.sparse as sp
 from kruskal_markov import _sync_kernels as _k
 
 __all__ = [
-    "SyncAutomaton", "SyncResult", "support_automaton", "start_set", "synchronizability",
-    "shortest_synchronizing_word", "greedy_synchronizing_word", "epsilon_synchronizing_word",
+    "SyncAutomaton",
+    "SyncResult",
+    "epsilon_synchronizing_word",
+    "greedy_synchronizing_word",
     "is_synchronizing_word",
+    "shortest_synchronizing_word",
+    "start_set",
+    "support_automaton",
+    "synchronizability",
 ]
 
 
@@ -74,7 +80,7 @@ class SyncAutomaton:
         return (self.n + 63) // 64
 
     @classmethod
-    def from_table(cls, table, actions=None) -> "SyncAutomaton":
+    def from_table(cls, table, actions=None) -> SyncAutomaton:
         """A deterministic automaton from a next-state table ``table[a, q]``.
 
         >>> SyncAutomaton.from_table([[1, 2, 0], [0, 0, 2]]).deterministic
@@ -412,13 +418,6 @@ class _Store:
 _BACKWARD_WEIGHT = 1.0
 _PRUNE = False   # within-level dominance pruning: correct, but measured slower (see bench notes)
 _BLOCK = 1 << 16
-
-
-def _growth(store, k):
-    if len(store.levels) < 2:
-        return float(k)
-    (a, b), (c, d) = store.levels[-2], store.levels[-1]
-    return (d - c) / max(1, b - a)
 
 
 def _choose_forward(fwd, bwd, k):

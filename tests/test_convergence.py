@@ -9,9 +9,14 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from kruskal_markov.convergence import (exact_expected_length, expected_sync_length, letter_weights,
-                                        monte_carlo_entropy_tilts, monte_carlo_sync_length,
-                                        pair_chain_bounds)
+from kruskal_markov.convergence import (
+    exact_expected_length,
+    expected_sync_length,
+    letter_weights,
+    monte_carlo_entropy_tilts,
+    monte_carlo_sync_length,
+    pair_chain_bounds,
+)
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.sync import SyncAutomaton, support_automaton
 
@@ -120,7 +125,7 @@ def test_set_valued_exact_matches_brute_force():
             mats.append(sp.csr_matrix(m))
         aut = support_automaton(TransitionModel(["a", "b"], mats))
         exact, _ = exact_expected_length(aut)
-        brute = brute_expectation(lambda x, a: frozenset().union(*(sup[a][q] for q in x)), n, k,
+        brute = brute_expectation(lambda x, a, sup=sup: frozenset().union(*(sup[a][q] for q in x)), n, k,
                                   [0.5, 0.5], range(n))
         if brute is None:
             assert exact == math.inf
@@ -141,7 +146,7 @@ def test_non_synchronizing_is_infinite():
 def test_exact_budget_gives_none():
     rng = np.random.default_rng(0)
     table = rng.integers(0, 30, size=(2, 30))
-    value, info = exact_expected_length(SyncAutomaton.from_table(table), max_subsets=50)
+    value, _info = exact_expected_length(SyncAutomaton.from_table(table), max_subsets=50)
     assert value is None
 
 

@@ -9,9 +9,16 @@ import pytest
 import scipy.sparse as sp
 
 from kruskal_markov.model import TransitionModel
-from kruskal_markov.sync import (SyncAutomaton, epsilon_synchronizing_word, greedy_synchronizing_word,
-                                 is_synchronizing_word, shortest_synchronizing_word, start_set,
-                                 support_automaton, synchronizability)
+from kruskal_markov.sync import (
+    SyncAutomaton,
+    epsilon_synchronizing_word,
+    greedy_synchronizing_word,
+    is_synchronizing_word,
+    shortest_synchronizing_word,
+    start_set,
+    support_automaton,
+    synchronizability,
+)
 
 
 # ----------------------------------------------------------------------------- independent judges
@@ -23,7 +30,7 @@ def cerny(n):
 
 
 def plain_image(table, states, word):
-    cur = set(int(s) for s in states)
+    cur = {int(s) for s in states}
     for a in word:
         cur = {int(table[a][q]) for q in cur}
     return cur
@@ -31,7 +38,7 @@ def plain_image(table, states, word):
 
 def plain_union_image(supports, states, word):
     """supports[a][q] = set of successors."""
-    cur = set(int(s) for s in states)
+    cur = {int(s) for s in states}
     for a in word:
         cur = set().union(*(supports[a][q] for q in cur))
     return cur
@@ -277,7 +284,7 @@ def test_support_automata_match_union_bfs():
         start = list(range(n))
         if rng.random() < 0.3:
             start = sorted(int(x) for x in rng.choice(n, size=int(rng.integers(1, n + 1)), replace=False))
-        expected = brute_shortest(lambda x, a: frozenset().union(*(sup[a][q] for q in x)), k, start)
+        expected = brute_shortest(lambda x, a, sup=sup: frozenset().union(*(sup[a][q] for q in x)), k, start)
         res = shortest_synchronizing_word(aut, start)
         assert res.exact and res.length == expected
         if expected is not None:
@@ -287,7 +294,7 @@ def test_support_automata_match_union_bfs():
             assert res.witness is not None
             if res.witness["kind"] == "pair":
                 p, q = res.witness["states"]
-                assert brute_shortest(lambda x, a: frozenset().union(*(sup[a][s] for s in x)), k,
+                assert brute_shortest(lambda x, a, sup=sup: frozenset().union(*(sup[a][s] for s in x)), k,
                                       [p, q]) is None
     assert hits > 50
 
@@ -382,7 +389,7 @@ def test_epsilon_word_matches_exhaustive_enumeration():
         res = epsilon_synchronizing_word(model, eps, max_length=5)
         # exhaustive: all words up to length 5
         best = None
-        for length in range(0, 6):
+        for length in range(6):
             for word in itertools.product(range(k), repeat=length):
                 p = np.asarray(model.initial, dtype=float)
                 for a in word:

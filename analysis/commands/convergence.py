@@ -60,8 +60,11 @@ def _parse_weights(text, actions):
 
 
 def run(args: argparse.Namespace) -> dict:
-    from kruskal_markov.convergence import (expected_sync_length, letter_weights,
-                                            monte_carlo_entropy_tilts)
+    from kruskal_markov.convergence import (
+        expected_sync_length,
+        letter_weights,
+        monte_carlo_entropy_tilts,
+    )
     from kruskal_markov.sync import start_set, support_automaton
 
     if args.runs < 2:
@@ -86,7 +89,7 @@ def run(args: argparse.Namespace) -> dict:
     keys = ("exact", "monte_carlo", "ci95", "pair_lower", "pair_upper")
     out = {"expected_length": {k: res[k] for k in keys}}
     out.update({k: v for k, v in res.items() if k not in keys})
-    out.update({"states": model.n_states, "start_states": int(len(start)),
+    out.update({"states": model.n_states, "start_states": len(start),
                 "deterministic": aut.deterministic, "mass_dropped": aut.mass_dropped,
                 "weights": [float(x) for x in w]})
     if args.epsilon is not None:

@@ -32,8 +32,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict:
-    from kruskal_markov.sync import (epsilon_synchronizing_word, shortest_synchronizing_word, start_set,
-                                     support_automaton)
+    from kruskal_markov.sync import (
+        epsilon_synchronizing_word,
+        shortest_synchronizing_word,
+        start_set,
+        support_automaton,
+    )
 
     if args.time_budget <= 0 or args.memory_budget_mb <= 0:
         raise InputError("--time-budget and --memory-budget-mb must be positive")
@@ -59,7 +63,7 @@ def run(args: argparse.Namespace) -> dict:
     res = shortest_synchronizing_word(aut, start, time_budget=args.time_budget,
                                       memory_budget_mb=args.memory_budget_mb)
     out = res.as_dict(model.actions)
-    out.update({"states": model.n_states, "start_states": int(len(start)),
+    out.update({"states": model.n_states, "start_states": len(start),
                 "deterministic": aut.deterministic, "threshold": args.threshold,
                 "mass_dropped": aut.mass_dropped, "mass_dropped_mean": aut.mass_dropped_mean})
     return out
