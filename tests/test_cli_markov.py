@@ -103,7 +103,11 @@ def test_ensemble_cli(capsys, cerny4):
         if t == min(conv):
             assert len(cur) == 1
             break
-    assert all(q25 <= m + 1e-12 or q75 >= m - 1e-12 for m, q25, q75 in zip(res["mean"], res["q25"], res["q75"]))
+    from kruskal_markov.ensemble import run_ensemble
+
+    lib = run_ensemble(TransitionModel.from_automaton_json(cerny4), 500, 20, seed=3)
+    assert res["mean"] == lib.mean.tolist() and res["q25"] == lib.q25.tolist() and res["q75"] == lib.q75.tolist()
+    assert res["best_sequence"] == [["a", "b"][i] for i in lib.best_sequence]
     assert res["zero_entropy_excluded"] is False and "one closed class" in res["structure"]
     again = run_json(capsys, ["ensemble", "--automaton", str(cerny4), "--count", "500", "--length", "20",
                               "--seed", "3"])[1]
