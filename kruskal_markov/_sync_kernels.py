@@ -11,7 +11,7 @@ the preimage of ``S`` is ``{q : supp(q, a) is a subset of S}``.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 _ONE = np.uint64(1)
 _ZERO = np.uint64(0)
@@ -152,39 +152,23 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
     return count
 
 
-@njit(cache=True)
-def meet(fstore, flo, fhi, bstore, blo, bhi, n, block):
-    """Find ``F`` in forward rows ``flo..fhi-1`` and ``B`` in backward rows ``blo..bhi-1`` with F <= B.
+@njit(cache=True, parallel=True)
+def _meet_query(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, flag, res):
+    """Query forward rows against one block of the inverted index, ``chunk`` rows per parallel task.
 
-    Uses an inverted index (for each state, the bitset of the backward rows containing it), built
-    block by block of ``block`` backward rows taken in decreasing size, so that a forward set of
-    size ``s`` only scans the backward sets of size ``>= s``. Returns ``(f, b)`` or ``(-1, -1)``.
+    Task ``t`` writes its meeting pair only into ``res[t]``; any pair is optimal (all pairs tested
+    have the same total depth), so the shared ``flag`` is only a hint for the others to stop early.
     """
     W = fstore.shape[1]
-    nb = bhi - blo
-    bsize = np.empty(nb, dtype=np.int64)
-    for j in range(nb):
-        bsize[j] = set_size(bstore, blo + j)
-    order = np.argsort(-bsize)
-    nwords = (block + 63) // 64
-    inv = np.zeros((n, nwords), dtype=np.uint64)
-    elems = np.empty(n, dtype=np.int64)
-    freq = np.zeros(n, dtype=np.int64)
-    for start in range(0, nb, block):
-        stop = min(nb, start + block)
-        inv[:, :] = _ZERO
-        freq[:] = 0
-        for jj in range(stop - start):
-            j = blo + order[start + jj]
-            bit = _ONE << np.uint64(jj & 63)
-            for w in range(W):
-                x = bstore[j, w]
-                while x != _ZERO:
-                    b = _ctz(x)
-                    x &= x - _ONE
-                    inv[w * 64 + b, jj >> 6] |= bit
-                    freq[w * 64 + b] += 1
-        for i in range(flo, fhi):
+    n = inv.shape[0]
+    ntasks = (fhi - flo + chunk - 1) // chunk
+    for task in prange(ntasks):
+        if flag[0] != 0:
+            continue
+        elems = np.empty(n, dtype=np.int64)
+        for i in range(flo + task * chunk, min(fhi, flo + (task + 1) * chunk)):
+            if flag[0] != 0:
+                break
             m = 0
             for w in range(W):
                 x = fstore[i, w]
@@ -219,8 +203,64 @@ def meet(fstore, flo, fhi, bstore, blo, bhi, n, block):
                     if acc == _ZERO:
                         break
                 if acc != _ZERO:
-                    jj = v * 64 + _ctz(acc)
-                    return i, blo + order[start + jj]
+                    res[task, 0] = i
+                    res[task, 1] = start + v * 64 + _ctz(acc)
+                    flag[0] = 1
+                    break
+            if res[task, 0] >= 0:
+                break
+
+
+@njit(cache=True)
+def _meet_index(bstore, blo, order, start, stop, inv, freq):
+    W = bstore.shape[1]
+    inv[:, :] = _ZERO
+    freq[:] = 0
+    for jj in range(stop - start):
+        j = blo + order[start + jj]
+        bit = _ONE << np.uint64(jj & 63)
+        for w in range(W):
+            x = bstore[j, w]
+            while x != _ZERO:
+                b = _ctz(x)
+                x &= x - _ONE
+                inv[w * 64 + b, jj >> 6] |= bit
+                freq[w * 64 + b] += 1
+
+
+@njit(cache=True)
+def _level_sizes(store, lo, hi):
+    out = np.empty(hi - lo, dtype=np.int64)
+    for j in range(hi - lo):
+        out[j] = set_size(store, lo + j)
+    return out
+
+
+def meet(fstore, flo, fhi, bstore, blo, bhi, n, block, chunk=256):
+    """Find ``F`` in forward rows ``flo..fhi-1`` and ``B`` in backward rows ``blo..bhi-1`` with F <= B.
+
+    Uses an inverted index (for each state, the bitset of the backward rows containing it), built
+    block by block of ``block`` backward rows taken in decreasing size, so that a forward set of
+    size ``s`` only scans the backward sets of size ``>= s``; forward rows are queried in parallel.
+    Returns ``(f, b)`` or ``(-1, -1)``.
+    """
+    nb = bhi - blo
+    if nb <= 0 or fhi <= flo:
+        return -1, -1
+    bsize = _level_sizes(bstore, blo, bhi)
+    order = np.argsort(-bsize, kind="stable")
+    inv = np.zeros((n, (block + 63) // 64), dtype=np.uint64)
+    freq = np.zeros(n, dtype=np.int64)
+    flag = np.zeros(1, dtype=np.int64)
+    res = np.full(((fhi - flo + chunk - 1) // chunk, 2), -1, dtype=np.int64)
+    for start in range(0, nb, block):
+        stop = min(nb, start + block)
+        _meet_index(bstore, blo, order, start, stop, inv, freq)
+        _meet_query(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, flag, res)
+        hits = np.flatnonzero(res[:, 0] >= 0)
+        if hits.size:
+            f, j = res[hits[0]]
+            return int(f), int(blo + order[j])
     return -1, -1
 
 

@@ -420,3 +420,30 @@ def test_dominance_pruning_mode_matches_brute_force(monkeypatch):
         table = random_table(rng, n, k)
         res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
         assert res.exact and res.length == brute_bitmask(table)
+
+
+@pytest.mark.parametrize("chunk,block", [(1, 64), (7, 128), (256, 1 << 16)])
+def test_meet_kernel_against_numpy(chunk, block):
+    """The parallel subset test finds a pair F <= B exactly when one exists."""
+    from kruskal_markov import _sync_kernels as kern
+
+    rng = np.random.default_rng(chunk)
+    n = 70
+    for trial in range(40):
+        nf, nb = int(rng.integers(1, 300)), int(rng.integers(1, 400))
+        F = rng.random((nf, n)) < rng.uniform(0.02, 0.2)
+        B = rng.random((nb, n)) < rng.uniform(0.3, 0.95)
+        F[F.sum(axis=1) == 0, 0] = True
+
+        def pack(M):
+            out = np.zeros((M.shape[0], 2), dtype=np.uint64)
+            for i, row in enumerate(M):
+                for q in np.flatnonzero(row):
+                    out[i, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
+            return out
+
+        f, b = kern.meet(pack(F), 0, nf, pack(B), 0, nb, n, block, chunk)
+        exists = bool(np.any((F[:, None, :] & ~B[None, :, :]).sum(axis=2) == 0))
+        assert (f >= 0) == exists
+        if f >= 0:
+            assert not np.any(F[f] & ~B[b])
