@@ -429,10 +429,11 @@ def test_meet_kernel_against_numpy(chunk, block):
 
     rng = np.random.default_rng(chunk)
     n = 70
-    for trial in range(40):
+    outcomes = set()
+    for _ in range(80):
         nf, nb = int(rng.integers(1, 300)), int(rng.integers(1, 400))
-        F = rng.random((nf, n)) < rng.uniform(0.02, 0.2)
-        B = rng.random((nb, n)) < rng.uniform(0.3, 0.95)
+        F = rng.random((nf, n)) < rng.uniform(0.1, 0.3)
+        B = rng.random((nb, n)) < rng.uniform(0.4, 0.8)
         F[F.sum(axis=1) == 0, 0] = True
 
         def pack(M):
@@ -445,5 +446,7 @@ def test_meet_kernel_against_numpy(chunk, block):
         f, b = kern.meet(pack(F), 0, nf, pack(B), 0, nb, n, block, chunk)
         exists = bool(np.any((F[:, None, :] & ~B[None, :, :]).sum(axis=2) == 0))
         assert (f >= 0) == exists
+        outcomes.add(exists)
         if f >= 0:
             assert not np.any(F[f] & ~B[b])
+    assert outcomes == {True, False}
