@@ -378,7 +378,7 @@ class _Store:
         _k.rehash(self.rows, self.count, self.table)
         self.levels.append((lo, self.count))
 
-    def expand(self, aut, forward):
+    def expand(self, aut, forward, prune=False):
         lo, hi = self.levels[-1]
         self.ensure(self.count + (hi - lo) * aut.k)
         inv_ptr, inv_idx, supcount = aut.inverse
@@ -390,7 +390,7 @@ class _Store:
             return None
         lo2 = self.count
         self.count = new
-        if _PRUNE and new - lo2 > 1:
+        if prune and new - lo2 > 1:
             dead = np.zeros(new - lo2, dtype=np.bool_)
             _k.mark_dominated(self.rows, lo2, new, aut.n, forward, 1 << 16, dead)
             if dead.any():
@@ -476,7 +476,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
         if time.perf_counter() - t0 + predicted > time_budget:
             return None, "budget", fwd.count + bwd.count, total + 1
         te = time.perf_counter()
-        grown = store.expand(aut, forward)
+        grown = store.expand(aut, forward, _PRUNE)
         if grown is None:
             return None, "budget", fwd.count + bwd.count, total + 1
         if grown > 10_000:
