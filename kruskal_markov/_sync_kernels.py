@@ -152,8 +152,7 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
     return count
 
 
-@njit(cache=True, parallel=True)
-def _meet_query(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, flag, res):
+def _meet_query_py(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, flag, res):
     """Query forward rows against one block of the inverted index, ``chunk`` rows per parallel task.
 
     Task ``t`` writes its meeting pair only into ``res[t]``; any pair is optimal (all pairs tested
@@ -211,6 +210,10 @@ def _meet_query(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, f
                 break
 
 
+_meet_query_par = njit(cache=True, parallel=True)(_meet_query_py)
+_meet_query_seq = njit(cache=True)(_meet_query_py)
+
+
 @njit(cache=True)
 def _meet_index(bstore, blo, order, start, stop, inv, freq):
     W = bstore.shape[1]
@@ -236,13 +239,14 @@ def _level_sizes(store, lo, hi):
     return out
 
 
-def meet(fstore, flo, fhi, bstore, blo, bhi, n, block, chunk=256):
+def meet(fstore, flo, fhi, bstore, blo, bhi, n, block, chunk=256, parallel=None):
     """Find ``F`` in forward rows ``flo..fhi-1`` and ``B`` in backward rows ``blo..bhi-1`` with F <= B.
 
     Uses an inverted index (for each state, the bitset of the backward rows containing it), built
     block by block of ``block`` backward rows taken in decreasing size, so that a forward set of
     size ``s`` only scans the backward sets of size ``>= s``; forward rows are queried in parallel.
-    Returns ``(f, b)`` or ``(-1, -1)``.
+    ``parallel=None`` uses threads only for large blocks (thread start-up costs more than small
+    queries). Returns ``(f, b)`` or ``(-1, -1)``.
     """
     nb = bhi - blo
     if nb <= 0 or fhi <= flo:
@@ -256,7 +260,9 @@ def meet(fstore, flo, fhi, bstore, blo, bhi, n, block, chunk=256):
     for start in range(0, nb, block):
         stop = min(nb, start + block)
         _meet_index(bstore, blo, order, start, stop, inv, freq)
-        _meet_query(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, flag, res)
+        par = (fhi - flo) * (stop - start) > 4_000_000 if parallel is None else parallel
+        query = _meet_query_par if par else _meet_query_seq
+        query(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, flag, res)
         hits = np.flatnonzero(res[:, 0] >= 0)
         if hits.size:
             f, j = res[hits[0]]

@@ -422,8 +422,9 @@ def test_dominance_pruning_mode_matches_brute_force(monkeypatch):
         assert res.exact and res.length == brute_bitmask(table)
 
 
+@pytest.mark.parametrize("parallel", [False, True])
 @pytest.mark.parametrize("chunk,block", [(1, 64), (7, 128), (256, 1 << 16)])
-def test_meet_kernel_against_numpy(chunk, block):
+def test_meet_kernel_against_numpy(chunk, block, parallel):
     """The parallel subset test finds a pair F <= B exactly when one exists."""
     from kruskal_markov import _sync_kernels as kern
 
@@ -443,7 +444,7 @@ def test_meet_kernel_against_numpy(chunk, block):
                     out[i, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
             return out
 
-        f, b = kern.meet(pack(F), 0, nf, pack(B), 0, nb, n, block, chunk)
+        f, b = kern.meet(pack(F), 0, nf, pack(B), 0, nb, n, block, chunk, parallel)
         exists = bool(np.any((F[:, None, :] & ~B[None, :, :]).sum(axis=2) == 0))
         assert (f >= 0) == exists
         outcomes.add(exists)
