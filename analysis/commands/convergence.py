@@ -31,8 +31,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="exact answer only if at most this many subsets are reachable (default 200000)")
     parser.add_argument("--pair-time-budget", type=float, default=45.0, metavar="S",
                         help="seconds for the pair-chain upper bound iteration (default 45)")
-    parser.add_argument("--mc-time-budget", type=float, default=60.0, metavar="S",
-                        help="seconds for the Monte Carlo runs; runs still going are censored (default 60)")
+    parser.add_argument("--mc-time-budget", type=float, default=None, metavar="S",
+                        help="seconds for the Monte Carlo runs; runs still going are censored, which makes "
+                             "the result depend on the machine's speed (default: none, so the same seed "
+                             "gives the same output; --max-steps still censors)")
     parser.add_argument("--epsilon", type=float, default=None,
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
 
@@ -69,7 +71,7 @@ def run(args: argparse.Namespace) -> dict:
 
     if args.runs < 2:
         raise InputError("--runs must be >= 2")
-    if args.pair_time_budget <= 0 or args.mc_time_budget <= 0:
+    if args.pair_time_budget <= 0 or (args.mc_time_budget is not None and args.mc_time_budget <= 0):
         raise InputError("--pair-time-budget and --mc-time-budget must be positive")
     if args.max_steps < 1 or args.max_subsets < 1:
         raise InputError("--max-steps and --max-subsets must be >= 1")
