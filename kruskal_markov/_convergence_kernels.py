@@ -111,58 +111,67 @@ def _pair_index(p, q, n):
     return p * n - (p * (p + 1)) // 2 + (q - p - 1)
 
 
+@njit(cache=True, inline="always")
+def _pair_offsets(n):
+    """``first[p]`` = index of the first pair ``(p, q)`` (``q > p``) in :func:`_pair_index` order."""
+    first = np.empty(n + 1, dtype=np.int64)
+    for p in range(n + 1):
+        first[p] = p * n - (p * (p + 1)) // 2
+    return first
+
+
+@njit(cache=True, inline="always")
+def _pair_of(first, idx):
+    """The pair ``(p, q)``, ``p < q``, of pair index ``idx`` (inverse of :func:`_pair_index`)."""
+    p = np.searchsorted(first, idx, side="right") - 1
+    q = idx - first[p] + p + 1
+    return p, q
+
+
+@njit(cache=True, inline="always")
+def _push_images(delta, p, q, n, P, local, order, m):
+    """Append to ``order[:m]`` the unmerged images of pair ``(p, q)`` not seen yet (``local`` marks
+    the seen ones with their position), growing ``order`` when full; returns ``(order, m)``."""
+    k = delta.shape[0]
+    for a in range(k):
+        pp = delta[a, p]
+        qq = delta[a, q]
+        if pp != qq:
+            j = _pair_index(pp, qq, n)
+            if local[j] == -1:
+                if m >= order.shape[0]:
+                    bigger = np.empty(min(P, 2 * order.shape[0]), dtype=np.int64)
+                    bigger[:m] = order[:m]
+                    order = bigger
+                local[j] = m
+                order[m] = j
+                m += 1
+    return order, m
+
+
 @njit(cache=True)
 def pair_reachable(delta, start_pairs):
     """Pairs reachable in one or more steps from ``start_pairs`` (a list of pair indices).
 
     Returns ``(order, local)``: the reachable pair indices, and for every pair its position in
     ``order`` (``-1`` if unreachable)."""
-    k, n = delta.shape
+    n = delta.shape[1]
     P = n * (n - 1) // 2
     local = np.full(P, -1, dtype=np.int64)
     # decode pair index -> (p, q) on the fly via row offsets
-    first = np.empty(n + 1, dtype=np.int64)
-    for p in range(n + 1):
-        first[p] = p * n - (p * (p + 1)) // 2
+    first = _pair_offsets(n)
     order = np.empty(min(P, 1 << 20), dtype=np.int64)
     m = 0
     # seed: images of the start pairs
     queue_start = 0
     for s in range(start_pairs.shape[0]):
-        idx = start_pairs[s]
-        p = np.searchsorted(first, idx, side="right") - 1
-        q = idx - first[p] + p + 1
-        for a in range(k):
-            pp = delta[a, p]
-            qq = delta[a, q]
-            if pp != qq:
-                j = _pair_index(pp, qq, n)
-                if local[j] == -1:
-                    if m >= order.shape[0]:
-                        bigger = np.empty(min(P, 2 * order.shape[0]), dtype=np.int64)
-                        bigger[:m] = order[:m]
-                        order = bigger
-                    local[j] = m
-                    order[m] = j
-                    m += 1
+        p, q = _pair_of(first, start_pairs[s])
+        order, m = _push_images(delta, p, q, n, P, local, order, m)
     while queue_start < m:
         idx = order[queue_start]
         queue_start += 1
-        p = np.searchsorted(first, idx, side="right") - 1
-        q = idx - first[p] + p + 1
-        for a in range(k):
-            pp = delta[a, p]
-            qq = delta[a, q]
-            if pp != qq:
-                j = _pair_index(pp, qq, n)
-                if local[j] == -1:
-                    if m >= order.shape[0]:
-                        bigger = np.empty(min(P, 2 * order.shape[0]), dtype=np.int64)
-                        bigger[:m] = order[:m]
-                        order = bigger
-                    local[j] = m
-                    order[m] = j
-                    m += 1
+        p, q = _pair_of(first, idx)
+        order, m = _push_images(delta, p, q, n, P, local, order, m)
     return order[:m].copy(), local
 
 
@@ -170,14 +179,10 @@ def pair_reachable(delta, start_pairs):
 def pair_images(delta, pairs, local):
     """``out[i, a]`` = local index of the image of pair ``pairs[i]`` under ``a`` (``-1`` = merged)."""
     k, n = delta.shape
-    first = np.empty(n + 1, dtype=np.int64)
-    for p in range(n + 1):
-        first[p] = p * n - (p * (p + 1)) // 2
+    first = _pair_offsets(n)
     out = np.empty((pairs.shape[0], k), dtype=np.int32)
     for i in range(pairs.shape[0]):
-        idx = pairs[i]
-        p = np.searchsorted(first, idx, side="right") - 1
-        q = idx - first[p] + p + 1
+        p, q = _pair_of(first, pairs[i])
         for a in range(k):
             pp = delta[a, p]
             qq = delta[a, q]
@@ -246,14 +251,10 @@ def start_pair_stats(delta, start_pairs, local, w, h, v1):
     """For the start pairs: the largest expected merging time ``1 + sum_a w_a h(image)``, and the
     mass vector after one step (added into ``v1``)."""
     k, n = delta.shape
-    first = np.empty(n + 1, dtype=np.int64)
-    for p in range(n + 1):
-        first[p] = p * n - (p * (p + 1)) // 2
+    first = _pair_offsets(n)
     best = 0.0
     for s in range(start_pairs.shape[0]):
-        idx = start_pairs[s]
-        p = np.searchsorted(first, idx, side="right") - 1
-        q = idx - first[p] + p + 1
+        p, q = _pair_of(first, start_pairs[s])
         e = 1.0
         for a in range(k):
             pp = delta[a, p]
