@@ -152,13 +152,48 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
     return count
 
 
+@njit(cache=True, inline="always")
+def _elems_by_freq(rows, i, freq, elems):
+    """The states of row ``i`` into ``elems[:m]``, rarest first (insertion sort by ``freq``: rare
+    states first make the AND over their inverted-index rows vanish sooner); returns ``m``."""
+    W = rows.shape[1]
+    m = 0
+    for w in range(W):
+        x = rows[i, w]
+        while x != _ZERO:
+            b = _ctz(x)
+            x &= x - _ONE
+            e = w * 64 + b
+            t = m
+            while t > 0 and freq[elems[t - 1]] > freq[e]:
+                elems[t] = elems[t - 1]
+                t -= 1
+            elems[t] = e
+            m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _count_at_least(size, order, start, stop, m):
+    """How many of the positions ``start..stop-1`` (sizes ``size[order[.]]`` non-increasing) hold
+    a size ``>= m`` (they come first): binary search."""
+    lo_ = start
+    hi_ = stop
+    while lo_ < hi_:
+        mid = (lo_ + hi_) // 2
+        if size[order[mid]] >= m:
+            lo_ = mid + 1
+        else:
+            hi_ = mid
+    return lo_ - start
+
+
 def _meet_query_py(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk, flag, res):
     """Query forward rows against one block of the inverted index, ``chunk`` rows per parallel task.
 
     Task ``t`` writes its meeting pair only into ``res[t]``; any pair is optimal (all pairs tested
     have the same total depth), so the shared ``flag`` is only a hint for the others to stop early.
     """
-    W = fstore.shape[1]
     n = inv.shape[0]
     ntasks = (fhi - flo + chunk - 1) // chunk
     for task in prange(ntasks):
@@ -168,32 +203,11 @@ def _meet_query_py(fstore, flo, fhi, inv, freq, bsize, order, start, stop, chunk
         for i in range(flo + task * chunk, min(fhi, flo + (task + 1) * chunk)):
             if flag[0] != 0:
                 break
-            m = 0
-            for w in range(W):
-                x = fstore[i, w]
-                while x != _ZERO:
-                    b = _ctz(x)
-                    x &= x - _ONE
-                    e = w * 64 + b
-                    # insertion sort by frequency: rare states first make the AND vanish sooner
-                    t = m
-                    while t > 0 and freq[elems[t - 1]] > freq[e]:
-                        elems[t] = elems[t - 1]
-                        t -= 1
-                    elems[t] = e
-                    m += 1
+            m = _elems_by_freq(fstore, i, freq, elems)
             if m > 0 and freq[elems[0]] == 0:
                 continue
             # backward sets of this block with size >= m: positions [0, cnt)
-            lo_ = start
-            hi_ = stop
-            while lo_ < hi_:
-                mid = (lo_ + hi_) // 2
-                if bsize[order[mid]] >= m:
-                    lo_ = mid + 1
-                else:
-                    hi_ = mid
-            cnt = lo_ - start
+            cnt = _count_at_least(bsize, order, start, stop, m)
             used = (cnt + 63) // 64
             for v in range(used):
                 acc = _ALL
@@ -428,11 +442,8 @@ def mark_dominated(rows, lo, hi, n, drop_containers, block, out):
     another row of the level (a smaller image at the same depth is at least as good).
     Otherwise (inverse search): when row ``i`` is contained in another row of the level.
     """
-    W = rows.shape[1]
     nb = hi - lo
-    size = np.empty(nb, dtype=np.int64)
-    for j in range(nb):
-        size[j] = set_size(rows, lo + j)
+    size = _level_sizes(rows, lo, hi)
     order = np.argsort(-size)
     nwords = (block + 63) // 64
     inv = np.zeros((n, nwords), dtype=np.uint64)
@@ -440,46 +451,15 @@ def mark_dominated(rows, lo, hi, n, drop_containers, block, out):
     elems = np.empty(n, dtype=np.int64)
     for start in range(0, nb, block):
         stop = min(nb, start + block)
-        inv[:, :] = _ZERO
-        freq[:] = 0
-        for jj in range(stop - start):
-            j = lo + order[start + jj]
-            bit = _ONE << np.uint64(jj & 63)
-            for w in range(W):
-                x = rows[j, w]
-                while x != _ZERO:
-                    b = _ctz(x)
-                    x &= x - _ONE
-                    inv[w * 64 + b, jj >> 6] |= bit
-                    freq[w * 64 + b] += 1
+        _meet_index(rows, lo, order, start, stop, inv, freq)
         for i in range(nb):
             if not drop_containers and out[i]:
                 continue
-            m = 0
-            for w in range(W):
-                x = rows[lo + i, w]
-                while x != _ZERO:
-                    b = _ctz(x)
-                    x &= x - _ONE
-                    e = w * 64 + b
-                    t = m
-                    while t > 0 and freq[elems[t - 1]] > freq[e]:
-                        elems[t] = elems[t - 1]
-                        t -= 1
-                    elems[t] = e
-                    m += 1
+            m = _elems_by_freq(rows, lo + i, freq, elems)
             if m > 0 and freq[elems[0]] == 0:
                 continue
             # containers must be strictly larger (rows are distinct): positions with size > m
-            lo_ = start
-            hi_ = stop
-            while lo_ < hi_:
-                mid = (lo_ + hi_) // 2
-                if size[order[mid]] > m:
-                    lo_ = mid + 1
-                else:
-                    hi_ = mid
-            cnt = lo_ - start
+            cnt = _count_at_least(size, order, start, stop, m + 1)
             used = (cnt + 63) // 64
             for v in range(used):
                 acc = _ALL
