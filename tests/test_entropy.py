@@ -366,12 +366,7 @@ def test_image_block_path_matches_brute_force(seed):
     scatter path."""
     rng = np.random.default_rng(50 + seed)
     n, k, img, nnz = 60, 5, 12, 4
-    mats = []
-    for _ in range(k):
-        targets = rng.choice(n, size=img, replace=False)
-        cols = targets[rng.integers(0, img, size=(n, nnz))]
-        probs = rng.dirichlet(np.ones(nnz), size=n)
-        mats.append(sp.csr_matrix((probs.ravel(), (np.repeat(np.arange(n), nnz), cols.ravel())), shape=(n, n)))
+    mats = _image_matrices(rng, n, k, img, nnz)
     model = TransitionModel([f"a{i}" for i in range(k)], mats, partition=rng.integers(0, 6, n), n_cells=6)
     seqs = rng.integers(0, k, size=(150, 10))
     with_blocks = batch_entropy(model, seqs, image_blocks=True)
@@ -404,13 +399,19 @@ def test_batch_tiny_probabilities_long_supports():
     np.testing.assert_allclose(got, brute_entropy(p), rtol=1e-14, atol=0)
 
 
-def _imagey_model(rng, n=300, k=4, img=70, nnz=4, cells=None):
+def _image_matrices(rng, n, k, img, nnz):
+    """k random n x n stochastic matrices, each mapping every state into ``img`` states (``nnz`` per row)."""
     mats = []
     for _ in range(k):
         targets = rng.choice(n, size=img, replace=False)
         cols = targets[rng.integers(0, img, size=(n, nnz))]
         probs = rng.dirichlet(np.ones(nnz), size=n)
         mats.append(sp.csr_matrix((probs.ravel(), (np.repeat(np.arange(n), nnz), cols.ravel())), shape=(n, n)))
+    return mats
+
+
+def _imagey_model(rng, n=300, k=4, img=70, nnz=4, cells=None):
+    mats = _image_matrices(rng, n, k, img, nnz)
     init = rng.random(n)
     init /= init.sum()
     return TransitionModel([f"a{i}" for i in range(k)], mats, initial=init,
