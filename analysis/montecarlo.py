@@ -6,35 +6,39 @@ engine (Mannam et al., Sec. III-B and IV). After every tilt the plug-in Shannon 
 the surviving trials' poses on the report grid is recorded. A trial whose tilt faults (tipped,
 escaped, unsettled, invalid) is counted once, by kind, and dropped from all later steps.
 
-Trials are split into fixed-size chunks (the chunk size depends only on ``M``) and run in parallel
-over worker processes, each of which builds its simulator once per scene. Start poses come from the
-seed and the physics is deterministic, so the result is the same for any number of workers.
+Trials are split into fixed-size chunks (the chunk size depends only on ``M``) and run by an
+executor (:mod:`transition_builder.executors`: this process, spawned local worker processes, or a
+Dask cluster), each worker building its simulator once per scene. Start poses come from the seed,
+process noise (``noise``, :mod:`transition_builder.noise`) from the seed, the global trial index and
+the step, and the physics is deterministic, so the result is the same for any number of workers and
+any executor.
 
-Workers are *spawned* (never forked: a forked PyBullet client is not safe) and kept between calls,
-because starting them costs about a second; :func:`shutdown_workers` stops them (it also runs at
-exit). As with any spawned pool, a script that calls :func:`run_direct` with ``workers > 1`` must
+Local workers are *spawned* (never forked: a forked PyBullet client is not safe) and kept between
+calls, because starting them costs about a second; :func:`shutdown_workers` stops them (it also runs
+at exit). As with any spawned pool, a script that calls :func:`run_direct` with ``workers > 1`` must
 guard its top level with ``if __name__ == "__main__":``.
 """
 from __future__ import annotations
 
-import atexit
 import csv
-import hashlib
 import math
-import multiprocessing as mp
 import os
-import pickle
 import sys
 import tempfile
-from collections import OrderedDict
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from kruskal_markov.entropy import histogram_entropy_bits
+from transition_builder.executors import (
+    Executor,
+    SerialExecutor,
+    make_executor,
+    shutdown_workers,
+    simulator_for,
+)
 from transition_builder.grid import ReportGrid, parse_grid
+from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_poses
 from transition_builder.sampling import sample_start_poses
 from transition_builder.status import INVALID, OK, STATUS_NAMES
 
@@ -140,6 +144,8 @@ class DirectResult:
         Faulted trials by kind ``{"tipped": .., "escaped": .., "unsettled": .., "invalid": ..}``.
     grid : ReportGrid
     seed : int or None
+    noise : NoiseSpec
+        The process noise of the run (``str(noise)`` is its spec, ``"none"`` for none).
     """
 
     sequence: np.ndarray
@@ -154,6 +160,7 @@ class DirectResult:
     grid: ReportGrid
     seed: int | None = None
     extra: dict = field(default_factory=dict)
+    noise: NoiseSpec = field(default_factory=lambda: NoiseSpec("none"))
 
     @property
     def trials(self) -> int:
@@ -188,72 +195,14 @@ class DirectResult:
             "theta_offset": self.grid.theta_offset,
             "symmetry_order": self.grid.symmetry_order,
             "seed": self.seed,
+            "noise": str(self.noise),
             **self.extra,
         }
 
 
 # ----------------------------------------------------------------------------------------------
-# workers
+# workers (the executors live in transition_builder.executors)
 # ----------------------------------------------------------------------------------------------
-
-# Simulators are cached per process, keyed by (scene, factory): a worker builds one simulator per
-# scene once and keeps it for later chunks and later calls (at most _SIM_CACHE_SIZE scenes).
-_SIM_CACHE: OrderedDict[str, object] = OrderedDict()
-_SIM_CACHE_SIZE = 4
-# The worker pool is kept between calls (spawning workers costs about a second each time).
-_POOL: tuple[int, ProcessPoolExecutor] | None = None
-
-
-def _default_factory(scene):
-    from transition_builder.sim import TraySimulator
-
-    return TraySimulator(scene)
-
-
-def _scene_key(scene, factory) -> str:
-    """A key identifying (scene, simulator factory) across processes."""
-    h = hashlib.sha256()
-    content_hash = getattr(scene, "content_hash", None)
-    h.update(content_hash().encode() if callable(content_hash) else pickle.dumps(scene))
-    h.update(pickle.dumps(factory))
-    return h.hexdigest()
-
-
-def _simulator_for(key: str, scene, factory):
-    sim = _SIM_CACHE.get(key)
-    if sim is None:
-        sim = (factory or _default_factory)(scene)
-        _SIM_CACHE[key] = sim
-        while len(_SIM_CACHE) > _SIM_CACHE_SIZE:
-            _, old = _SIM_CACHE.popitem(last=False)
-            close = getattr(old, "close", None)
-            if callable(close):
-                close()
-    else:
-        _SIM_CACHE.move_to_end(key)
-    return sim
-
-
-def _get_pool(n_workers: int) -> ProcessPoolExecutor:
-    global _POOL
-    if _POOL is not None and _POOL[0] == n_workers and not getattr(_POOL[1], "_broken", False):
-        return _POOL[1]
-    shutdown_workers()
-    ctx = mp.get_context("spawn")  # never fork a process that may hold a physics client
-    _POOL = (n_workers, ProcessPoolExecutor(max_workers=n_workers, mp_context=ctx))
-    return _POOL[1]
-
-
-def shutdown_workers() -> None:
-    """Stop the worker processes kept by :func:`run_direct` (also done at interpreter exit)."""
-    global _POOL
-    if _POOL is not None:
-        _POOL[1].shutdown(wait=True, cancel_futures=True)
-        _POOL = None
-
-
-atexit.register(shutdown_workers)
-
 
 def _tilt(sim, poses: np.ndarray, action_name: str) -> tuple[np.ndarray, np.ndarray]:
     rest, status = sim.tilt(poses, action_name)
@@ -267,8 +216,14 @@ def _tilt(sim, poses: np.ndarray, action_name: str) -> tuple[np.ndarray, np.ndar
     return rest, status
 
 
-def _run_chunk(sim, starts: np.ndarray, sequence_names: list[str]) -> tuple[np.ndarray, np.ndarray]:
-    """Drive a chunk of trials through the sequence; returns poses (c, N+1, 3), status (c, N+1)."""
+def _run_chunk(sim, starts: np.ndarray, sequence_names: list[str], scene=None, noise: NoiseSpec | None = None,
+               noise_seed: int = 0, first_trial: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Drive a chunk of trials through the sequence; returns poses (c, N+1, 3), status (c, N+1).
+
+    With ``noise`` (not zero), the pose of trial ``first_trial + i`` is perturbed before tilt ``k``
+    (1..N) with :func:`~transition_builder.noise.noise_rng` ``(noise_seed, first_trial + i, k)``;
+    the recorded poses are the rest poses (and the start poses), never the perturbed ones.
+    """
     c, n = len(starts), len(sequence_names)
     poses = np.full((c, n + 1, 3), np.nan)
     status = np.zeros((c, n + 1), dtype=np.int8)
@@ -279,27 +234,24 @@ def _run_chunk(sim, starts: np.ndarray, sequence_names: list[str]) -> tuple[np.n
         idx = np.flatnonzero(alive)
         if idx.size == 0:
             continue
-        rest, st = _tilt(sim, poses[idx, k - 1], name)
+        before = poses[idx, k - 1]
+        if noise is not None and not noise.is_zero:
+            before = perturb_poses(scene, before, noise,
+                                   [noise_rng(noise_seed, first_trial + int(i), k) for i in idx])
+        rest, st = _tilt(sim, before, name)
         poses[idx, k] = rest
         status[idx, k] = st
         alive[idx[st != OK]] = False
     return poses, status
 
 
-def _worker_chunk(key, scene, factory, starts, sequence_names):
-    return _run_chunk(_simulator_for(key, scene, factory), starts, sequence_names)
+def _worker_chunk(scene, factory, starts, sequence_names, noise=None, noise_seed=0, first_trial=0):
+    return _run_chunk(simulator_for(scene, factory), starts, sequence_names, scene, noise, noise_seed, first_trial)
 
 
 def _chunk_size(trials: int) -> int:
     """Trials per chunk: a function of ``trials`` only (so results never depend on the workers)."""
     return int(min(256, max(16, math.ceil(trials / 64))))
-
-
-def _default_workers() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        return os.cpu_count() or 1
 
 
 # ----------------------------------------------------------------------------------------------
@@ -308,7 +260,8 @@ def _default_workers() -> int:
 
 def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int | None = None,
                progress: bool | None = False, *, grid="4x4x4", theta_offset: float | None = None,
-               start_poses=None, simulator_factory=None) -> DirectResult:
+               start_poses=None, simulator_factory=None, noise=None, executor: Executor | None = None,
+               scheduler: str | None = None) -> DirectResult:
     """Direct Monte Carlo: ``trials`` uniform random start poses driven through ``sequence``.
 
     Parameters
@@ -320,9 +273,11 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
     trials : int
         Number of trials M.
     seed : int
-        Seed of the start poses (``numpy.random.default_rng(seed)``, drawn in this process).
+        Seed of the start poses (``numpy.random.default_rng(seed)``, drawn in this process) and of
+        the process noise (None: random start poses, noise seed 0).
     workers : int or None
-        Worker processes; None uses every available core, 1 runs in this process.
+        Worker processes; None uses every available core, 1 runs in this process. Not used when
+        ``executor`` or ``scheduler`` is given.
     progress : bool or None
         Show a tqdm progress bar on standard error; None shows it only if stderr is a terminal.
     grid : str or ReportGrid
@@ -333,7 +288,18 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
         Explicit start poses instead of sampled ones (``trials`` must match, or be None).
     simulator_factory : callable, optional
         ``factory(scene)`` returning an object with ``.tilt(poses, action_name) -> (rest, status)``;
-        default :class:`transition_builder.sim.TraySimulator`. Must be picklable for workers > 1.
+        default :class:`transition_builder.sim.TraySimulator`. Must be picklable unless run in
+        this process.
+    noise : NoiseSpec or str, optional
+        Process noise (:mod:`transition_builder.noise`), applied to every trial before every tilt:
+        trial ``t`` before tilt ``k`` draws from ``noise_rng(seed, t, k)``, so the result does not
+        depend on the executor. ``None``, ``"none"`` and ``"pose:0,0"`` give identical results.
+    executor : transition_builder.executors.Executor, optional
+        Where the chunks run (the caller closes it). Default: ``make_executor(workers, scheduler)``
+        (one chunk, or ``workers=1``: this process).
+    scheduler : str, optional
+        Address of a Dask scheduler (needs ``kruskal[distributed]``); the client made for it is
+        closed before returning.
 
     Returns
     -------
@@ -343,6 +309,13 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
     seq = resolve_sequence(sequence, names)
     rgrid = report_grid_for(scene, grid, theta_offset)
     a, b = _tray_size(scene)
+    noise = parse_noise(noise)
+    noise_seed = 0 if seed is None else seed
+    if not noise.is_zero and (isinstance(noise_seed, bool) or not isinstance(noise_seed, (int, np.integer))
+                              or noise_seed < 0):
+        raise ValueError(f"process noise needs a non-negative integer seed, got {seed!r}")
+    if executor is not None and not isinstance(executor, Executor):
+        raise ValueError(f"executor must be a transition_builder.executors.Executor, got {type(executor).__name__}")
     if start_poses is not None:
         starts = np.array(start_poses, dtype=np.float64)
         if starts.ndim != 2 or starts.shape[1] != 3:
@@ -357,9 +330,8 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
             raise ValueError(f"trials must be a positive integer, got {trials!r}")
         starts = sample_start_poses(scene.shape, a, b, int(trials), np.random.default_rng(seed))
     trials = int(trials)
-    if workers is None:
-        workers = _default_workers()
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, (int, np.integer))
+                                or workers < 1):
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
 
     seq_names = [names[i] for i in seq]
@@ -367,49 +339,41 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
     bounds = [(lo, min(lo + size, trials)) for lo in range(0, trials, size)]
     poses = np.full((trials, len(seq) + 1, 3), np.nan)
     status = np.zeros((trials, len(seq) + 1), dtype=np.int8)
+    poses[:, 0] = starts
+    chunk_noise = None if noise.is_zero else noise  # a zero noise takes no perturbation path at all
+    owned = None
+    if executor is None:
+        if scheduler is not None:
+            executor = owned = make_executor(workers, scheduler)
+        elif len(bounds) == 1 or workers == 1:
+            executor = SerialExecutor()
+        else:
+            executor = make_executor(workers)  # the local pool is kept: no churn between calls
     if progress is None:
         progress = sys.stderr.isatty()
     bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=trials, unit="trial", desc="simulate", file=sys.stderr, leave=False)
     try:
-        n_workers = min(int(workers), len(bounds))
-        key = _scene_key(scene, simulator_factory)
-        if n_workers <= 1 or len(seq) == 0:
-            sim = _simulator_for(key, scene, simulator_factory) if len(seq) else None
-            for lo, hi in bounds:
-                p, s = _run_chunk(sim, starts[lo:hi], seq_names)
+        if len(seq):
+            if progress:
+                from tqdm import tqdm
+
+                bar = tqdm(total=trials, unit="trial", desc="simulate", file=sys.stderr, leave=False)
+            tasks = [(scene, simulator_factory, starts[lo:hi], seq_names, chunk_noise, int(noise_seed), lo)
+                     for lo, hi in bounds]
+            for i, (p, s) in executor.map(_worker_chunk, tasks):
+                lo, hi = bounds[i]
                 poses[lo:hi], status[lo:hi] = p, s
                 if bar is not None:
                     bar.update(hi - lo)
-        else:
-            pool = _get_pool(int(workers))  # one pool size per request: no churn between calls
-            futures = {pool.submit(_worker_chunk, key, scene, simulator_factory, starts[lo:hi], seq_names):
-                       (lo, hi) for lo, hi in bounds}
-            try:
-                for fut in as_completed(futures):
-                    lo, hi = futures[fut]
-                    poses[lo:hi], status[lo:hi] = fut.result()
-                    if bar is not None:
-                        bar.update(hi - lo)
-            except BrokenProcessPool as exc:
-                shutdown_workers()
-                raise RuntimeError("a worker process died (BrokenProcessPool); workers are spawned, so a "
-                                   "script calling run_direct needs an `if __name__ == '__main__':` guard "
-                                   "-- or pass workers=1") from exc
-            except BaseException:
-                for fut in futures:
-                    fut.cancel()
-                raise
     finally:
         if bar is not None:
             bar.close()
-    return _summarise(seq, names, poses, status, rgrid, seed)
+        if owned is not None:
+            owned.close()
+    return _summarise(seq, names, poses, status, rgrid, seed, noise)
 
 
-def _summarise(seq, names, poses, status, rgrid: ReportGrid, seed) -> DirectResult:
+def _summarise(seq, names, poses, status, rgrid: ReportGrid, seed, noise: NoiseSpec) -> DirectResult:
     n_steps = poses.shape[1]
     faulted = status != OK
     fault_step = np.where(faulted.any(axis=1), faulted.argmax(axis=1), -1).astype(np.int64)
@@ -428,7 +392,7 @@ def _summarise(seq, names, poses, status, rgrid: ReportGrid, seed) -> DirectResu
               for code, name in enumerate(STATUS_NAMES) if code != OK}
     return DirectResult(sequence=np.asarray(seq, dtype=np.int64), action_names=tuple(names), poses=poses,
                         status=status, fault_step=fault_step, entropy_bits=entropy, surviving=surviving,
-                        occupied_voxels=occupied, faults=faults, grid=rgrid, seed=seed)
+                        occupied_voxels=occupied, faults=faults, grid=rgrid, seed=seed, noise=noise)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -16,13 +16,14 @@ LENGTH = int(os.environ.get("KRUSKAL_BENCH_MC_LENGTH", "5"))
 
 
 def main() -> None:
-    from analysis.montecarlo import _default_workers, run_direct
+    from analysis.montecarlo import run_direct
+    from transition_builder.executors import default_workers
     from transition_builder.sampling import sample_start_poses
     from transition_builder.scene import scene_from_options
 
     scene = scene_from_options("allen-key")
     seq = np.random.default_rng(0).integers(0, len(scene.actions), LENGTH).tolist()
-    cores = _default_workers()
+    cores = default_workers()
     print(f"allen key, {TRIALS} trials x {LENGTH} random tilts, {cores} core(s) available "
           f"(load average before: {os.getloadavg()[0]:.2f})")
 

@@ -25,6 +25,8 @@ __all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION"]
 #: Marker stored in every saved model; a ``.npz`` without it is rejected as foreign.
 FORMAT_NAME = "kruskal.TransitionModel"
 FORMAT_VERSION = 1
+#: prefix of the ``.npz`` members that hold :attr:`TransitionModel.extras`.
+_EXTRA_PREFIX = "x_"
 
 
 class ModelError(ValueError):
@@ -52,6 +54,23 @@ def _normalise_metadata(metadata) -> dict:
     except (TypeError, ValueError) as exc:
         raise ModelError(f"metadata is not JSON-serialisable: {exc}") from None
     return json.loads(text)
+
+
+def _normalise_extras(extras) -> dict:
+    if extras is None:
+        return {}
+    if not isinstance(extras, dict):
+        raise ModelError(f"extras must be a dict of arrays, got {type(extras).__name__}")
+    out = {}
+    for key, value in extras.items():
+        if not isinstance(key, str) or not key.isidentifier():
+            raise ModelError(f"extras key {key!r} must be an identifier")
+        arr = np.array(value)
+        if arr.dtype.kind not in "biuf":
+            raise ModelError(f"extras array {key!r} must be numeric, got dtype {arr.dtype}")
+        arr.flags.writeable = False
+        out[key] = arr
+    return out
 
 
 def _fmt_action(name: str) -> str:
@@ -109,8 +128,12 @@ class TransitionModel:
     n_cells : int, optional
         Number of report cells (default ``partition.max() + 1``); requires ``partition``.
     metadata : dict, optional
-        JSON-serialisable free-form data (scene, grids, counts for error bars...). Numpy scalars
+        JSON-serialisable free-form data (scene, grids, build statistics...). Numpy scalars
         and arrays are converted to plain JSON values.
+    extras : dict of str to array_like, optional
+        Named numeric arrays that travel with the model (a built model keeps its sample counts,
+        fault counts and state poses here, see ``docs/builder.md``). Stored read-only and saved
+        in the ``.npz`` beside the matrices; not used by the engine.
     tol : float
         Tolerance on row sums and on the total mass of ``initial`` (deeptime style), default 1e-9.
 
@@ -129,7 +152,7 @@ class TransitionModel:
     """
 
     def __init__(self, actions, matrices, initial=None, partition=None, n_cells=None, metadata=None,
-                 tol: float = 1e-9):
+                 tol: float = 1e-9, extras=None):
         try:
             tol = float(tol)
         except (TypeError, ValueError):
@@ -246,6 +269,7 @@ class TransitionModel:
             self.partition = part
             self.n_cells = n_cells_int
         self.metadata: dict = _normalise_metadata(metadata)
+        self.extras: dict = _normalise_extras(extras)
         self._cache: dict = {}
 
     # ------------------------------------------------------------------ basic properties
@@ -322,7 +346,7 @@ class TransitionModel:
     def with_initial(self, initial) -> "TransitionModel":
         """A copy of this model with another initial distribution."""
         return TransitionModel(self.actions, self.matrices, initial=initial, partition=self.partition,
-                               n_cells=self.n_cells, metadata=self.metadata, tol=self.tol)
+                               n_cells=self.n_cells, metadata=self.metadata, tol=self.tol, extras=self.extras)
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> str:
@@ -345,6 +369,8 @@ class TransitionModel:
             arrays[f"data_{a}"] = np.asarray(m.data)
         if self.partition is not None:
             arrays["partition"] = np.asarray(self.partition)
+        for key, value in self.extras.items():
+            arrays[_EXTRA_PREFIX + key] = np.asarray(value)
         directory = os.path.dirname(os.path.abspath(path))
         fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
         try:
@@ -402,9 +428,10 @@ class TransitionModel:
                     mats.append(sp.csr_matrix((data, indices, indptr), shape=(n, n)))
                 initial = npz["initial"]
                 partition = npz["partition"] if "partition" in npz.files else None
+                extras = {f[len(_EXTRA_PREFIX):]: npz[f] for f in npz.files if f.startswith(_EXTRA_PREFIX)}
                 return cls(actions, mats, initial=initial, partition=partition,
                            n_cells=header.get("n_cells") if partition is not None else None,
-                           metadata=header.get("metadata") or {},
+                           metadata=header.get("metadata") or {}, extras=extras,
                            tol=header.get("tol", 1e-9) if tol is None else tol)
         except ModelError as exc:
             if str(exc).startswith(path):

@@ -46,6 +46,7 @@ def test_json_contract(small_run):
     assert all(0 <= h <= math.log2(64) + 1e-9 for h in res["entropy_bits"])
     assert all(h <= math.log2(max(n, 1)) + 1e-9 for h, n in zip(res["entropy_bits"], res["surviving"]))
     assert len(res["scene_hash"]) == 64
+    assert res["noise"] == "none"
 
 
 def test_poses_file_matches_json(small_run):
@@ -89,6 +90,20 @@ def test_random_sequence_from_seed(capsys):
     assert a["grid"] == "2x2x2"
 
 
+def test_process_noise_option(capsys):
+    argv = ["--sequence", "NE,S", "--trials", "16", "--seed", "4", "--workers", "1", "--json"]
+    code, out, err = _run(capsys, *argv, "--noise", "pose:0.5,0.5")
+    assert code == 0, err
+    noisy = json.loads(out)
+    assert noisy["noise"] == "pose:0.5,0.5" and noisy["trials"] == 16
+    code, out, _ = _run(capsys, *argv, "--noise", "pose:0,0")
+    zero = json.loads(out)
+    code, out, _ = _run(capsys, *argv)
+    plain = json.loads(out)
+    assert zero["noise"] == plain["noise"] == "none"
+    assert zero["entropy_bits"] == plain["entropy_bits"]
+
+
 def test_zero_length_sequence_text_output(capsys):
     code, out, _ = _run(capsys, "--sequence", "", "--trials", "500", "--seed", "1")
     assert code == 0
@@ -106,6 +121,9 @@ def test_zero_length_sequence_text_output(capsys):
     (["--sequence", "N", "--grid", "4x4"], "bad grid"),
     (["--sequence", "N", "--friction", "slippery"], "friction"),
     (["--sequence", "N", "--workers", "0"], "--workers"),
+    (["--sequence", "N", "--noise", "pose:x"], "pose:SIGMA_MM,SIGMA_DEG"),
+    (["--sequence", "N", "--noise", "gauss:1,1"], "pose:SIGMA_MM,SIGMA_DEG"),
+    (["--sequence", "N", "--trials", "2", "--scheduler", "nonsense://x"], "scheduler"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, needle):
     code, out, err = _run(capsys, *argv)

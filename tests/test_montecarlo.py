@@ -176,9 +176,9 @@ def test_same_result_for_any_number_of_workers(scene):
 
 
 def test_simulator_built_once_per_process(scene):
-    import analysis.montecarlo as mc
+    from transition_builder.executors import _sim_cache
 
-    mc._SIM_CACHE.clear()
+    _sim_cache().clear()
     FakeSimulator.builds = 0
     run_direct(scene, SEQ[:2], 600, seed=0, workers=1, simulator_factory=fake_factory)
     assert FakeSimulator.builds == 1  # many chunks, one simulator

@@ -1,7 +1,9 @@
 """``kruskal simulate``: direct Monte Carlo through a tilt sequence in the physics engine.
 
-M uniform random collision-free start poses (from ``--seed``), each driven through the sequence;
-the report-grid entropy after every tilt, fault counts, and optionally every pose (``--poses``).
+M uniform random collision-free start poses (from ``--seed``), each driven through the sequence
+(with optional process noise before every tilt, ``--noise``), in this process, local worker
+processes (``--workers``) or on a Dask cluster (``--scheduler``); the report-grid entropy after
+every tilt, fault counts, and optionally every pose (``--poses``).
 """
 from __future__ import annotations
 
@@ -39,8 +41,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--poses", metavar="FILE.csv",
                         help="write every trial's pose after every tilt "
                              "(columns trial,step,x_mm,y_mm,theta_rad,status)")
+    parser.add_argument("--noise", default="none", metavar="SPEC",
+                        help="process noise before every tilt: none or pose:SIGMA_MM,SIGMA_DEG "
+                             "(default none; pose:0,0 is none)")
     parser.add_argument("--workers", type=int, default=None,
                         help="worker processes (default: all cores; 1 = in this process)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run on a Dask cluster, e.g. tcp://host:8786 (needs kruskal[distributed]; "
+                             "--workers is then not used)")
     parser.add_argument("--progress", action="store_true",
                         help="show a progress bar on standard error (default: only on a terminal)")
 
@@ -76,7 +84,9 @@ def _scene(args):
 
 def run(args: argparse.Namespace) -> dict:
     from analysis.montecarlo import run_direct, write_poses_csv
+    from transition_builder.noise import parse_noise
 
+    noise = parse_noise(args.noise)
     if args.trials < 1:
         raise InputError(f"--trials must be at least 1, got {args.trials}")
     if args.workers is not None and args.workers < 1:
@@ -86,7 +96,8 @@ def run(args: argparse.Namespace) -> dict:
     sequence = parse_sequence(args.sequence, scene.actions, rng)
     progress = True if args.progress else None  # None: a bar only when stderr is a terminal
     result = run_direct(scene, sequence, args.trials, seed=args.seed, workers=args.workers,
-                        progress=progress, grid=args.grid, theta_offset=args.theta_offset)
+                        progress=progress, grid=args.grid, theta_offset=args.theta_offset, noise=noise,
+                        scheduler=args.scheduler)
     out = result.to_json()
     out["shape"] = scene.shape.name
     out["friction"] = str(scene.friction)
@@ -98,8 +109,9 @@ def run(args: argparse.Namespace) -> dict:
 
 def format_text(result: dict) -> str:
     """A short human summary: the entropy curve and the faults."""
-    lines = [f"shape {result['shape']}  friction {result['friction']}  trials {result['trials']}  "
-             f"tilts {result['tilts']}  grid {result['grid']}  seed {result['seed']}",
+    lines = [(f"shape {result['shape']}  friction {result['friction']}  trials {result['trials']}  "
+              f"tilts {result['tilts']}  grid {result['grid']}  seed {result['seed']}  "
+              f"noise {result.get('noise', 'none')}"),
              "step  action  entropy_bits  occupied  surviving"]
     seq = ["start"] + list(result["sequence"])
     for k, h in enumerate(result["entropy_bits"]):

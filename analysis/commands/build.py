@@ -1,0 +1,89 @@
+"""``kruskal build``: sample the physics engine into per-action transition matrices (a model ``.npz``).
+
+States are representative rest poses reached from the uniform start distribution, reduced by the
+tray's symmetry (``transition_builder.builder``; design and measurements in ``docs/builder.md``).
+Finished models are cached under a content hash of everything that changes them; a killed build
+resumes from its checkpoint when started again.
+"""
+from __future__ import annotations
+
+import argparse
+import re
+
+from analysis.commands import InputError
+from analysis.commands._common import add_seed
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--shape", default=None, help="allen-key | triangle:SEED | rectangle:WxH | "
+                        "polygon:x1,y1;x2,y2;... | FILE.json (default allen-key)")
+    parser.add_argument("--friction", default=None, help="a Coulomb coefficient or map:LEVEL:SEED")
+    parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
+    parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml)")
+    parser.add_argument("--noise", default="none", help="process noise: none | pose:SIGMA_MM,SIGMA_DEG")
+    parser.add_argument("--resolution", default="0.5,0.5", metavar="MM,DEG",
+                        help="snapping tolerance of representative rest poses, mm and degrees (default 0.5,0.5)")
+    parser.add_argument("--samples", type=int, default=None, metavar="K",
+                        help="samples per state and action (default 1 without noise, 8 with noise)")
+    parser.add_argument("--start-samples", type=int, default=5000,
+                        help="uniform start poses for the first tilt (default 5000)")
+    parser.add_argument("--grid", default="4x4x4", help="report grid AxBxG (default 4x4x4)")
+    parser.add_argument("--theta-offset", type=float, default=None, metavar="RAD",
+                        help="theta bin offset of the report grid (default half a bin)")
+    parser.add_argument("--no-symmetry", action="store_true", help="do not use the tray's rotation symmetry")
+    parser.add_argument("--support-points", type=int, default=None,
+                        help="simulator floor contact: 1 sphere (default) or K legs")
+    parser.add_argument("--max-states", type=int, default=400_000, help="stop exploring beyond this many states")
+    add_seed(parser)
+    parser.add_argument("--out", metavar="PATH", help="write the model here (default: the cache file)")
+    parser.add_argument("--no-cache", action="store_true", help="rebuild even if a cached model exists")
+    parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask distributed scheduler")
+    parser.add_argument("--progress", action="store_true", help="progress bar on standard error")
+
+
+def _resolution(text: str) -> tuple[float, float]:
+    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(?:,\s*([0-9.eE+-]+)\s*)?", text or "")
+    try:
+        mm = float(m.group(1))
+        deg = float(m.group(2)) if m.group(2) else mm
+    except (AttributeError, ValueError):
+        raise InputError(f"bad --resolution {text!r}: expected MM,DEG, e.g. 0.5,0.5") from None
+    return mm, deg
+
+
+def scene_for(args):
+    """The scene named by --scene/--shape/--friction/--tilt-deg/--support-points."""
+    from analysis.commands.simulate import _scene
+
+    scene = _scene(args)
+    if getattr(args, "support_points", None) is not None:
+        scene = scene.with_settings(support_points=args.support_points)
+    return scene
+
+
+def run(args: argparse.Namespace) -> dict:
+    from transition_builder.builder import BuildSettings
+    from transition_builder.cache import cached_build
+
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers must be at least 1, got {args.workers}")
+    if args.out is not None and not args.out.strip():
+        raise InputError("--out must be a file path")
+    scene = scene_for(args)
+    mm, deg = _resolution(args.resolution)
+    settings = BuildSettings(tol_mm=mm, tol_deg=deg, start_samples=args.start_samples, samples=args.samples,
+                             grid=args.grid, theta_offset=args.theta_offset, symmetry=not args.no_symmetry,
+                             max_states=args.max_states, noise=args.noise, seed=args.seed)
+    result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
+                                        workers=args.workers, scheduler=args.scheduler,
+                                        progress=True if args.progress else None)
+    stats = dict(result.stats)
+    out = {"model": path, "states": stats.get("states"), "voxels_total": stats.get("voxels_total"),
+           "tilts_simulated": 0 if cached else stats.get("tilts_simulated"),
+           "fault_rate": stats.get("fault_rate"), "cached": cached, "shape": scene.shape.name,
+           "friction": str(scene.friction), "noise": settings.noise}
+    if cached:
+        stats["tilts_simulated_when_built"] = stats.pop("tilts_simulated", None)
+    out.update({k: v for k, v in stats.items() if k not in out})
+    return out

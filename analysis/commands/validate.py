@@ -1,0 +1,64 @@
+"""``kruskal validate``: a built model's entropy predictions against direct simulation.
+
+K random sequences (``--seed``; the model's process noise in the reference); per sequence the
+model's report-grid entropy curve beside direct Monte Carlo of M trials; the model's error beside
+the reference's own sampling noise and, with ``--spread``, beside the simulator's own half-time-step
+spread (``analysis.validate``).
+"""
+from __future__ import annotations
+
+import argparse
+
+from analysis.commands import InputError
+from analysis.commands._common import add_seed
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--model", required=True, metavar="PATH", help="a model built by `kruskal build`")
+    parser.add_argument("--sequences", type=int, default=6, help="number of random sequences K (default 6)")
+    parser.add_argument("--trials", type=int, default=1000, help="direct-simulation trials M per sequence")
+    parser.add_argument("--length", type=int, default=50, help="length N of every sequence (default 50)")
+    add_seed(parser)
+    parser.add_argument("--spread", action="store_true",
+                        help="also re-simulate the reference at half the time step")
+    parser.add_argument("--bands", type=int, default=40, help="posterior draws for the model's band (default 40)")
+    parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask distributed scheduler")
+    parser.add_argument("--progress", action="store_true", help="progress bar on standard error")
+
+
+def run(args: argparse.Namespace) -> dict:
+    from analysis.validate import validate_model
+    from kruskal_markov.model import TransitionModel
+
+    for name in ("sequences", "trials", "length"):
+        if getattr(args, name) < 1:
+            raise InputError(f"--{name} must be at least 1, got {getattr(args, name)}")
+    if args.trials < 2:
+        raise InputError("--trials must be at least 2 (the reference's noise is a bootstrap)")
+    model = TransitionModel.load(args.model)
+    return validate_model(model, args.sequences, args.trials, args.seed, args.length, spread=args.spread,
+                          bands=args.bands, workers=args.workers, scheduler=args.scheduler,
+                          progress=True if args.progress else None)
+
+
+def format_text(result: dict) -> str:
+    """Error, reference noise and (with --spread) the simulator's own spread, side by side."""
+    lines = [f"{result['sequences']} sequences x {result['length']} tilts, M = {result['trials']}, "
+             f"noise {result['noise']}, {result['states']} model states",
+             "seq  mean_err  max_err  ref_noise  final_TV" + ("  spread_mean  spread_max" if "simulation_spread_bits" in result else "")]
+    for i, s in enumerate(result["per_sequence"]):
+        line = (f"{i:3d}  {s['mean_abs_error_bits']:8.3f}  {s['max_abs_error_bits']:7.3f}  "
+                f"{s['reference_noise_bits']:9.3f}  {s['final_tv_distance']:8.3f}")
+        if "simulation_spread_bits" in s:
+            line += f"  {s['simulation_spread_bits']['mean']:11.3f}  {s['simulation_spread_bits']['max']:10.3f}"
+        lines.append(line)
+    lines.append(f"all: mean {result['mean_abs_error_bits']:.3f}  max {result['max_abs_error_bits']:.3f}  "
+                 f"steps > 0.25: {100 * result['share_steps_above_0_25']:.1f}%  reference noise "
+                 f"{result['reference_noise_bits']:.3f}  band coverage {result['band_coverage']}")
+    if "simulation_spread_bits" in result:
+        sp = result["simulation_spread_bits"]
+        lines.append(f"simulator half-time-step spread: mean {sp['mean']:.3f}  max {sp['max']:.3f}")
+    lines.append(f"seconds: {result['seconds']:.1f} (model {result['model_seconds']:.1f}, "
+                 f"simulation {result['simulation_seconds']:.1f})")
+    return "\n".join(lines)

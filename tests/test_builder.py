@@ -1,0 +1,301 @@
+"""Tests for the transition-model builder: known transitions, accounting, symmetry against direct
+simulation, noise determinism, checkpoint resume after SIGKILL, executors, cache, CLI."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+from kruskal_markov.model import TransitionModel
+from transition_builder.builder import STATE_REST, STATE_START, BuildSettings, build_key, build_model
+from transition_builder.executors import SerialExecutor, make_executor
+from transition_builder.scene import scene_from_options
+from transition_builder.sim import TraySimulator
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+# action -> (x, y) components of its downhill direction
+COMPONENTS = {"N": (0, 1), "NE": (1, 1), "E": (1, 0), "SE": (1, -1), "S": (0, -1), "SW": (-1, -1),
+              "W": (-1, 0), "NW": (-1, 1)}
+
+
+def _square_scene():
+    # a 30 mm square in a 90 mm tray: small, so few rest states; mu 0.1 so edges come to rest flush
+    return scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0))
+
+
+def _same_model(a: TransitionModel, b: TransitionModel) -> bool:
+    if a.n_states != b.n_states or not np.array_equal(a.initial, b.initial):
+        return False
+    if not np.array_equal(a.partition, b.partition):
+        return False
+    return all((ma != mb).nnz == 0 for ma, mb in zip(a.matrices, b.matrices))
+
+
+@pytest.fixture(scope="module")
+def square_build():
+    settings = BuildSettings(start_samples=150, max_states=1200, seed=3)
+    return build_model(_square_scene(), settings, executor=SerialExecutor())
+
+
+def test_corner_states_have_the_known_transitions(square_build):
+    """A square resting in a corner goes to the corner its tilt points at (sliding along a wall when
+    the tilt is straight): the corner automaton is known exactly. Where it comes to rest is judged
+    within 1 mm and 1 degree (hitting the far wall, the square can bounce up to ~0.6 mm off the wall
+    it slid along: the engine's restitution, a real effect of the simulated physics)."""
+    m = square_build.model
+    poses = m.extras["state_poses"]
+    kind = m.extras["state_kind"]
+
+    def corner_pos(cx, cy):
+        return (15.0 if cx < 0 else 75.0), (15.0 if cy < 0 else 75.0)
+
+    def aligned(th, tol_deg):
+        return np.abs(np.mod(th + 0.25, math.pi / 2) - 0.25) < math.radians(tol_deg)
+
+    checked = 0
+    for cx in (-1, 1):
+        for cy in (-1, 1):
+            x, y = corner_pos(cx, cy)
+            d = np.hypot(poses[:, 0] - x, poses[:, 1] - y)
+            states = np.flatnonzero((kind == STATE_REST) & (d < 0.2) & aligned(poses[:, 2], 0.5))
+            assert states.size, f"no explored corner state at ({x}, {y})"
+            for a, name in enumerate(ACTIONS):
+                ax, ay = COMPONENTS[name]
+                ex, ey = corner_pos(ax if ax else cx, ay if ay else cy)
+                for s in states:
+                    row = m.matrices[a].getrow(s)
+                    assert row.nnz == 1 and row.data[0] == 1.0          # deterministic physics
+                    t = row.indices[0]
+                    assert abs(poses[t, 0] - ex) < 1.0 and abs(poses[t, 1] - ey) < 1.0, \
+                        f"corner ({x}, {y}) under {name} went to {poses[t]}, expected near ({ex}, {ey})"
+                    assert aligned(poses[t, 2], 1.0)
+                    checked += 1
+    assert checked >= 32
+
+
+def test_every_sample_is_accounted_for(square_build):
+    m = square_build.model
+    samples, faults = m.extras["samples"], m.extras["faults"]
+    kind = m.extras["state_kind"]
+    for a in range(m.n_actions):
+        counts = np.asarray(m.extras[f"counts_{a}"], dtype=np.int64)
+        P = m.matrices[a]
+        per_row = np.add.reduceat(np.append(counts, 0), P.indptr[:-1])[:m.n_states] * (np.diff(P.indptr) > 0)
+        np.testing.assert_array_equal(per_row + faults[a], samples[a])
+        # every explored rest state was sampled exactly `samples_per_row` times per action
+        assert np.all(samples[a][kind == STATE_REST] == square_build.stats["samples_per_row"])
+        # rows are the normalised counts
+        rows = np.repeat(np.arange(m.n_states), np.diff(P.indptr))
+        counted = samples[a][rows] - faults[a][rows] > 0
+        np.testing.assert_allclose(P.data[counted], counts[counted] / (samples[a] - faults[a])[rows][counted])
+    # every start sample is in a start row: start samples x actions in all
+    start = kind == STATE_START
+    assert samples[:, start].sum() == square_build.stats["start_samples"] * m.n_actions
+    st = square_build.stats
+    assert st["sampled_transitions"] == samples.sum()
+    assert st["faults"] == faults.sum()
+    assert st["states"] == m.n_states
+
+
+def test_initial_distribution_is_the_start_grid(square_build):
+    m = square_build.model
+    kind = m.extras["state_kind"]
+    assert np.all(m.initial[kind != STATE_START] == 0)
+    assert abs(m.initial.sum() - 1) < 1e-12
+    assert len(set(m.partition[kind == STATE_START].tolist())) == int((kind == STATE_START).sum())
+
+
+def test_derived_rows_agree_with_direct_simulation(square_build):
+    """Rows of rotated copies come from rotating the representative's landings; simulate those
+    states directly and check that their landings are where the derived rows say."""
+    m = square_build.model
+    poses = m.extras["state_poses"]
+    kind = m.extras["state_kind"]
+    rest = np.flatnonzero(kind == STATE_REST)
+    n_start = int((kind == STATE_START).sum())
+    rotated = rest[(rest - n_start) % 4 != 0]            # rotation j != 0: derived, never simulated
+    rng = np.random.default_rng(1)
+    pick = rng.choice(rotated, size=min(60, len(rotated)), replace=False)
+    acts = rng.integers(0, 8, len(pick))
+    tol = np.array([0.5, 0.5, math.radians(0.5)])
+    grid_cells = m.partition
+    agree_cell = close = 0
+    with TraySimulator(_square_scene()) as sim:
+        for s, a in zip(pick, acts):
+            land, status = sim.tilt(poses[s][None], ACTIONS[a])
+            assert status[0] == 0
+            t = m.matrices[a].getrow(s).indices[0]
+            d = land[0] - poses[t]
+            d[2] = (d[2] + math.pi / 4) % (math.pi / 2) - math.pi / 4   # square: theta modulo 90 deg
+            close += np.sqrt(((d / tol) ** 2).sum()) <= 1.05
+            from analysis.validate import model_grid
+            agree_cell += model_grid(m).voxel_index(land)[0] == grid_cells[t]
+    assert agree_cell == len(pick)
+    assert close >= 0.95 * len(pick)
+
+
+def test_zero_noise_is_bit_identical_and_noise_is_seeded():
+    scene = _square_scene()
+    base = dict(start_samples=60, max_states=160, seed=5)
+    none = build_model(scene, BuildSettings(noise="none", **base), executor=SerialExecutor()).model
+    zero = build_model(scene, BuildSettings(noise="pose:0,0", **base), executor=SerialExecutor()).model
+    assert _same_model(none, zero)
+    s = BuildSettings(noise="pose:0.5,0.5", samples=3, **base)
+    a = build_model(scene, s, executor=SerialExecutor()).model
+    b = build_model(scene, s, executor=SerialExecutor()).model
+    assert _same_model(a, b)
+    assert not _same_model(a, none)
+    # noisy rows are estimated from several samples, so some are genuinely stochastic
+    assert any(np.any(mat.data < 1) for mat in a.matrices)
+    assert build_key(scene, s) != build_key(scene, BuildSettings(noise="none", **base))
+
+
+def test_local_pool_and_dask_give_identical_models():
+    distributed = pytest.importorskip("distributed")
+    scene = _square_scene()
+    s = BuildSettings(start_samples=80, max_states=200, seed=2)
+    serial = build_model(scene, s, executor=SerialExecutor()).model
+    pool = make_executor(2)
+    local = build_model(scene, s, executor=pool).model
+    assert _same_model(serial, local)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl:
+        from transition_builder.executors import DaskExecutor
+        with DaskExecutor(cl.scheduler_address) as ex:
+            dask = build_model(scene, s, executor=ex).model
+    assert _same_model(serial, dask)
+
+
+_RESUME_SCRIPT = textwrap.dedent("""
+    import sys
+    from transition_builder.builder import BuildSettings, build_model
+    from transition_builder.executors import SerialExecutor
+    from transition_builder.scene import scene_from_options
+    scene = scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0))
+    r = build_model(scene, BuildSettings(start_samples=100, max_states=600, seed=4), executor=SerialExecutor(),
+                    checkpoint=sys.argv[1], checkpoint_interval_s=0.0)
+    r.model.save(sys.argv[2])
+    print("resumed" if r.stats["resumed"] else "fresh")
+""")
+
+
+def test_resume_after_sigkill(tmp_path):
+    ckpt, out = str(tmp_path / "b.ckpt.npz"), str(tmp_path / "m.npz")
+    script = tmp_path / "run.py"
+    script.write_text(_RESUME_SCRIPT)
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    proc = subprocess.Popen([sys.executable, str(script), ckpt, out], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL)
+    # wait until at least one exploration checkpoint has been written after the start phase
+    deadline = time.time() + 120
+    seen = 0
+    while time.time() < deadline and proc.poll() is None:
+        if os.path.exists(ckpt):
+            try:
+                with np.load(ckpt) as z:
+                    if int(z["explored"]) > 0:
+                        seen = int(z["explored"])
+                        break
+            except Exception:
+                pass
+        time.sleep(0.05)
+    assert proc.poll() is None, "the build finished before it could be killed"
+    assert seen > 0
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not os.path.exists(out)
+    res = subprocess.run([sys.executable, str(script), ckpt, out], env=env, capture_output=True, text=True,
+                         timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip() == "resumed"
+    assert not os.path.exists(ckpt)                       # removed once the model is written
+    fresh = build_model(scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)),
+                        BuildSettings(start_samples=100, max_states=600, seed=4), executor=SerialExecutor()).model
+    assert _same_model(TransitionModel.load(out), fresh)
+
+
+def test_cache_reuse_and_corrupt_file(tmp_path, recwarn):
+    from transition_builder.cache import cached_build
+
+    scene = _square_scene()
+    s = BuildSettings(start_samples=40, max_states=100, seed=9)
+    r1, p1, c1 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
+    r2, p2, c2 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
+    assert (c1, c2) == (False, True) and p1 == p2
+    assert _same_model(r1.model, r2.model)
+    # another scene never reuses it
+    other = scene.with_settings(solver_iterations=90)
+    _, p3, c3 = cached_build(other, s, directory=str(tmp_path), executor=SerialExecutor())
+    assert not c3 and p3 != p1
+    with open(p1, "r+b") as fh:                          # corrupt the cached file
+        fh.seek(100)
+        fh.write(b"\0" * 200)
+    r4, _, c4 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
+    assert not c4
+    assert any("rebuilding" in str(w.message) for w in recwarn.list)
+    assert _same_model(r1.model, r4.model)
+
+
+def test_build_and_validate_end_to_end(tmp_path):
+    """`kruskal build` then `kruskal validate` on a small scene, through the command line."""
+    env = dict(os.environ, KRUSKAL_CACHE=str(tmp_path / "cache"))
+    model = str(tmp_path / "sq.npz")
+    exe = [sys.executable, "-m", "analysis"]
+    b = subprocess.run(exe + ["build", "--shape", "rectangle:30x30", "--friction", "0.1", "--start-samples", "120",
+                              "--max-states", "100000", "--out", model, "--workers", "2", "--json",
+                              "--scene", _write_scene(tmp_path)],
+                       env=env, capture_output=True, text=True, timeout=900, cwd=ROOT)
+    assert b.returncode == 0, b.stderr[-2000:]
+    res = json.loads(b.stdout)
+    for key in ("model", "states", "voxels_total", "tilts_simulated", "fault_rate", "cached", "seconds"):
+        assert key in res
+    assert res["cached"] is False and res["unexplored_states"] == 0 and res["states"] > 0
+    assert res["tilts_saved_by_symmetry"] == 3 * res["tilts_simulated"]
+    again = subprocess.run(exe + ["build", "--shape", "rectangle:30x30", "--friction", "0.1", "--start-samples",
+                                  "120", "--max-states", "100000", "--out", model, "--json",
+                                  "--scene", _write_scene(tmp_path)],
+                           env=env, capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert again.returncode == 0 and json.loads(again.stdout)["cached"] is True
+    v = subprocess.run(exe + ["validate", "--model", model, "--sequences", "2", "--trials", "60", "--length", "5",
+                              "--seed", "1", "--bands", "5", "--workers", "2", "--json"],
+                       env=env, capture_output=True, text=True, timeout=900, cwd=ROOT)
+    assert v.returncode == 0, v.stderr[-2000:]
+    out = json.loads(v.stdout)
+    for key in ("mean_abs_error_bits", "max_abs_error_bits", "share_steps_above_0_25", "per_sequence",
+                "final_tv_distance", "reference_noise_bits", "band_coverage", "model_seconds",
+                "simulation_seconds", "seconds"):
+        assert key in out
+    assert len(out["per_sequence"]) == 2 and len(out["per_sequence"][0]["reference"]) == 6
+    # a closed model of this small deterministic scene predicts its own physics closely
+    assert out["mean_abs_error_bits"] < 0.3
+    assert 0 <= out["final_tv_distance"] <= 1
+
+
+def _write_scene(tmp_path) -> str:
+    path = tmp_path / "scene.json"
+    if not path.exists():
+        _square_scene().save(str(path))
+    return str(path)
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["build", "--resolution", "abc"], "resolution"),
+    (["build", "--noise", "pose:1"], "noise"),
+    (["build", "--shape", "nonsense"], "shape"),
+    (["build", "--max-states", "0"], "max_states"),
+    (["validate", "--model", "/nonexistent.npz"], "not found"),
+])
+def test_bad_input_is_one_line_exit_2(argv, needle):
+    res = subprocess.run([sys.executable, "-m", "analysis", *argv], capture_output=True, text=True, timeout=120,
+                         cwd=ROOT)
+    assert res.returncode == 2
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and needle in lines[0].lower(), res.stderr

@@ -1,0 +1,101 @@
+"""Tests for pose snapping (nearest representative within tolerance, same cell and contacts) and
+the tray's rotation group."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from transition_builder.grid import ReportGrid
+from transition_builder.scene import scene_from_options
+from transition_builder.shapes import parse_shape
+from transition_builder.snapping import PoseIndex, wall_contacts
+from transition_builder.symmetry import tray_symmetry
+
+
+@pytest.fixture()
+def index():
+    shape = parse_shape("rectangle:20x10")
+    grid = ReportGrid(200, 200, 4, 4, 4, symmetry_order=shape.symmetry_order)
+    return PoseIndex(shape, grid, tol_mm=0.5, tol_deg=0.5)
+
+
+def test_snap_nearest_within_tolerance(index):
+    index.add([[100.0, 100.0, 0.0], [100.6, 100.0, 0.0]])
+    got = index.snap([[100.2, 100.0, 0.0], [100.45, 100.0, 0.0], [101.2, 100.0, 0.0], [100.0, 100.0, 0.0]])
+    assert got.tolist() == [0, 1, -1, 0]
+    # theta within 0.5 degree, and the ball is Euclidean in normalised units
+    th = math.radians(0.4)
+    assert index.snap([[100.0, 100.0, th]]).tolist() == [0]
+    assert index.snap([[100.0 + 0.4, 100.0, th]]).tolist() == [1]          # nearer rep 1 (0.2/0.5 vs 0.4/0.5)
+    assert index.snap([[100.0 - 0.4, 100.0, th]]).tolist() == [-1]         # sqrt(0.8^2+0.8^2) > 1
+
+
+def test_theta_is_periodic_modulo_symmetry(index):
+    # rectangle: symmetry order 2, so theta = pi - tiny is next to theta = 0
+    index.add([[100.0, 100.0, 0.001]])
+    assert index.snap([[100.0, 100.0, math.pi - 0.001]]).tolist() == [0]
+    assert index.snap([[100.0, 100.0, 2 * math.pi - 0.001]]).tolist() == [0]
+
+
+def test_never_snaps_across_cells_or_contacts(index):
+    index.add([[49.9, 100.0, 0.0]])                       # report cell boundary at x = 50
+    assert index.snap([[50.1, 100.0, 0.0]]).tolist() == [-1]
+    assert index.snap([[49.7, 100.0, 0.0]]).tolist() == [0]
+    # touching the west wall (x = 10 for a 20 mm wide part at theta 0) vs 0.3 mm off it
+    index.add([[10.0, 100.0, 0.0]])
+    assert wall_contacts(index.shape, [[10.0, 100.0, 0.0]], 200, 200, 0.05).tolist() == [1]
+    assert index.snap([[10.3, 100.0, 0.0]]).tolist() == [-1]
+    assert index.snap([[10.01, 100.0, 0.0]]).tolist() == [1]
+
+
+def test_tree_and_tail_give_the_same_answers():
+    shape = parse_shape("allen-key")
+    grid = ReportGrid(200, 200, 4, 4, 4)
+    rng = np.random.default_rng(0)
+    reps = np.column_stack([rng.uniform(20, 180, 3000), rng.uniform(20, 180, 3000), rng.uniform(0, 6.28, 3000)])
+    queries = reps[:500] + rng.normal(0, 0.3, (500, 3)) * [1, 1, 0.005]
+    a = PoseIndex(shape, grid, 0.5, 0.5)
+    a.add(reps)                       # one add: everything in the tree
+    b = PoseIndex(shape, grid, 0.5, 0.5)
+    for r in reps:                    # one at a time: tree rebuilt every few hundred, the rest in the tail
+        b.add(r[None])
+    got_a, got_b = a.snap(queries), b.snap(queries)
+    assert np.array_equal(got_a, got_b)
+    # brute force
+    q, _ = a.embed(queries)
+    p, _ = a.embed(reps)
+    d = np.abs(q[:, None] - p[None])
+    d[..., 2] = np.minimum(d[..., 2], a.box[2] - d[..., 2])
+    dist = np.sqrt((d ** 2).sum(-1))
+    expect = np.where(dist.min(1) <= 1.0, dist.argmin(1), -1)
+    assert np.array_equal(got_a, expect)
+    assert (expect >= 0).sum() > 100
+
+
+def test_square_tray_has_order_four():
+    sym = tray_symmetry(scene_from_options("allen-key"))
+    assert sym.order == 4
+    names = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+    # a quarter turn counter-clockwise: E -> N, N -> W, NE -> NW
+    assert names[sym.rotate_action(names.index("E"), 1)] == "N"
+    assert names[sym.rotate_action(names.index("N"), 1)] == "W"
+    assert names[sym.rotate_action(names.index("NE"), 1)] == "NW"
+    assert names[sym.rotate_action(names.index("NE"), -1)] == "SE"
+    assert [names[b] for b in sym.action_orbit_representatives()] == ["N", "NE"]
+    p = np.array([[150.0, 120.0, 0.5]])
+    q = sym.rotate_poses(p, 1)
+    np.testing.assert_allclose(q, [[80.0, 150.0, 0.5 + math.pi / 2]])
+    np.testing.assert_allclose(sym.rotate_poses(q, 3), p)
+
+
+def test_symmetry_off_for_friction_maps_and_rectangular_trays():
+    assert tray_symmetry(scene_from_options("allen-key", friction_spec="map:low:1")).order == 1
+    rect = tray_symmetry(scene_from_options("allen-key", tray_mm=(200.0, 150.0)))
+    assert rect.order == 2
+    assert sorted(rect.action_map[1].tolist()) == list(range(8))
+    assert tray_symmetry(scene_from_options("allen-key"), enabled=False).order == 1
+    # an action set not closed under quarter turns falls back to half turns
+    assert tray_symmetry(scene_from_options("allen-key", actions="N,S")).order == 2
+    assert tray_symmetry(scene_from_options("allen-key", actions="N,E")).order == 1

@@ -1,0 +1,729 @@
+"""Build a :class:`~kruskal_markov.model.TransitionModel` of a scene by sampling the physics engine.
+
+The design (measured against direct simulation in ``docs/builder.md`` and ``benchmarks/``):
+
+**States are representative rest poses** (a "particle" variant of Ulam's method: Ulam 1960; Froyland,
+"Extracting dynamical behaviour via Markov models", 2001). A pose that the physics produced
+(a landing) joins the nearest representative within ``tol_mm`` / ``tol_deg`` *in the same report
+cell and with the same wall contacts* (:mod:`transition_builder.snapping`), or it founds a new
+one. Parts come to rest on thin sets (against a wall at 0/90/180/270 degrees, wedged in corners),
+so a few thousand representatives cover everything a scene can reach, where a plain voxel grid at
+the same resolution would have ~10^8 voxels.
+
+**Only what the scene reaches** is explored: ``start_samples`` uniform collision-free start poses
+(the paper's initial distribution) are tilted under every action and their landings found the
+first representatives; every new representative is tilted ``samples`` times under every action,
+breadth-first, until no landing founds a new one (or ``max_states`` is reached: the rest is
+reported as unexplored, never silently dropped).
+
+**Start states.** The uniform start distribution is not a set of rest poses; it enters the model
+as one *start state per report cell* (Ulam's method proper): its initial probability is the share
+of uniform starts in that cell, its row under an action the landings of those starts. Step 0 of a
+prediction is therefore the start distribution's report-grid entropy, as in direct simulation.
+
+**Symmetry** (:mod:`transition_builder.symmetry`): with a tray rotation group of order ``G`` every
+representative stands for an orbit of ``G`` states; one set of tilts per orbit gives all ``G``
+rows (``tilt(R p, R a) = R tilt(p, a)``), and the start poses are tilted under one action per
+action orbit only.
+
+**Process noise** (:mod:`transition_builder.noise`): before every sampled tilt the pose is perturbed
+exactly as direct simulation perturbs it, so rows become genuinely stochastic and are estimated
+from ``samples`` draws. Without noise the physics is deterministic and one sample per row is exact.
+
+**Counts.** Every sampled tilt is accounted for: per action and row, ``counts`` (landings per target
+state) + ``faults`` = ``samples`` drawn. Rows are the counts normalised over the non-faulted
+samples (conditioning on survival, as direct simulation does when it drops faulted trials); the
+fault counts are kept in the model (``model.extras``) and reported. The counts are what the
+Dirichlet posterior (:mod:`kruskal_markov.posterior`) resamples for error bands.
+
+Every random choice flows from ``seed`` through per-tilt keys, and landings are snapped in a fixed
+order in this process, so the model is the same for any executor and number of workers.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+import scipy.sparse as sp
+
+from kruskal_markov.model import TransitionModel
+from transition_builder.executors import make_executor, simulator_for
+from transition_builder.grid import ReportGrid, parse_grid
+from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_pose
+from transition_builder.sampling import sample_start_poses
+from transition_builder.scene import Scene
+from transition_builder.snapping import PoseIndex
+from transition_builder.status import OK, STATUS_NAMES
+from transition_builder.symmetry import TraySymmetry, tray_symmetry
+
+__all__ = ["BUILDER_VERSION", "BuildSettings", "BuildResult", "build_model", "build_key",
+           "STATE_START", "STATE_REST", "STATE_UNEXPLORED"]
+
+#: bump when a change of the builder changes its models (part of the cache key).
+BUILDER_VERSION = "snap-1"
+#: ``model.extras["state_kind"]`` values.
+STATE_START, STATE_REST, STATE_UNEXPLORED = 0, 1, 2
+_START_STREAM = 11          # seed stream of the start poses
+_KEY_START, _KEY_ORBIT, _KEY_REFINE = 1, 2, 3   # first key of a sampled tilt's noise stream
+_CHUNK = 48                 # tilts per executor task
+_CHECKPOINT_FORMAT = 2
+
+
+@dataclass(frozen=True)
+class BuildSettings:
+    """Everything besides the scene that changes a built model (all of it is in the cache key).
+
+    Attributes
+    ----------
+    tol_mm, tol_deg : float
+        Snapping tolerance (mm in x and y, degrees in theta).
+    start_samples : int
+        Uniform start poses for the first tilt (the initial distribution).
+    samples : int or None
+        Samples per (representative, action): None = 1 without noise (the physics is
+        deterministic) and 8 with noise.
+    grid : str
+        Report grid ``AxBxG``; ``theta_offset`` its theta bin offset (None: centred on the axes).
+    symmetry : bool
+        Use the tray's rotation group (automatically off for friction maps and odd trays).
+    contacts : bool
+        Snap only within one wall-contact signature (as well as one report cell).
+    contact_tol_mm : float
+        A vertex this close to a wall touches it.
+    max_states : int
+        Stop exploring when this many rest states exist (the rest is reported as unexplored).
+    noise : str
+        Process noise spec (``none`` or ``pose:SIGMA_MM,SIGMA_DEG``).
+    seed : int
+        Seed of the start poses and of the noise.
+    refine_rounds : int
+        Adaptive refinement rounds (deterministic builds only): after exploration closes, the
+        farthest member of every representative (a landing snapped to it, farther than
+        ``refine_min_distance`` in tolerance units) is tilted under every action; where one of
+        its landings falls in another report cell than the representative's, the member becomes a
+        representative of its own (a split), and exploration continues from what it reaches.
+    refine_min_distance : float
+        Members nearer than this (normalised tolerance units) are not tried.
+    """
+
+    tol_mm: float = 0.5
+    tol_deg: float = 0.5
+    start_samples: int = 5000
+    samples: int | None = None
+    grid: str = "4x4x4"
+    theta_offset: float | None = None
+    symmetry: bool = True
+    contacts: bool = True
+    contact_tol_mm: float = 0.05
+    max_states: int = 400_000
+    noise: str = "none"
+    seed: int = 0
+    refine_rounds: int = 0
+    refine_min_distance: float = 0.2
+
+    def __post_init__(self):
+        for name in ("tol_mm", "tol_deg", "contact_tol_mm"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise ValueError(f"build setting {name} must be a positive number, got {v!r}")
+            object.__setattr__(self, name, float(v))
+        for name in ("start_samples", "max_states"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"build setting {name} must be a positive integer, got {v!r}")
+            object.__setattr__(self, name, int(v))
+        if self.max_states > 50_000_000:
+            raise ValueError(f"max_states {self.max_states} is beyond what this machine can hold")
+        if self.start_samples > 10_000_000:
+            raise ValueError(f"start_samples {self.start_samples} is too many (at most 10,000,000)")
+        noise = parse_noise(self.noise)
+        object.__setattr__(self, "noise", str(noise))
+        k = self.samples
+        if k is None:
+            k = 1 if noise.is_zero else 8
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1 or k > 10_000:
+            raise ValueError(f"samples per row must be an integer in 1..10000, got {self.samples!r}")
+        if noise.is_zero:
+            k = 1       # deterministic physics: every extra sample would repeat the first
+        object.__setattr__(self, "samples", int(k))
+        parse_grid(self.grid)
+        if self.theta_offset is not None and not math.isfinite(self.theta_offset):
+            raise ValueError("theta_offset must be finite")
+        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+
+    @property
+    def noise_spec(self) -> NoiseSpec:
+        return parse_noise(self.noise)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "BuildSettings":
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"unknown build setting(s) {', '.join(unknown)}")
+        return cls(**data)
+
+
+def _package_version() -> str:
+    try:
+        from importlib.metadata import version
+        return version("kruskal")
+    except Exception:  # pragma: no cover - running from a source tree without installing
+        return "0+unknown"
+
+
+def build_key(scene: Scene, settings: BuildSettings) -> str:
+    """Content hash (hex) of everything that changes a built model: the scene's own content hash
+    (shape, tray, friction, tilt, actions, every solver setting, simulator and PyBullet versions),
+    the build settings (noise and seed included), the builder and package versions."""
+    payload = {"scene": scene.content_hash(), "settings": settings.to_dict(), "builder": BUILDER_VERSION,
+               "package": _package_version()}
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+@dataclass
+class BuildResult:
+    """A built model and what it cost (``stats``: the JSON keys of ``kruskal build``)."""
+
+    model: TransitionModel
+    stats: dict
+
+
+# ------------------------------------------------------------------------------------------------
+# the task that runs on workers
+# ------------------------------------------------------------------------------------------------
+
+def tilt_chunk(scene: Scene, action: str, poses: np.ndarray, noise_text: str, seed: int,
+               keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tilt every pose under ``action`` after perturbing it with the noise stream of its key.
+
+    Runs in a worker (one cached simulator per scene and process). ``keys[i]`` (ints) names the
+    noise stream of tilt ``i`` (:func:`transition_builder.noise.noise_rng`); with zero noise the
+    poses are tilted as given.
+    """
+    noise = parse_noise(noise_text)
+    p = np.array(poses, dtype=np.float64)
+    if not noise.is_zero:
+        for i in range(len(p)):
+            p[i], _ = perturb_pose(scene, p[i], noise, noise_rng(seed, *(int(k) for k in keys[i])))
+    rest, status = simulator_for(scene).tilt(p, action)
+    return np.asarray(rest, dtype=np.float64), np.asarray(status, dtype=np.int8)
+
+
+def _run_tilts(executor, scene, noise_text, seed, jobs, on_done=None):
+    """Run ``jobs`` = list of (action_name, poses (n,3), keys (n, m)); returns [(rest, status)] in order."""
+    tasks, where = [], []
+    for j, (action, poses, keys) in enumerate(jobs):
+        for lo in range(0, len(poses), _CHUNK):
+            tasks.append((scene, action, poses[lo:lo + _CHUNK], noise_text, seed, keys[lo:lo + _CHUNK]))
+            where.append((j, lo))
+    out = [(np.full((len(p), 3), np.nan), np.zeros(len(p), dtype=np.int8)) for _, p, _ in jobs]
+    for idx, (rest, status) in executor.map(tilt_chunk, tasks):
+        j, lo = where[idx]
+        out[j][0][lo:lo + len(rest)] = rest
+        out[j][1][lo:lo + len(rest)] = status
+        if on_done is not None:
+            on_done(len(rest))
+    return out
+
+
+# ------------------------------------------------------------------------------------------------
+# exploration state (checkpointed)
+# ------------------------------------------------------------------------------------------------
+
+class _Exploration:
+    """Representatives found so far, the landings of the explored ones, and where the build is.
+
+    ``phase`` is ``("explore", round)`` while the breadth-first queue is being emptied after
+    refinement round ``round`` (0: none yet), or ``("refine", round)`` while the candidates of
+    that refinement round are being tilted (``candidates``, ``cand_done`` of them done).
+    """
+
+    def __init__(self, n_actions: int, samples: int):
+        self.n_actions, self.samples = n_actions, samples
+        self.orbit_poses = np.zeros((0, 3))
+        self.land = np.zeros((0, n_actions, samples, 3))
+        self.status = np.zeros((0, n_actions, samples), dtype=np.int8)
+        self.explored = np.zeros(0, dtype=bool)
+        self.split_from = np.zeros(0, dtype=np.int64)     # -1, or the orbit a refinement split it off
+        self.start_poses = None
+        self.start_land = None      # (n action representatives, N0, 3)
+        self.start_status = None
+        self.phase = ("explore", 0)
+        self.candidates = np.zeros((0, 4))                 # (orbit, x, y, theta) of refinement members
+        self.cand_done = 0
+        self.splits = 0
+        self.refine_tilts = 0
+
+    @property
+    def n_orbits(self) -> int:
+        return len(self.orbit_poses)
+
+    def add_orbits(self, poses: np.ndarray, split_from: int = -1):
+        n_old = self.n_orbits
+        n = n_old + len(poses)
+        self.orbit_poses = np.concatenate([self.orbit_poses, poses])
+        self.split_from = np.concatenate([self.split_from, np.full(len(poses), split_from, dtype=np.int64)])
+        if n > len(self.land):
+            cap = max(n, 2 * len(self.land), 64)
+            land = np.full((cap, self.n_actions, self.samples, 3), np.nan)
+            status = np.zeros((cap, self.n_actions, self.samples), dtype=np.int8)
+            explored = np.zeros(cap, dtype=bool)
+            land[:n_old], status[:n_old], explored[:n_old] = self.land[:n_old], self.status[:n_old], \
+                self.explored[:n_old]
+            self.land, self.status, self.explored = land, status, explored
+
+    def save(self, path: str, key: str):
+        n = self.n_orbits
+        arrays = {"format": np.array(_CHECKPOINT_FORMAT), "key": np.frombuffer(key.encode(), dtype=np.uint8),
+                  "orbit_poses": self.orbit_poses, "explored": self.explored[:n], "split_from": self.split_from,
+                  "land": self.land[:n], "status": self.status[:n],
+                  "start_poses": self.start_poses, "start_land": self.start_land,
+                  "start_status": self.start_status,
+                  "phase": np.array([0 if self.phase[0] == "explore" else 1, self.phase[1]]),
+                  "candidates": self.candidates, "counters": np.array([self.cand_done, self.splits,
+                                                                       self.refine_tilts])}
+        directory = os.path.dirname(os.path.abspath(path))
+        os.makedirs(directory, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".ckpt-", suffix=".npz", dir=directory)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez(fh, **arrays)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+
+    @classmethod
+    def load(cls, path: str, key: str, n_actions: int, samples: int) -> "_Exploration | None":
+        """The checkpoint at ``path`` if it belongs to this build (``key``), else None."""
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                if int(z["format"]) != _CHECKPOINT_FORMAT or z["key"].tobytes().decode() != key:
+                    return None
+                ex = cls(n_actions, samples)
+                ex.orbit_poses = np.array(z["orbit_poses"])
+                ex.explored = np.array(z["explored"], dtype=bool)
+                ex.split_from = np.array(z["split_from"], dtype=np.int64)
+                ex.land = np.array(z["land"])
+                ex.status = np.array(z["status"])
+                ex.start_poses = np.array(z["start_poses"])
+                ex.start_land = np.array(z["start_land"])
+                ex.start_status = np.array(z["start_status"])
+                ph = z["phase"]
+                ex.phase = ("explore" if int(ph[0]) == 0 else "refine", int(ph[1]))
+                ex.candidates = np.array(z["candidates"])
+                ex.cand_done, ex.splits, ex.refine_tilts = (int(v) for v in z["counters"])
+        except Exception:
+            return None
+        n = ex.n_orbits
+        if ex.land.shape != (n, n_actions, samples, 3) or len(ex.explored) != n or len(ex.split_from) != n:
+            return None
+        return ex
+
+
+# ------------------------------------------------------------------------------------------------
+# the build
+# ------------------------------------------------------------------------------------------------
+
+def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.ndarray) -> int:
+    """Offer landings (in order, already rotated as needed) to the index; found new orbits.
+
+    A landing with no representative within tolerance (same cell and contacts) founds an orbit:
+    its ``G`` rotations join the index. Returns the number of orbits founded.
+    """
+    ok = np.all(np.isfinite(landings), axis=1)
+    cand = landings[ok]
+    if len(cand) == 0:
+        return 0
+    hit = index.snap(cand)
+    new_poses = []
+    for i in np.flatnonzero(hit < 0):
+        p = cand[i:i + 1]
+        if new_poses and index.snap(p)[0] >= 0:       # joined an orbit founded earlier in this batch
+            continue
+        index.add(np.concatenate([sym.rotate_poses(p, j) for j in range(sym.order)]))
+        new_poses.append(p[0])
+    if new_poses:
+        ex.add_orbits(np.array(new_poses))
+    return len(new_poses)
+
+
+def _rotated_landings(sym: TraySymmetry, land_o: np.ndarray) -> np.ndarray:
+    """Landings of one orbit (n_act, K, 3) in the offering order (action, sample, rotation)."""
+    flat = land_o.reshape(-1, 3)
+    rot = np.stack([sym.rotate_poses(flat, j) for j in range(sym.order)], axis=1)   # (n_act*K, G, 3)
+    return rot.reshape(-1, 3)
+
+
+def _orbit_jobs(scene, ex, orbits, K, key_tag):
+    poses = np.repeat(ex.orbit_poses[orbits], K, axis=0)
+    ids = np.repeat(orbits, K)
+    ks = np.tile(np.arange(K), len(orbits))
+    return [(scene.actions[b], poses, np.column_stack([np.full(len(poses), key_tag), ids, np.full(len(poses), b), ks]))
+            for b in range(len(scene.actions))]
+
+
+def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry, min_dist: float) -> np.ndarray:
+    """For every explored orbit, its farthest member (a landing snapped to one of its states, rotated
+    back to the orbit's frame) if farther than ``min_dist`` (normalised units); rows (orbit, x, y, theta)."""
+    G = sym.order
+    pools = [sym.rotate_poses(ex.start_land[b], j) for b in range(len(ex.start_land)) for j in range(G)]
+    done = np.flatnonzero(ex.explored[:ex.n_orbits])
+    pools += [sym.rotate_poses(ex.land[done].reshape(-1, 3), j) for j in range(G)]
+    land = np.concatenate(pools)
+    land = land[np.all(np.isfinite(land), axis=1)]
+    q, _ = index.embed(land)
+    tgt, dist = index._nearest(q)
+    keep = (tgt >= 0) & (dist > min_dist)
+    land, tgt, dist = land[keep], tgt[keep], dist[keep]
+    orbit, rot = tgt // G, tgt % G
+    # farthest member per orbit (ties: first in offering order)
+    order = np.lexsort((np.arange(len(orbit)), -dist, orbit))
+    first = order[np.r_[True, orbit[order][1:] != orbit[order][:-1]]] if len(order) else order
+    first = first[ex.explored[orbit[first]]]
+    members = np.empty((len(first), 3))
+    for j in range(G):
+        sel = rot[first] == j
+        members[sel] = sym.rotate_poses(land[first[sel]], -j)
+    return np.column_stack([orbit[first].astype(np.float64), members])
+
+
+def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor=None, workers=None,
+                scheduler=None, checkpoint: str | None = None, checkpoint_interval_s: float = 30.0,
+                progress: bool | None = False) -> BuildResult:
+    """Sample the physics engine into a :class:`TransitionModel` of ``scene`` (see the module docstring).
+
+    Parameters
+    ----------
+    scene : Scene
+    settings : BuildSettings, optional
+    executor : transition_builder.executors.Executor, optional
+        Where the tilts run; default ``make_executor(workers, scheduler)``.
+    checkpoint : str, optional
+        Path of a checkpoint file: written atomically every ``checkpoint_interval_s`` seconds
+        and after the start phase; a build started again with the same scene and settings resumes
+        from it (a checkpoint of another build is ignored). Removed when the build finishes.
+    progress : bool or None
+        A tqdm bar on standard error (tilts, states, rate); None: only on a terminal.
+
+    Returns
+    -------
+    BuildResult
+    """
+    if not isinstance(scene, Scene):
+        raise ValueError(f"build_model needs a Scene, got {type(scene).__name__}")
+    settings = settings or BuildSettings()
+    t0 = time.perf_counter()
+    key = build_key(scene, settings)
+    K = settings.samples
+    n_act = len(scene.actions)
+    sym = tray_symmetry(scene, settings.symmetry)
+    G = sym.order
+    grid = ReportGrid(scene.tray_x_mm, scene.tray_y_mm, *parse_grid(settings.grid),
+                      symmetry_order=scene.shape.symmetry_order, theta_offset=settings.theta_offset)
+    index = PoseIndex(scene.shape, grid, settings.tol_mm, settings.tol_deg, settings.contact_tol_mm,
+                      settings.contacts)
+    rounds = settings.refine_rounds if K == 1 else 0
+    own_executor = executor is None
+    if own_executor:
+        executor = make_executor(workers, scheduler)
+    if progress is None:
+        progress = sys.stderr.isatty()
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(unit="tilt", desc="build", file=sys.stderr, leave=False)
+
+    def done(n):
+        if bar is not None:
+            bar.update(n)
+            bar.set_postfix(states=len(index), explored=int(ex.explored.sum()) * G, refresh=False)
+
+    ex = _Exploration.load(checkpoint, key, n_act, K) if checkpoint and os.path.exists(checkpoint) else None
+    resumed = ex is not None
+    tilts = 0
+    last_ckpt = time.perf_counter()
+
+    def maybe_checkpoint(force=False):
+        nonlocal last_ckpt
+        if checkpoint and (force or time.perf_counter() - last_ckpt >= checkpoint_interval_s):
+            ex.save(checkpoint, key)
+            last_ckpt = time.perf_counter()
+
+    try:
+        reps = sym.action_orbit_representatives()
+        if ex is None:
+            ex = _Exploration(n_act, K)
+            rng = np.random.default_rng([settings.seed, _START_STREAM])
+            ex.start_poses = sample_start_poses(scene.shape, scene.tray_x_mm, scene.tray_y_mm,
+                                                settings.start_samples, rng)
+            n0 = len(ex.start_poses)
+            jobs = [(scene.actions[b], ex.start_poses,
+                     np.column_stack([np.full(n0, _KEY_START), np.arange(n0), np.full(n0, b)]))
+                    for b in reps]
+            res = _run_tilts(executor, scene, settings.noise, settings.seed, jobs, done)
+            ex.start_land = np.stack([r[0] for r in res])
+            ex.start_status = np.stack([r[1] for r in res])
+            tilts += len(reps) * n0
+            for i in range(n0):
+                for bi in range(len(reps)):
+                    _offer(index, ex, sym, np.concatenate(
+                        [sym.rotate_poses(ex.start_land[bi, i:i + 1], j) for j in range(G)]))
+            maybe_checkpoint(force=True)
+        else:
+            # the index is exactly the representatives saved (every founding decision up to the
+            # checkpoint is in them), so continuing gives the same model as an uninterrupted build
+            for o in range(ex.n_orbits):
+                index.add(np.concatenate([sym.rotate_poses(ex.orbit_poses[o:o + 1], j) for j in range(G)]))
+        batch = max(1, 3000 // (n_act * K))
+        capped = False
+        while True:
+            if ex.phase[0] == "explore":
+                while not capped:
+                    queue = np.flatnonzero(~ex.explored[:ex.n_orbits])
+                    if len(queue) == 0:
+                        break
+                    if ex.n_orbits * G >= settings.max_states:
+                        capped = True
+                        break
+                    orbits = queue[:batch]
+                    res = _run_tilts(executor, scene, settings.noise, settings.seed,
+                                     _orbit_jobs(scene, ex, orbits, K, _KEY_ORBIT), done)
+                    tilts += n_act * K * len(orbits)
+                    for b in range(n_act):
+                        ex.land[orbits, b] = res[b][0].reshape(len(orbits), K, 3)
+                        ex.status[orbits, b] = res[b][1].reshape(len(orbits), K)
+                    ex.explored[orbits] = True
+                    for o in orbits:
+                        _offer(index, ex, sym, _rotated_landings(sym, ex.land[o]))
+                    maybe_checkpoint()
+                if capped or ex.phase[1] >= rounds:
+                    break
+                ex.phase = ("refine", ex.phase[1] + 1)
+                ex.candidates = _refinement_candidates(ex, index, sym, settings.refine_min_distance)
+                ex.cand_done = 0
+                maybe_checkpoint(force=True)
+            # refinement: tilt the farthest member of each orbit; split where a landing's report
+            # cell differs from the representative's
+            cand = ex.candidates
+            rbatch = max(1, 3000 // n_act)
+            while ex.cand_done < len(cand):
+                lo, hi = ex.cand_done, min(len(cand), ex.cand_done + rbatch)
+                orbit = cand[lo:hi, 0].astype(np.int64)
+                member = cand[lo:hi, 1:]
+                jobs = [(scene.actions[b], member,
+                         np.column_stack([np.full(hi - lo, _KEY_REFINE), np.full(hi - lo, ex.phase[1]),
+                                          np.arange(lo, hi), np.full(hi - lo, b)])) for b in range(n_act)]
+                res = _run_tilts(executor, scene, settings.noise, settings.seed, jobs, done)
+                tilts += n_act * (hi - lo)
+                ex.refine_tilts += n_act * (hi - lo)
+                mland = np.stack([r[0] for r in res], axis=1)          # (c, n_act, 3)
+                mstat = np.stack([r[1] for r in res], axis=1)
+                for i in range(hi - lo):
+                    o = orbit[i]
+                    rep_land = ex.land[o, :, 0]
+                    ok = (mstat[i] == OK) & (ex.status[o, :, 0] == OK)
+                    if not ok.any():
+                        continue
+                    diverge = grid.voxel_index(mland[i][ok]) != grid.voxel_index(rep_land[ok])
+                    if not diverge.any():
+                        continue
+                    p = member[i:i + 1]
+                    index.add(np.concatenate([sym.rotate_poses(p, j) for j in range(G)]))
+                    new = ex.n_orbits
+                    ex.add_orbits(p, split_from=o)
+                    ex.land[new, :, 0] = mland[i]
+                    ex.status[new, :, 0] = mstat[i]
+                    ex.explored[new] = True
+                    ex.splits += 1
+                    _offer(index, ex, sym, _rotated_landings(sym, ex.land[new]))
+                ex.cand_done = hi
+                maybe_checkpoint()
+            ex.phase = ("explore", ex.phase[1])
+    finally:
+        if bar is not None:
+            bar.close()
+        if own_executor:
+            executor.close()
+    model, stats = _assemble(scene, settings, sym, grid, index, ex, reps, key, {
+        "tilts_simulated": tilts, "resumed": resumed, "simulation_seconds": time.perf_counter() - t0,
+        "refinement_rounds": ex.phase[1], "representatives_split": ex.splits,
+        "refinement_tilts": ex.refine_tilts})
+    if checkpoint and os.path.exists(checkpoint):
+        os.unlink(checkpoint)
+    return BuildResult(model, stats)
+
+
+def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
+    """Counts -> row-stochastic matrices, initial distribution, partition, extras, stats."""
+    G, n_act, K = sym.order, len(scene.actions), settings.samples
+    n_orbits = len(ex.orbit_poses)
+    n_rest = n_orbits * G
+    # start states: one per report cell holding uniform starts
+    n0 = len(ex.start_poses)
+    start_rot = np.stack([sym.rotate_poses(ex.start_poses, j) for j in range(G)])       # (G, n0, 3)
+    start_cells = grid.voxel_index(start_rot.reshape(-1, 3)).reshape(G, n0)
+    cells_used, inverse = np.unique(start_cells, return_inverse=True)
+    start_state = inverse.reshape(G, n0)
+    n_start = len(cells_used)
+    n = n_start + n_rest
+    initial = np.bincount(start_state.ravel(), minlength=n_start).astype(np.float64)
+    initial = np.concatenate([initial / initial.sum(), np.zeros(n_rest)])
+
+    rows = [[] for _ in range(n_act)]
+    cols = [[] for _ in range(n_act)]
+    faults = np.zeros((n_act, n), dtype=np.int64)
+    samples = np.zeros((n_act, n), dtype=np.int64)
+    fault_kinds = np.zeros((n_act, len(STATUS_NAMES)), dtype=np.int64)
+    # start rows
+    for bi, b in enumerate(reps):
+        for j in range(G):
+            a = sym.rotate_action(b, j)
+            src = start_state[j]
+            st = ex.start_status[bi]
+            ok = st == OK
+            np.add.at(samples[a], src, 1)
+            np.add.at(faults[a], src[~ok], 1)
+            fault_kinds[a] += np.bincount(st, minlength=len(STATUS_NAMES))
+            if ok.any():
+                tgt = index.snap(sym.rotate_poses(ex.start_land[bi][ok], j))
+                _check_snapped(tgt)
+                rows[a].append(src[ok])
+                cols[a].append(n_start + tgt)
+    # rest rows of explored orbits
+    done = np.flatnonzero(ex.explored[:n_orbits])
+    E = len(done)
+    for j in range(G):
+        for b in range(n_act):
+            a = sym.rotate_action(b, j)
+            src = np.repeat(n_start + done * G + j, K)
+            st = ex.status[done, b].reshape(-1)
+            ok = st == OK
+            np.add.at(samples[a], src, 1)
+            np.add.at(faults[a], src[~ok], 1)
+            fault_kinds[a] += np.bincount(st, minlength=len(STATUS_NAMES))
+            if ok.any():
+                tgt = index.snap(sym.rotate_poses(ex.land[done, b].reshape(-1, 3)[ok], j))
+                _check_snapped(tgt)
+                rows[a].append(src[ok])
+                cols[a].append(n_start + tgt)
+    kind = np.full(n, STATE_UNEXPLORED, dtype=np.int8)
+    kind[:n_start] = STATE_START
+    kind[(n_start + done[:, None] * G + np.arange(G)[None, :]).ravel()] = STATE_REST
+    mats, count_data = [], {}
+    imputed = 0
+    self_loops = 0
+    for a in range(n_act):
+        r = np.concatenate(rows[a]) if rows[a] else np.zeros(0, dtype=np.int64)
+        c = np.concatenate(cols[a]) if cols[a] else np.zeros(0, dtype=np.int64)
+        C = sp.csr_matrix((np.ones(len(r), dtype=np.int64), (r, c)), shape=(n, n))
+        C.sum_duplicates()
+        C.sort_indices()
+        rowsum = np.asarray(C.sum(axis=1)).ravel()
+        empty = np.flatnonzero(rowsum == 0)
+        extra_r, extra_c, extra_v = [], [], []
+        # a start cell with no sample for this action: the pooled first-tilt landings of the action
+        empty_start = empty[empty < n_start]
+        if len(empty_start):
+            pooled = np.asarray(C[:n_start].sum(axis=0)).ravel()
+            nz = np.flatnonzero(pooled)
+            for s in empty_start:
+                extra_r.append(np.full(len(nz), s))
+                extra_c.append(nz)
+                extra_v.append(pooled[nz] / pooled.sum())
+            imputed += len(empty_start)
+        # unexplored states, and rows whose every sample faulted: stay put (reported)
+        stay = empty[empty >= n_start]
+        self_loops += len(stay)
+        P = sp.csr_matrix((C.data / rowsum[np.repeat(np.arange(n), np.diff(C.indptr))], C.indices, C.indptr),
+                          shape=(n, n))
+        if len(stay) or len(extra_r):
+            add_r = np.concatenate(extra_r + [stay])
+            add_c = np.concatenate(extra_c + [stay])
+            add_v = np.concatenate(extra_v + [np.ones(len(stay))])
+            P = P + sp.csr_matrix((add_v, (add_r, add_c)), shape=(n, n))
+        P = sp.csr_matrix(P)
+        P.sum_duplicates()
+        P.eliminate_zeros()
+        P.sort_indices()
+        # counts aligned with P's stored entries (0 where a row was imputed or is a self-loop)
+        count_data[f"counts_{a}"] = _aligned(P, C)
+        mats.append(P)
+    partition = np.empty(n, dtype=np.int64)
+    partition[:n_start] = cells_used
+    partition[n_start:] = index.cells[:n_rest]
+    state_poses = np.full((n, 3), np.nan)
+    rest_poses = np.concatenate([sym.rotate_poses(ex.orbit_poses, j)[:, None, :] for j in range(G)],
+                                axis=1).reshape(-1, 3) if n_orbits else np.zeros((0, 3))
+    state_poses[n_start:] = rest_poses
+    extras = {"state_poses": state_poses, "state_kind": kind, "faults": faults.astype(np.int32),
+              "samples": samples.astype(np.int32), **count_data}
+    total = int(samples.sum())
+    n_faults = int(faults.sum())
+    fault_by_action = {scene.actions[a]: {STATUS_NAMES[c]: int(fault_kinds[a, c])
+                                          for c in range(len(STATUS_NAMES)) if c != OK}
+                       for a in range(n_act)}
+    period = 2 * math.pi / scene.shape.symmetry_order
+    plain_voxels = (math.ceil(scene.tray_x_mm / settings.tol_mm) * math.ceil(scene.tray_y_mm / settings.tol_mm)
+                    * math.ceil(period / math.radians(settings.tol_deg)))
+    stats = {
+        "states": n, "rest_states": E * G, "start_states": n_start,
+        "unexplored_states": n_rest - E * G, "representatives": n_orbits,
+        "voxels_total": plain_voxels, "report_voxels": grid.n_voxels,
+        "symmetry_order": G, "symmetry": sym.reason,
+        "samples_per_row": K, "start_samples": n0,
+        "fault_rate": n_faults / total if total else 0.0, "faults": n_faults,
+        "faults_per_action": fault_by_action, "sampled_transitions": total,
+        "tilts_saved_by_symmetry": int((G - 1) * (E * n_act * K + len(reps) * n0)),
+        "start_rows_imputed": imputed, "rows_without_samples": self_loops,
+        "noise": settings.noise, **run_stats,
+    }
+    metadata = {
+        "build_key": key,
+        "kind": "kruskal.built_model", "scene": scene.to_dict(), "scene_hash": scene.content_hash(),
+        "build_settings": settings.to_dict(), "builder_version": BUILDER_VERSION,
+        "grid": grid.to_dict(), "noise": settings.noise, "symmetry_order": G,
+        "stats": {k: v for k, v in stats.items() if k != "faults_per_action"},
+    }
+    model = TransitionModel(scene.actions, mats, initial=initial, partition=partition, n_cells=grid.n_voxels,
+                            metadata=metadata, extras=extras)
+    return model, stats
+
+
+def _check_snapped(tgt):
+    if np.any(tgt < 0):  # pragma: no cover - every landing founded or joined a representative
+        raise RuntimeError("a landing has no representative within tolerance after exploration")
+
+
+def _aligned(P: sp.csr_matrix, C: sp.csr_matrix) -> np.ndarray:
+    """Counts of ``C`` at the stored entries of ``P`` (0 where C has none); C's pattern is within P's."""
+    n = P.shape[0]
+    key_p = np.repeat(np.arange(n, dtype=np.int64), np.diff(P.indptr)) * n + P.indices
+    C = C.tocsr()
+    C.sum_duplicates()
+    C.eliminate_zeros()
+    key_c = np.repeat(np.arange(n, dtype=np.int64), np.diff(C.indptr)) * n + C.indices
+    order = np.argsort(key_c, kind="stable")
+    key_c, val_c = key_c[order], C.data[order]
+    pos = np.clip(np.searchsorted(key_c, key_p), 0, max(len(key_c) - 1, 0))
+    out = np.zeros(P.nnz, dtype=np.int32)
+    if len(key_c):
+        hit = key_c[pos] == key_p
+        out[hit] = val_c[pos[hit]]
+    return out

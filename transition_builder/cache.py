@@ -1,0 +1,76 @@
+"""A content-addressed store of built models.
+
+A model is filed under :func:`transition_builder.builder.build_key` — the hash of the scene
+(shape, tray, friction, tilt, actions, every solver setting, simulator and PyBullet versions), the
+build settings (resolution, samples, noise, seed...) and the builder and package versions — so a
+cached model is never reused for a different scene or setting. A file that does not load (corrupt,
+foreign, truncated) is rebuilt with a warning, never used. The in-progress checkpoint of a build
+lives beside it (``<key>.ckpt.npz``), so a killed build resumes when started again.
+
+The directory is ``$KRUSKAL_CACHE`` if set, else ``~/.cache/kruskal/models``.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import warnings
+
+from kruskal_markov.model import ModelError, TransitionModel
+from transition_builder.builder import BuildResult, BuildSettings, build_key, build_model
+from transition_builder.scene import Scene
+
+__all__ = ["cache_dir", "cached_build"]
+
+
+def cache_dir() -> str:
+    """The model cache directory (created on demand)."""
+    d = os.environ.get("KRUSKAL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "kruskal", "models")
+    os.makedirs(d, exist_ok=True)
+    return d
+
+
+def _copy_atomic(src: str, dst: str) -> None:
+    directory = os.path.dirname(os.path.abspath(dst))
+    os.makedirs(directory, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
+    os.close(fd)
+    try:
+        shutil.copyfile(src, tmp)
+        os.replace(tmp, dst)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def cached_build(scene: Scene, settings: BuildSettings | None = None, out: str | None = None, *,
+                 use_cache: bool = True, directory: str | None = None, **build_kwargs) -> tuple[BuildResult, str, bool]:
+    """Build ``scene`` or reuse the cached model of the same key.
+
+    Returns ``(result, path, cached)``: ``path`` is ``out`` if given (the model is copied there) or the
+    cache file. ``build_kwargs`` go to :func:`build_model` (executor, workers, scheduler, progress).
+    """
+    settings = settings or BuildSettings()
+    key = build_key(scene, settings)
+    d = directory or cache_dir()
+    os.makedirs(d, exist_ok=True)
+    path = os.path.join(d, f"{key}.npz")
+    if use_cache and os.path.exists(path):
+        try:
+            model = TransitionModel.load(path)
+            if model.metadata.get("build_key") != key:
+                raise ModelError("its key does not match")
+        except ModelError as exc:
+            warnings.warn(f"cached model {path} is unusable ({exc}); rebuilding", stacklevel=2)
+            os.unlink(path)
+        else:
+            if out:
+                _copy_atomic(path, out)
+            stats = dict(model.metadata.get("stats", {}))
+            return BuildResult(model, stats), (out or path), True
+    result = build_model(scene, settings, checkpoint=os.path.join(d, f"{key}.ckpt.npz"), **build_kwargs)
+    result.model.save(path)
+    if out:
+        _copy_atomic(path, out)
+    return result, (out or path), False
