@@ -52,6 +52,7 @@ __all__ = [
     "resolve_sequence",
     "run_direct",
     "shutdown_workers",
+    "summarise_trials",
     "write_poses_csv",
 ]
 
@@ -370,10 +371,11 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
             bar.close()
         if owned is not None:
             owned.close()
-    return _summarise(seq, names, poses, status, rgrid, seed, noise)
+    return summarise_trials(seq, names, poses, status, rgrid, seed, noise)
 
 
-def _summarise(seq, names, poses, status, rgrid: ReportGrid, seed, noise: NoiseSpec) -> DirectResult:
+def summarise_trials(seq, names, poses, status, rgrid: ReportGrid, seed, noise: NoiseSpec) -> DirectResult:
+    """A :class:`DirectResult` from every trial's poses and status codes (entropy, survivors, faults)."""
     n_steps = poses.shape[1]
     faulted = status != OK
     fault_step = np.where(faulted.any(axis=1), faulted.argmax(axis=1), -1).astype(np.int64)

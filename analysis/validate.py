@@ -30,6 +30,7 @@ import time
 import numpy as np
 
 from analysis.montecarlo import run_direct
+from analysis.sequences import random_sequences_for
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model
@@ -37,10 +38,8 @@ from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene
 from transition_builder.status import OK
 
-__all__ = ["model_scene", "model_grid", "validate_model", "random_sequences_for", "SEQUENCE_STREAM"]
+__all__ = ["model_scene", "model_grid", "validate_model", "random_sequences_for"]
 
-#: seed stream of random sequences: ``--sequence random:N --seed S`` is the same in every command.
-SEQUENCE_STREAM = 1
 _REFERENCE_STREAM = 2
 _PLUGIN_DRAWS = 200
 _BOOTSTRAP = 200
@@ -62,13 +61,6 @@ def model_grid(model: TransitionModel) -> ReportGrid:
         raise ModelError("the model records no report grid")
     return ReportGrid(g["tray_x_mm"], g["tray_y_mm"], g["nx"], g["ny"], g["ntheta"],
                       symmetry_order=g["symmetry_order"], theta_offset=g["theta_offset"])
-
-
-def random_sequences_for(n_actions: int, count: int, length: int, seed: int) -> np.ndarray:
-    """``count`` random sequences of ``length`` actions from ``seed`` (the first is what
-    ``--sequence random:LENGTH --seed SEED`` gives in every command)."""
-    rng = np.random.default_rng([seed, SEQUENCE_STREAM])
-    return rng.integers(0, n_actions, size=(count, length)).astype(np.int64)
 
 
 def _reference_seed(seed: int, i: int) -> int:
@@ -105,11 +97,17 @@ def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
 
 def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 1000, seed: int = 0,
                    length: int = 50, spread: bool = False, bands: int = 40, workers=None, scheduler=None,
-                   progress: bool | None = False) -> dict:
+                   progress: bool | None = False, simulate=None) -> dict:
     """Compare ``model`` with direct simulation on ``sequences`` random sequences (see module docstring).
 
-    Returns the ``kruskal validate`` JSON keys (without ``seconds``).
+    ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
+    :func:`analysis.montecarlo.run_direct` (e.g. a benchmark that caches references shared by
+    several models). Returns the ``kruskal validate`` JSON keys (without ``seconds``).
     """
+    if simulate is None:
+        def simulate(sc, sq, m, sd, nz):
+            return run_direct(sc, sq, m, seed=sd, workers=workers, scheduler=scheduler, progress=progress,
+                              grid=grid, noise=nz)
     for name, val, lo in (("sequences", sequences, 1), ("trials", trials, 2), ("length", length, 1),
                           ("bands", bands, 0)):
         if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < lo:
@@ -132,8 +130,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     tvs = []
     for i, seq in enumerate(seqs):
         t = time.perf_counter()
-        ref = run_direct(scene, seq, trials, seed=_reference_seed(seed, i), workers=workers, scheduler=scheduler,
-                         progress=progress, grid=grid, noise=noise)
+        ref = simulate(scene, seq, trials, _reference_seed(seed, i), noise)
         sim_seconds += time.perf_counter() - t
         t = time.perf_counter()
         traj = entropy_trajectory(model, seq, return_distributions=True)
@@ -172,8 +169,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
             t = time.perf_counter()
             half_scene = scene.with_settings(time_step_s=scene.settings.time_step_s / 2,
                                              substeps=scene.settings.substeps * 2)
-            ref2 = run_direct(half_scene, seq, trials, seed=_reference_seed(seed, i), workers=workers,
-                              scheduler=scheduler, progress=progress, grid=grid, noise=noise)
+            ref2 = simulate(half_scene, seq, trials, _reference_seed(seed, i), noise)
             sim_seconds += time.perf_counter() - t
             d = np.abs(ref2.entropy_bits - href)[1:]
             entry["half_time_step"] = ref2.entropy_bits.tolist()

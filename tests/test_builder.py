@@ -180,8 +180,8 @@ _RESUME_SCRIPT = textwrap.dedent("""
     from transition_builder.executors import SerialExecutor
     from transition_builder.scene import scene_from_options
     scene = scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0))
-    r = build_model(scene, BuildSettings(start_samples=100, max_states=600, seed=4), executor=SerialExecutor(),
-                    checkpoint=sys.argv[1], checkpoint_interval_s=0.0)
+    r = build_model(scene, BuildSettings(start_samples=100, seed=4), executor=SerialExecutor(),
+                    checkpoint=sys.argv[1], checkpoint_interval_s=0.0, batch_tilts=160)
     r.model.save(sys.argv[2])
     print("resumed" if r.stats["resumed"] else "fresh")
 """)
@@ -201,8 +201,8 @@ def test_resume_after_sigkill(tmp_path):
         if os.path.exists(ckpt):
             try:
                 with np.load(ckpt) as z:
-                    if int(z["explored"]) > 0:
-                        seen = int(z["explored"])
+                    if int(z["explored"].sum()) > 0:
+                        seen = int(z["explored"].sum())
                         break
             except Exception:
                 pass
@@ -218,7 +218,7 @@ def test_resume_after_sigkill(tmp_path):
     assert res.stdout.strip() == "resumed"
     assert not os.path.exists(ckpt)                       # removed once the model is written
     fresh = build_model(scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)),
-                        BuildSettings(start_samples=100, max_states=600, seed=4), executor=SerialExecutor()).model
+                        BuildSettings(start_samples=100, seed=4), executor=SerialExecutor()).model
     assert _same_model(TransitionModel.load(out), fresh)
 
 
@@ -299,3 +299,26 @@ def test_bad_input_is_one_line_exit_2(argv, needle):
     assert res.returncode == 2
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and needle in lines[0].lower(), res.stderr
+
+
+def test_refinement_splits_diverging_representatives():
+    """Refinement tilts the farthest member of each representative and splits where a landing falls
+    in another report cell; the split-off states are real rest poses whose rows are their own tilts."""
+    scene = _square_scene()
+    base = build_model(scene, BuildSettings(start_samples=150, seed=3), executor=SerialExecutor())
+    ref = build_model(scene, BuildSettings(start_samples=150, seed=3, refine_rounds=2), executor=SerialExecutor())
+    st = ref.stats
+    assert st["refinement_rounds"] == 2 and st["refinement_tilts"] > 0
+    assert st["representatives_split"] > 0
+    assert st["representatives"] >= base.stats["representatives"] + st["representatives_split"]
+    assert st["unexplored_states"] == 0
+    m = ref.model
+    kind = m.extras["state_kind"]
+    for a in range(m.n_actions):                                  # still every sample accounted for
+        counts = np.asarray(m.extras[f"counts_{a}"], dtype=np.int64)
+        rows = np.repeat(np.arange(m.n_states), np.diff(m.matrices[a].indptr))
+        per_row = np.bincount(rows, weights=counts, minlength=m.n_states)
+        np.testing.assert_array_equal(per_row + m.extras["faults"][a], m.extras["samples"][a])
+        assert np.all(m.extras["samples"][a][kind == STATE_REST] == 1)
+    # refinement costs tilts of its own
+    assert ref.stats["tilts_simulated"] > base.stats["tilts_simulated"]

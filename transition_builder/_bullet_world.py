@@ -15,8 +15,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pybullet as pb
 from matplotlib.path import Path
+
+from transition_builder._quiet import quiet_stderr
+
+with quiet_stderr():    # PyBullet prints its build banner on the C-level stderr at import
+    import pybullet as pb
 
 from transition_builder.friction import friction_map, parse_friction
 

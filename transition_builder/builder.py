@@ -139,6 +139,14 @@ class BuildSettings:
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ValueError(f"build setting {name} must be a positive integer, got {v!r}")
             object.__setattr__(self, name, int(v))
+        r = self.refine_rounds
+        if isinstance(r, bool) or not isinstance(r, (int, np.integer)) or not 0 <= r <= 20:
+            raise ValueError(f"build setting refine_rounds must be an integer in 0..20, got {r!r}")
+        object.__setattr__(self, "refine_rounds", int(r))
+        d = self.refine_min_distance
+        if isinstance(d, bool) or not isinstance(d, (int, float)) or not 0 <= d <= 1:
+            raise ValueError(f"build setting refine_min_distance must be in [0, 1], got {d!r}")
+        object.__setattr__(self, "refine_min_distance", float(d))
         if self.max_states > 50_000_000:
             raise ValueError(f"max_states {self.max_states} is beyond what this machine can hold")
         if self.start_samples > 10_000_000:
@@ -406,7 +414,7 @@ def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry
 
 def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor=None, workers=None,
                 scheduler=None, checkpoint: str | None = None, checkpoint_interval_s: float = 30.0,
-                progress: bool | None = False) -> BuildResult:
+                progress: bool | None = False, batch_tilts: int = 3000) -> BuildResult:
     """Sample the physics engine into a :class:`TransitionModel` of ``scene`` (see the module docstring).
 
     Parameters
@@ -421,6 +429,9 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
         from it (a checkpoint of another build is ignored). Removed when the build finishes.
     progress : bool or None
         A tqdm bar on standard error (tilts, states, rate); None: only on a terminal.
+    batch_tilts : int
+        Tilts per exploration batch (landings are offered in orbit order whatever the batch, so
+        it only changes where ``max_states`` cuts off and how often a checkpoint can be taken).
 
     Returns
     -------
@@ -491,7 +502,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             # checkpoint is in them), so continuing gives the same model as an uninterrupted build
             for o in range(ex.n_orbits):
                 index.add(np.concatenate([sym.rotate_poses(ex.orbit_poses[o:o + 1], j) for j in range(G)]))
-        batch = max(1, 3000 // (n_act * K))
+        batch = max(1, int(batch_tilts) // (n_act * K))
         capped = False
         while True:
             if ex.phase[0] == "explore":
@@ -522,7 +533,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             # refinement: tilt the farthest member of each orbit; split where a landing's report
             # cell differs from the representative's
             cand = ex.candidates
-            rbatch = max(1, 3000 // n_act)
+            rbatch = max(1, int(batch_tilts) // n_act)
             while ex.cand_done < len(cand):
                 lo, hi = ex.cand_done, min(len(cand), ex.cand_done + rbatch)
                 orbit = cand[lo:hi, 0].astype(np.int64)

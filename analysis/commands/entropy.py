@@ -12,7 +12,7 @@ import argparse
 import numpy as np
 
 from analysis.commands import InputError
-from analysis.commands._common import add_model_source, add_seed, load_model_source, parse_sequence
+from analysis.commands._common import add_model_source, add_seed, load_model_source, parse_sequence, sequence_rng
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> dict:
     model = load_model_source(args)
     if args.sequence is None:
         raise InputError("--sequence is required with --model or --automaton")
-    rng = np.random.default_rng(args.seed)
+    rng = sequence_rng(args.seed)
     seq = parse_sequence(args.sequence, model.actions, rng)
     traj = entropy_trajectory(model, seq)
     return {
@@ -65,6 +65,7 @@ def run(args: argparse.Namespace) -> dict:
         "entropy_bits_model": traj.entropy_bits_states.tolist(),
         "entropy_on": "partition" if model.partition is not None else "states",
         "actions": [model.actions[a] for a in seq],
+        "sequence": [model.actions[a] for a in seq],
         "states": model.n_states,
         "cells": model.n_cells,
         "mass_drift": traj.mass_drift,

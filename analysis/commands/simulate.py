@@ -10,13 +10,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-import numpy as np
-
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, parse_sequence
+from analysis.commands._common import add_seed, parse_sequence, sequence_rng
 
-#: offset of the random-sequence stream from the start-pose stream of the same ``--seed``.
-_SEQUENCE_STREAM = 1
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,7 +88,7 @@ def run(args: argparse.Namespace) -> dict:
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     scene = _scene(args)
-    rng = np.random.default_rng([args.seed, _SEQUENCE_STREAM])
+    rng = sequence_rng(args.seed)
     sequence = parse_sequence(args.sequence, scene.actions, rng)
     progress = True if args.progress else None  # None: a bar only when stderr is a terminal
     result = run_direct(scene, sequence, args.trials, seed=args.seed, workers=args.workers,

@@ -46,7 +46,8 @@ def format_text(result: dict) -> str:
     """Error, reference noise and (with --spread) the simulator's own spread, side by side."""
     lines = [f"{result['sequences']} sequences x {result['length']} tilts, M = {result['trials']}, "
              f"noise {result['noise']}, {result['states']} model states",
-             "seq  mean_err  max_err  ref_noise  final_TV" + ("  spread_mean  spread_max" if "simulation_spread_bits" in result else "")]
+             "seq  mean_err  max_err  ref_noise  final_TV"
+             + ("  spread_mean  spread_max" if "simulation_spread_bits" in result else "")]
     for i, s in enumerate(result["per_sequence"]):
         line = (f"{i:3d}  {s['mean_abs_error_bits']:8.3f}  {s['max_abs_error_bits']:7.3f}  "
                 f"{s['reference_noise_bits']:9.3f}  {s['final_tv_distance']:8.3f}")

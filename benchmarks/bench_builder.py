@@ -1,0 +1,163 @@
+"""Build time against model error: the table behind ``kruskal build``'s defaults.
+
+For the allen key, every model variant (state design, resolution, samples K, refinement, noise)
+is built from scratch (no cache) and validated against held-out direct simulation: 6 random
+30-tilt sequences drawn from a seed that was never used while tuning (``HELD_OUT_SEED``), M trials
+each (default 4,000). The references are simulated once per noise level and reused by every
+variant (cached on disk under ``benchmarks/results/``, keyed by scene hash, sequences, M, seed and
+noise), so the table compares models on identical judges. Beside each model's error the table
+gives the reference's own sampling noise, and for the deterministic scene the simulator's own
+spread (the same trials at half the time step).
+
+Run: ``python -m benchmarks builder`` (all variants, about 2 hours on 2 cores) or select with
+``KRUSKAL_BENCH_BUILDER=det,det-refine1,noise`` and ``KRUSKAL_BENCH_BUILDER_TRIALS=1000``.
+Writes ``benchmarks/results/builder.json`` and the markdown table ``benchmarks/BUILDER_RESULTS.md``.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pathlib
+import tempfile
+import time
+
+import numpy as np
+
+HERE = pathlib.Path(__file__).parent
+RESULTS = HERE / "results"
+HELD_OUT_SEED = 2026
+#: KRUSKAL_BENCH_BUILDER_SEED=1 gives the tuning sequences (the defaults were chosen on those).
+SEED = int(os.environ.get("KRUSKAL_BENCH_BUILDER_SEED", str(HELD_OUT_SEED)))
+SEQUENCES, LENGTH = 6, 30
+TRIALS = int(os.environ.get("KRUSKAL_BENCH_BUILDER_TRIALS", "4000"))
+
+#: name -> (build settings changes, description)
+VARIANTS = {
+    "det-1mm": ({"tol_mm": 1.0, "tol_deg": 1.0}, "deterministic, 1 mm / 1 deg"),
+    "det": ({}, "deterministic, 0.5 mm / 0.5 deg (cell + contact snapping)"),
+    "det-nocontact": ({"contacts": False}, "deterministic, 0.5 / 0.5, cell-only snapping"),
+    "det-refine1": ({"refine_rounds": 1}, "deterministic, 0.5 / 0.5, 1 refinement round"),
+    "det-refine2": ({"refine_rounds": 2}, "deterministic, 0.5 / 0.5, 2 refinement rounds"),
+    "det-0.25": ({"tol_mm": 0.25, "tol_deg": 0.25}, "deterministic, 0.25 / 0.25"),
+    "noise": ({"noise": "pose:0.5,0.5"}, "noise pose:0.5,0.5, K = 8, 0.5 / 0.5"),
+    "noise-k4": ({"noise": "pose:0.5,0.5", "samples": 4}, "noise pose:0.5,0.5, K = 4, 0.5 / 0.5"),
+    "noise-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0}, "noise pose:0.5,0.5, K = 8, 1 / 1"),
+}
+DEFAULT_SELECTION = "det,det-refine1,det-1mm,noise"
+
+
+def _reference_cache(scene, trials, grid, workers):
+    """A ``simulate`` function for :func:`analysis.validate.validate_model` that keeps its results."""
+    from analysis.montecarlo import run_direct, summarise_trials
+    from transition_builder.noise import parse_noise
+
+    RESULTS.mkdir(exist_ok=True)
+    stats = {"simulated_seconds": 0.0}
+
+    def simulate(sc, seq, m, seed, noise):
+        key = hashlib.sha256(json.dumps([sc.content_hash(), list(map(int, seq)), m, seed, str(noise),
+                                         grid.to_dict()]).encode()).hexdigest()[:24]
+        path = RESULTS / f"reference-{key}.npz"
+        if path.exists():
+            with np.load(path) as z:
+                return summarise_trials(np.asarray(seq), sc.actions, z["poses"], z["status"], grid, seed,
+                                        parse_noise(noise))
+        t = time.perf_counter()
+        res = run_direct(sc, seq, m, seed=seed, workers=workers, grid=grid, noise=noise)
+        stats["simulated_seconds"] += time.perf_counter() - t
+        fd, tmp = tempfile.mkstemp(dir=RESULTS, suffix=".npz")
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, poses=res.poses, status=res.status)
+        os.replace(tmp, path)
+        return res
+
+    return simulate, stats
+
+
+def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = False) -> dict:
+    """Build variant ``name`` from scratch and validate it on the held-out references."""
+    from analysis.validate import model_grid, validate_model
+    from transition_builder.builder import BuildSettings, build_model
+    from transition_builder.scene import scene_from_options
+
+    changes, description = VARIANTS[name]
+    scene = scene_from_options("allen-key")
+    settings = BuildSettings(**changes)
+    t0 = time.perf_counter()
+    cpu0 = time.process_time()
+    result = build_model(scene, settings, workers=workers, progress=None)
+    build_s = time.perf_counter() - t0
+    model = result.model
+    simulate, _ = _reference_cache(scene, trials, model_grid(model), workers)
+    t1 = time.perf_counter()
+    val = validate_model(model, SEQUENCES, trials, SEED, LENGTH, spread=spread and settings.noise == "none",
+                         bands=40, simulate=simulate)
+    st = result.stats
+    row = {
+        "variant": name, "description": description, "build_seconds": build_s,
+        "parent_cpu_seconds": time.process_time() - cpu0, "states": st["states"],
+        "representatives": st["representatives"], "tilts": st["tilts_simulated"],
+        "splits": st.get("representatives_split", 0), "noise": settings.noise, "samples": settings.samples,
+        "mean_abs_error_bits": val["mean_abs_error_bits"], "max_abs_error_bits": val["max_abs_error_bits"],
+        "median_abs_error_bits": val["median_abs_error_bits"],
+        "share_steps_above_0_25": val["share_steps_above_0_25"], "final_tv_distance": val["final_tv_distance"],
+        "reference_noise_bits": val["reference_noise_bits"], "band_coverage": val["band_coverage"],
+        "per_sequence_max": [s["max_abs_error_bits"] for s in val["per_sequence"]],
+        "per_sequence_mean": [s["mean_abs_error_bits"] for s in val["per_sequence"]],
+        "validate_seconds": time.perf_counter() - t1, "trials": trials, "fault_rate": st["fault_rate"],
+        "load_average": os.getloadavg()[0],
+    }
+    if "simulation_spread_bits" in val:
+        row["simulation_spread_bits"] = val["simulation_spread_bits"]
+        row["per_sequence_spread_max"] = [s["simulation_spread_bits"]["max"] for s in val["per_sequence"]]
+        row["model_vs_half_time_step"] = [s["model_vs_half_time_step"] for s in val["per_sequence"]]
+    return row
+
+
+def _table(rows: list[dict]) -> str:
+    head = ("| variant | build s (2 cores) | states | tilts | splits | mean / max error (bits) | "
+            "steps > 0.25 | final TV | reference noise | band coverage |\n|---|---|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for r in rows:
+        cov = "-" if r["band_coverage"] is None else f"{100 * r['band_coverage']:.0f}%"
+        lines.append(f"| {r['description']} | {r['build_seconds']:.0f} | {r['states']:,} | {r['tilts']:,} | "
+                     f"{r['splits']} | {r['mean_abs_error_bits']:.3f} / {r['max_abs_error_bits']:.2f} | "
+                     f"{100 * r['share_steps_above_0_25']:.1f}% | {r['final_tv_distance']:.3f} | "
+                     f"{r['reference_noise_bits']:.3f} | {cov} |")
+    out = head + "\n".join(lines) + "\n"
+    spread = [r for r in rows if "simulation_spread_bits" in r]
+    if spread:
+        r = spread[0]
+        out += (f"\nSimulator's own spread on the deterministic references (same trials at 1/480 s): mean "
+                f"{r['simulation_spread_bits']['mean']:.3f}, max {r['simulation_spread_bits']['max']:.2f} bits; "
+                f"per sequence max: {', '.join(f'{v:.2f}' for v in r['per_sequence_spread_max'])}.\n")
+    return out
+
+
+def main() -> None:
+    names = os.environ.get("KRUSKAL_BENCH_BUILDER", DEFAULT_SELECTION).split(",")
+    unknown = [n for n in names if n not in VARIANTS]
+    if unknown:
+        raise SystemExit(f"unknown builder variant(s) {unknown}; known: {', '.join(VARIANTS)}")
+    RESULTS.mkdir(exist_ok=True)
+    out_json = RESULTS / "builder.json"
+    done = json.loads(out_json.read_text()) if out_json.exists() else {}
+    print(f"allen key, sequence seed {SEED} (held-out: {HELD_OUT_SEED}): {SEQUENCES} x {LENGTH} tilts, M = {TRIALS}; "
+          f"variants {', '.join(names)} (load average {os.getloadavg()[0]:.2f})", flush=True)
+    for name in names:
+        row = run_variant(name, spread=(name == "det"))
+        done[f"{name}@{TRIALS}@{SEED}"] = row
+        out_json.write_text(json.dumps(done, indent=1))
+        print(f"{name}: build {row['build_seconds']:.0f} s, {row['states']} states, {row['tilts']} tilts; "
+              f"error mean {row['mean_abs_error_bits']:.3f} max {row['max_abs_error_bits']:.3f} "
+              f"(>0.25: {100 * row['share_steps_above_0_25']:.1f}%), reference noise "
+              f"{row['reference_noise_bits']:.3f}, coverage {row['band_coverage']}", flush=True)
+    rows = [v for k, v in done.items() if k.endswith(f"@{TRIALS}@{SEED}")]
+    text = ("# Builder: time against error (allen key)\n\nWritten by `python -m benchmarks builder` "
+            "(see its docstring); 2-core machine.\n"
+            f"References: {SEQUENCES} random {LENGTH}-tilt sequences (seed {SEED}; held-out seed {HELD_OUT_SEED}), "
+            f"M = {TRIALS} trials each; the noisy variants against noisy references.\n\n" + _table(rows))
+    target = "BUILDER_RESULTS.md" if SEED == HELD_OUT_SEED else f"results/builder-seed{SEED}.md"
+    (HERE / target).write_text(text)
+    print(text)
