@@ -40,9 +40,17 @@ VARIANTS = {
     "det-refine1": ({"refine_rounds": 1}, "deterministic, 0.5 / 0.5, 1 refinement round"),
     "det-refine2": ({"refine_rounds": 2}, "deterministic, 0.5 / 0.5, 2 refinement rounds"),
     "det-0.25": ({"tol_mm": 0.25, "tol_deg": 0.25}, "deterministic, 0.25 / 0.25"),
-    "noise": ({"noise": "pose:0.5,0.5"}, "noise pose:0.5,0.5, K = 8, 0.5 / 0.5"),
-    "noise-k4": ({"noise": "pose:0.5,0.5", "samples": 4}, "noise pose:0.5,0.5, K = 4, 0.5 / 0.5"),
-    "noise-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0}, "noise pose:0.5,0.5, K = 8, 1 / 1"),
+    "det-0.1": ({"tol_mm": 0.1, "tol_deg": 0.1}, "deterministic, 0.1 / 0.1"),
+    "noise": ({"noise": "pose:0.5,0.5"},
+              "noise pose:0.5,0.5, K = 2 then 8 where mass >= 1e-3, weighted exploration 1e-4, 0.5 / 0.5"),
+    "noise-w1e-3": ({"noise": "pose:0.5,0.5", "explore_weight": 1e-3},
+                    "noise pose:0.5,0.5, K = 2 / 8, weighted exploration 1e-3, 0.5 / 0.5"),
+    "noise-k8": ({"noise": "pose:0.5,0.5", "adaptive": False},
+                 "noise pose:0.5,0.5, K = 8 everywhere, weighted exploration 1e-4, 0.5 / 0.5"),
+    "noise-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0},
+                  "noise pose:0.5,0.5, K = 2 / 8, weighted exploration 1e-4, 1 / 1"),
+    "noise-closed-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0, "explore_weight": 0.0},
+                         "noise pose:0.5,0.5, K = 2 / 8, full closure, 1 / 1"),
 }
 DEFAULT_SELECTION = "det,det-refine1,det-1mm,noise"
 

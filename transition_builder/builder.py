@@ -73,7 +73,18 @@ STATE_START, STATE_REST, STATE_UNEXPLORED = 0, 1, 2
 _START_STREAM = 11          # seed stream of the start poses
 _KEY_START, _KEY_ORBIT, _KEY_REFINE = 1, 2, 3   # first key of a sampled tilt's noise stream
 _CHUNK = 48                 # tilts per executor task
-_CHECKPOINT_FORMAT = 2
+_CHECKPOINT_FORMAT = 3
+#: status of a sample slot not drawn (yet); adaptive builds draw fewer samples for light rows.
+NOT_DRAWN = -1
+_PHASES = ("explore", "refine", "topup", "done")
+_MAX_WEIGHT_ROUNDS = 200    # weighted exploration: at most this many weigh-and-expand rounds
+_SPECULATIVE_LAYERS = 2     # weighted exploration: layers expanded between two weighings
+_TOPUP_ROUNDS = 4           # adaptive sampling: at most this many weigh-and-top-up rounds
+_WEIGHT_SEQUENCES = 200     # random sequences that weigh the rows of an adaptive build
+_WEIGHT_LENGTH = 30
+_WEIGHT_THRESHOLD = 1e-3
+_DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-4
+_WEIGHT_STREAM = 12
 
 
 @dataclass(frozen=True)
@@ -111,6 +122,19 @@ class BuildSettings:
         representative of its own (a split), and exploration continues from what it reaches.
     refine_min_distance : float
         Members nearer than this (normalised tolerance units) are not tried.
+    adaptive : bool
+        Adaptive sampling (noisy builds): every row first gets ``samples_first`` samples; then
+        the rows that carry mass — probability above 1e-3 at some step of one of 200 random
+        30-tilt sequences through the model built so far — are topped up to ``samples``, and
+        exploration continues from what the new samples reach (up to 4 rounds).
+    samples_first : int
+        Samples per row before the top-up.
+    explore_weight : float or None
+        None: 0 without noise, 1e-4 with noise. 0: explore everything the actions reach (closure). w > 0: weighted exploration — expand
+        only representatives that hold probability >= w at some step of one of 200 random 30-tilt
+        sequences through the model built so far (weighed again every few layers); the rest stay
+        ``unexplored`` (absorbing, counted in the build's statistics). For noisy scenes, whose
+        closure is an order of magnitude larger than the deterministic one.
     """
 
     tol_mm: float = 0.5
@@ -127,6 +151,9 @@ class BuildSettings:
     seed: int = 0
     refine_rounds: int = 0
     refine_min_distance: float = 0.2
+    adaptive: bool = True
+    samples_first: int = 2
+    explore_weight: float | None = None
 
     def __post_init__(self):
         for name in ("tol_mm", "tol_deg", "contact_tol_mm"):
@@ -139,6 +166,17 @@ class BuildSettings:
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ValueError(f"build setting {name} must be a positive integer, got {v!r}")
             object.__setattr__(self, name, int(v))
+        f = self.samples_first
+        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
+            raise ValueError(f"build setting samples_first must be a positive integer, got {f!r}")
+        object.__setattr__(self, "samples_first", int(f))
+        object.__setattr__(self, "adaptive", bool(self.adaptive))
+        ew = self.explore_weight
+        if ew is None:
+            ew = 0.0 if parse_noise(self.noise).is_zero else _DEFAULT_NOISY_EXPLORE_WEIGHT
+        if isinstance(ew, bool) or not isinstance(ew, (int, float)) or not 0 <= ew < 1:
+            raise ValueError(f"build setting explore_weight must be in [0, 1), got {ew!r}")
+        object.__setattr__(self, "explore_weight", float(ew))
         r = self.refine_rounds
         if isinstance(r, bool) or not isinstance(r, (int, np.integer)) or not 0 <= r <= 20:
             raise ValueError(f"build setting refine_rounds must be an integer in 0..20, got {r!r}")
@@ -274,6 +312,7 @@ class _Exploration:
         self.cand_done = 0
         self.splits = 0
         self.refine_tilts = 0
+        self.topup_tilts = 0
 
     @property
     def n_orbits(self) -> int:
@@ -287,7 +326,7 @@ class _Exploration:
         if n > len(self.land):
             cap = max(n, 2 * len(self.land), 64)
             land = np.full((cap, self.n_actions, self.samples, 3), np.nan)
-            status = np.zeros((cap, self.n_actions, self.samples), dtype=np.int8)
+            status = np.full((cap, self.n_actions, self.samples), NOT_DRAWN, dtype=np.int8)
             explored = np.zeros(cap, dtype=bool)
             land[:n_old], status[:n_old], explored[:n_old] = self.land[:n_old], self.status[:n_old], \
                 self.explored[:n_old]
@@ -300,9 +339,9 @@ class _Exploration:
                   "land": self.land[:n], "status": self.status[:n],
                   "start_poses": self.start_poses, "start_land": self.start_land,
                   "start_status": self.start_status,
-                  "phase": np.array([0 if self.phase[0] == "explore" else 1, self.phase[1]]),
+                  "phase": np.array([_PHASES.index(self.phase[0]), self.phase[1]]),
                   "candidates": self.candidates, "counters": np.array([self.cand_done, self.splits,
-                                                                       self.refine_tilts])}
+                                                                       self.refine_tilts, self.topup_tilts])}
         directory = os.path.dirname(os.path.abspath(path))
         os.makedirs(directory, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=".ckpt-", suffix=".npz", dir=directory)
@@ -334,9 +373,9 @@ class _Exploration:
                 ex.start_land = np.array(z["start_land"])
                 ex.start_status = np.array(z["start_status"])
                 ph = z["phase"]
-                ex.phase = ("explore" if int(ph[0]) == 0 else "refine", int(ph[1]))
+                ex.phase = (_PHASES[int(ph[0])], int(ph[1]))
                 ex.candidates = np.array(z["candidates"])
-                ex.cand_done, ex.splits, ex.refine_tilts = (int(v) for v in z["counters"])
+                ex.cand_done, ex.splits, ex.refine_tilts, ex.topup_tilts = (int(v) for v in z["counters"])
         except Exception:
             return None
         n = ex.n_orbits
@@ -379,12 +418,36 @@ def _rotated_landings(sym: TraySymmetry, land_o: np.ndarray) -> np.ndarray:
     return rot.reshape(-1, 3)
 
 
-def _orbit_jobs(scene, ex, orbits, K, key_tag):
+def _orbit_jobs(scene, ex, orbits, k_lo, k_hi, key_tag):
+    """Tilt jobs for samples ``k_lo..k_hi-1`` of every orbit, every action (noise stream per sample)."""
+    K = k_hi - k_lo
     poses = np.repeat(ex.orbit_poses[orbits], K, axis=0)
     ids = np.repeat(orbits, K)
-    ks = np.tile(np.arange(K), len(orbits))
+    ks = np.tile(np.arange(k_lo, k_hi), len(orbits))
     return [(scene.actions[b], poses, np.column_stack([np.full(len(poses), key_tag), ids, np.full(len(poses), b), ks]))
             for b in range(len(scene.actions))]
+
+
+def _orbit_weights(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarray:
+    """Weight of every orbit: the largest probability any of its states holds at some step of one of
+    ``_WEIGHT_SEQUENCES`` random sequences through the model built so far (unexplored orbits are
+    absorbing there, so their weight is all the mass that reaches them)."""
+    from kruskal_markov.entropy import entropy_trajectory
+
+    model, _ = _assemble(scene, settings, sym, grid, index, ex, reps, key, {})
+    n_start = int(np.sum(model.extras["state_kind"] == STATE_START))
+    rng = np.random.default_rng([settings.seed, _WEIGHT_STREAM])
+    weight = np.zeros(model.n_states)
+    for seq in rng.integers(0, model.n_actions, size=(_WEIGHT_SEQUENCES, _WEIGHT_LENGTH)):
+        d = entropy_trajectory(model, seq, return_distributions=True).distributions
+        np.maximum(weight, d.max(axis=0), out=weight)
+    return weight[n_start:].reshape(-1, sym.order).max(axis=1)
+
+
+def _heavy_orbits(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarray:
+    """Explored orbits whose weight (:func:`_orbit_weights`) is at least 1e-3 (sorted ids)."""
+    w = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
+    return np.flatnonzero((w >= _WEIGHT_THRESHOLD) & ex.explored[:ex.n_orbits])
 
 
 def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry, min_dist: float) -> np.ndarray:
@@ -451,6 +514,9 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
     index = PoseIndex(scene.shape, grid, settings.tol_mm, settings.tol_deg, settings.contact_tol_mm,
                       settings.contacts)
     rounds = settings.refine_rounds if K == 1 else 0
+    K0 = min(K, settings.samples_first) if (K > 1 and settings.adaptive) else K
+    topup_rounds = _TOPUP_ROUNDS
+    weighted = settings.explore_weight > 0
     own_executor = executor is None
     if own_executor:
         executor = make_executor(workers, scheduler)
@@ -504,7 +570,51 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 index.add(np.concatenate([sym.rotate_poses(ex.orbit_poses[o:o + 1], j) for j in range(G)]))
         batch = max(1, int(batch_tilts) // (n_act * K))
         capped = False
-        while True:
+
+        def sample_orbits(orbits, k_lo, k_hi):
+            """Tilt samples k_lo..k_hi-1 of ``orbits`` under every action, offer the landings."""
+            nonlocal tilts
+            for lo in range(0, len(orbits), batch):
+                part = orbits[lo:lo + batch]
+                res = _run_tilts(executor, scene, settings.noise, settings.seed,
+                                 _orbit_jobs(scene, ex, part, k_lo, k_hi, _KEY_ORBIT), done)
+                tilts += n_act * (k_hi - k_lo) * len(part)
+                for b in range(n_act):
+                    ex.land[part, b, k_lo:k_hi] = res[b][0].reshape(len(part), k_hi - k_lo, 3)
+                    ex.status[part, b, k_lo:k_hi] = res[b][1].reshape(len(part), k_hi - k_lo)
+                ex.explored[part] = True
+                for o in part:
+                    _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, :, k_lo:k_hi]))
+
+        if weighted:
+            # weighted exploration: expand only what carries mass (module docstring); one
+            # checkpoint per round, so a resumed build makes exactly the same decisions
+            while ex.phase[1] < _MAX_WEIGHT_ROUNDS:
+                w = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
+                n = ex.n_orbits
+                expl = ex.explored[:n]
+                todo = np.flatnonzero(~expl & (w >= settings.explore_weight))
+                top = np.flatnonzero(expl & (w >= _WEIGHT_THRESHOLD) & (ex.status[:n, 0, K - 1] == NOT_DRAWN)) \
+                    if K0 < K else np.zeros(0, dtype=np.int64)
+                if len(todo) == 0 and len(top) == 0:
+                    break
+                if ex.n_orbits * G >= settings.max_states:
+                    capped = True
+                    break
+                sample_orbits(todo, 0, K0)
+                for _ in range(_SPECULATIVE_LAYERS):        # the next layers, before weighing again
+                    new = np.arange(n, ex.n_orbits)
+                    n = ex.n_orbits
+                    if len(new) == 0 or ex.n_orbits * G >= settings.max_states:
+                        break
+                    sample_orbits(new, 0, K0)
+                if len(top):
+                    sample_orbits(top, K0, K)
+                    ex.topup_tilts += n_act * (K - K0) * len(top)
+                ex.phase = ("explore", ex.phase[1] + 1)
+                maybe_checkpoint(force=True)
+            ex.phase = ("done", ex.phase[1])
+        while ex.phase[0] != "done":
             if ex.phase[0] == "explore":
                 while not capped:
                     queue = np.flatnonzero(~ex.explored[:ex.n_orbits])
@@ -515,21 +625,49 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                         break
                     orbits = queue[:batch]
                     res = _run_tilts(executor, scene, settings.noise, settings.seed,
-                                     _orbit_jobs(scene, ex, orbits, K, _KEY_ORBIT), done)
-                    tilts += n_act * K * len(orbits)
+                                     _orbit_jobs(scene, ex, orbits, 0, K0, _KEY_ORBIT), done)
+                    tilts += n_act * K0 * len(orbits)
                     for b in range(n_act):
-                        ex.land[orbits, b] = res[b][0].reshape(len(orbits), K, 3)
-                        ex.status[orbits, b] = res[b][1].reshape(len(orbits), K)
+                        ex.land[orbits, b, :K0] = res[b][0].reshape(len(orbits), K0, 3)
+                        ex.status[orbits, b, :K0] = res[b][1].reshape(len(orbits), K0)
                     ex.explored[orbits] = True
                     for o in orbits:
-                        _offer(index, ex, sym, _rotated_landings(sym, ex.land[o]))
+                        _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, :, :K0]))
                     maybe_checkpoint()
-                if capped or ex.phase[1] >= rounds:
+                if capped or ex.phase[1] >= (topup_rounds if K0 < K else rounds):
                     break
-                ex.phase = ("refine", ex.phase[1] + 1)
-                ex.candidates = _refinement_candidates(ex, index, sym, settings.refine_min_distance)
+                if K0 < K:
+                    heavy = _heavy_orbits(scene, settings, sym, grid, index, ex, reps, key)
+                    need = heavy[ex.status[heavy, 0, K0] == NOT_DRAWN] if len(heavy) else heavy
+                    if len(need) == 0:
+                        break
+                    ex.phase = ("topup", ex.phase[1] + 1)
+                    ex.candidates = need.astype(np.float64)[:, None]
+                else:
+                    ex.phase = ("refine", ex.phase[1] + 1)
+                    ex.candidates = _refinement_candidates(ex, index, sym, settings.refine_min_distance)
                 ex.cand_done = 0
                 maybe_checkpoint(force=True)
+            if ex.phase[0] == "topup":
+                # adaptive sampling: rows that carry mass get the remaining K - K0 samples
+                cand = ex.candidates[:, 0].astype(np.int64)
+                tbatch = max(1, int(batch_tilts) // (n_act * (K - K0)))
+                while ex.cand_done < len(cand):
+                    lo, hi = ex.cand_done, min(len(cand), ex.cand_done + tbatch)
+                    orbits = cand[lo:hi]
+                    res = _run_tilts(executor, scene, settings.noise, settings.seed,
+                                     _orbit_jobs(scene, ex, orbits, K0, K, _KEY_ORBIT), done)
+                    tilts += n_act * (K - K0) * len(orbits)
+                    ex.topup_tilts += n_act * (K - K0) * len(orbits)
+                    for b in range(n_act):
+                        ex.land[orbits, b, K0:] = res[b][0].reshape(len(orbits), K - K0, 3)
+                        ex.status[orbits, b, K0:] = res[b][1].reshape(len(orbits), K - K0)
+                    for o in orbits:
+                        _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, :, K0:]))
+                    ex.cand_done = hi
+                    maybe_checkpoint()
+                ex.phase = ("explore", ex.phase[1])
+                continue
             # refinement: tilt the farthest member of each orbit; split where a landing's report
             # cell differs from the representative's
             cand = ex.candidates
@@ -574,8 +712,11 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             executor.close()
     model, stats = _assemble(scene, settings, sym, grid, index, ex, reps, key, {
         "tilts_simulated": tilts, "resumed": resumed, "simulation_seconds": time.perf_counter() - t0,
-        "refinement_rounds": ex.phase[1], "representatives_split": ex.splits,
-        "refinement_tilts": ex.refine_tilts})
+        "refinement_rounds": ex.phase[1] if (K == 1 and not weighted) else 0,
+        "representatives_split": ex.splits, "refinement_tilts": ex.refine_tilts,
+        "adaptive_rounds": ex.phase[1] if (K0 < K and not weighted) else 0,
+        "exploration_rounds": ex.phase[1] if weighted else 0,
+        "topup_tilts": ex.topup_tilts, "samples_first": K0})
     if checkpoint and os.path.exists(checkpoint):
         os.unlink(checkpoint)
     return BuildResult(model, stats)
@@ -625,10 +766,11 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
             a = sym.rotate_action(b, j)
             src = np.repeat(n_start + done * G + j, K)
             st = ex.status[done, b].reshape(-1)
+            drawn = st != NOT_DRAWN
             ok = st == OK
-            np.add.at(samples[a], src, 1)
-            np.add.at(faults[a], src[~ok], 1)
-            fault_kinds[a] += np.bincount(st, minlength=len(STATUS_NAMES))
+            np.add.at(samples[a], src[drawn], 1)
+            np.add.at(faults[a], src[drawn & ~ok], 1)
+            fault_kinds[a] += np.bincount(st[drawn], minlength=len(STATUS_NAMES))
             if ok.any():
                 tgt = index.snap(sym.rotate_poses(ex.land[done, b].reshape(-1, 3)[ok], j))
                 _check_snapped(tgt)

@@ -32,6 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="theta bin offset of the report grid (default half a bin)")
     parser.add_argument("--refine-rounds", type=int, default=None, metavar="R",
                         help="adaptive refinement rounds of a deterministic build (default: the builder's)")
+    parser.add_argument("--explore-weight", type=float, default=None, metavar="W",
+                        help="expand only states that hold probability >= W on some random sequence "
+                             "(default 0 = everything without noise, 1e-4 with noise)")
     parser.add_argument("--no-symmetry", action="store_true", help="do not use the tray's rotation symmetry")
     parser.add_argument("--support-points", type=int, default=None,
                         help="simulator floor contact: 1 sphere (default) or K legs")
@@ -77,6 +80,7 @@ def run(args: argparse.Namespace) -> dict:
     settings = BuildSettings(tol_mm=mm, tol_deg=deg, start_samples=args.start_samples, samples=args.samples,
                              grid=args.grid, theta_offset=args.theta_offset, symmetry=not args.no_symmetry,
                              max_states=args.max_states, noise=args.noise, seed=args.seed,
+                             explore_weight=args.explore_weight,
                              **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}))
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
                                         workers=args.workers, scheduler=args.scheduler,
