@@ -39,6 +39,9 @@ VARIANTS = {
     "det-nocontact": ({"contacts": False}, "deterministic, 0.5 / 0.5, cell-only snapping"),
     "det-refine1": ({"refine_rounds": 1}, "deterministic, 0.5 / 0.5, 1 refinement round"),
     "det-refine2": ({"refine_rounds": 2}, "deterministic, 0.5 / 0.5, 2 refinement rounds"),
+    "det-recenter": ({"recenter_rounds": 3}, "deterministic, 0.5 / 0.5, 3 recentring rounds"),
+    "det-recenter-0.25": ({"recenter_rounds": 3, "tol_mm": 0.25, "tol_deg": 0.25},
+                          "deterministic, 0.25 / 0.25, 3 recentring rounds"),
     "det-0.25": ({"tol_mm": 0.25, "tol_deg": 0.25}, "deterministic, 0.25 / 0.25"),
     "det-0.1": ({"tol_mm": 0.1, "tol_deg": 0.1}, "deterministic, 0.1 / 0.1"),
     "noise": ({"noise": "pose:0.5,0.5"},
@@ -97,6 +100,7 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
     result = build_model(scene, settings, workers=workers, progress=None)
     build_s = time.perf_counter() - t0
     model = result.model
+    model.save(str(RESULTS / f"model-{name}.npz"))
     simulate, _ = _reference_cache(scene, trials, model_grid(model), workers)
     t1 = time.perf_counter()
     val = validate_model(model, SEQUENCES, trials, SEED, LENGTH, spread=spread and settings.noise == "none",
@@ -106,7 +110,8 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
         "variant": name, "description": description, "build_seconds": build_s,
         "parent_cpu_seconds": time.process_time() - cpu0, "states": st["states"],
         "representatives": st["representatives"], "tilts": st["tilts_simulated"],
-        "splits": st.get("representatives_split", 0), "noise": settings.noise, "samples": settings.samples,
+        "splits": st.get("representatives_split", 0), "moved": st.get("representatives_moved", 0),
+        "unexplored": st.get("unexplored_states", 0), "noise": settings.noise, "samples": settings.samples,
         "mean_abs_error_bits": val["mean_abs_error_bits"], "max_abs_error_bits": val["max_abs_error_bits"],
         "median_abs_error_bits": val["median_abs_error_bits"],
         "share_steps_above_0_25": val["share_steps_above_0_25"], "final_tv_distance": val["final_tv_distance"],

@@ -322,3 +322,31 @@ def test_refinement_splits_diverging_representatives():
         assert np.all(m.extras["samples"][a][kind == STATE_REST] == 1)
     # refinement costs tilts of its own
     assert ref.stats["tilts_simulated"] > base.stats["tilts_simulated"]
+
+
+def test_recentring_moves_representatives_onto_resting_points():
+    """Recentring moves a representative onto the densest point of its members and tilts it again;
+    every landing still has a representative and every sample is accounted for."""
+    scene = _square_scene()
+    r = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=2), executor=SerialExecutor())
+    st = r.stats
+    assert st["recentring_rounds"] >= 1 and st["representatives_moved"] > 0
+    assert st["unexplored_states"] == 0
+    m = r.model
+    kind = m.extras["state_kind"]
+    for a in range(m.n_actions):
+        counts = np.asarray(m.extras[f"counts_{a}"], dtype=np.int64)
+        rows = np.repeat(np.arange(m.n_states), np.diff(m.matrices[a].indptr))
+        per_row = np.bincount(rows, weights=counts, minlength=m.n_states)
+        np.testing.assert_array_equal(per_row + m.extras["faults"][a], m.extras["samples"][a])
+        assert np.all(m.extras["samples"][a][kind == STATE_REST] == 1)
+    # a moved representative is a real rest pose: tilting it reproduces its row's target cell
+    poses = m.extras["state_poses"]
+    rest = np.flatnonzero(kind == STATE_REST)[::4][:20]
+    from analysis.validate import model_grid
+    grid = model_grid(m)
+    with TraySimulator(scene) as sim:
+        land, status = sim.tilt(poses[rest], "NE")
+    assert np.all(status == 0)
+    targets = [m.matrices[1].getrow(s).indices[0] for s in rest]
+    assert np.array_equal(grid.voxel_index(land), m.partition[targets])

@@ -84,6 +84,8 @@ _WEIGHT_SEQUENCES = 200     # random sequences that weigh the rows of an adaptiv
 _WEIGHT_LENGTH = 30
 _WEIGHT_THRESHOLD = 1e-3
 _DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-4
+_RECENTER_RADIUS = 0.05     # tolerance units: members this close count as one resting point
+_GROUP_GAP = 1e6
 _WEIGHT_STREAM = 12
 
 
@@ -129,6 +131,11 @@ class BuildSettings:
         exploration continues from what the new samples reach (up to 4 rounds).
     samples_first : int
         Samples per row before the top-up.
+    recenter_rounds : int
+        Recentring rounds (deterministic builds): once exploration has closed, every
+        representative moves to the densest point of its members (the landings snapped to it:
+        where parts really come to rest, e.g. an exact corner-wedge pose that many landings hit)
+        and is tilted again from there; exploration then continues from what it reaches.
     explore_weight : float or None
         None: 0 without noise, 1e-4 with noise. 0: explore everything the actions reach (closure). w > 0: weighted exploration — expand
         only representatives that hold probability >= w at some step of one of 200 random 30-tilt
@@ -154,6 +161,7 @@ class BuildSettings:
     adaptive: bool = True
     samples_first: int = 2
     explore_weight: float | None = None
+    recenter_rounds: int = 0
 
     def __post_init__(self):
         for name in ("tol_mm", "tol_deg", "contact_tol_mm"):
@@ -171,6 +179,10 @@ class BuildSettings:
             raise ValueError(f"build setting samples_first must be a positive integer, got {f!r}")
         object.__setattr__(self, "samples_first", int(f))
         object.__setattr__(self, "adaptive", bool(self.adaptive))
+        rc = self.recenter_rounds
+        if isinstance(rc, bool) or not isinstance(rc, (int, np.integer)) or not 0 <= rc <= 20:
+            raise ValueError(f"build setting recenter_rounds must be an integer in 0..20, got {rc!r}")
+        object.__setattr__(self, "recenter_rounds", int(rc))
         ew = self.explore_weight
         if ew is None:
             ew = 0.0 if parse_noise(self.noise).is_zero else _DEFAULT_NOISY_EXPLORE_WEIGHT
@@ -313,6 +325,8 @@ class _Exploration:
         self.splits = 0
         self.refine_tilts = 0
         self.topup_tilts = 0
+        self.recentered = 0         # recentring rounds done
+        self.moved = 0              # representatives moved by recentring
 
     @property
     def n_orbits(self) -> int:
@@ -341,7 +355,8 @@ class _Exploration:
                   "start_status": self.start_status,
                   "phase": np.array([_PHASES.index(self.phase[0]), self.phase[1]]),
                   "candidates": self.candidates, "counters": np.array([self.cand_done, self.splits,
-                                                                       self.refine_tilts, self.topup_tilts])}
+                                                                       self.refine_tilts, self.topup_tilts,
+                                                                       self.recentered, self.moved])}
         directory = os.path.dirname(os.path.abspath(path))
         os.makedirs(directory, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=".ckpt-", suffix=".npz", dir=directory)
@@ -375,7 +390,8 @@ class _Exploration:
                 ph = z["phase"]
                 ex.phase = (_PHASES[int(ph[0])], int(ph[1]))
                 ex.candidates = np.array(z["candidates"])
-                ex.cand_done, ex.splits, ex.refine_tilts, ex.topup_tilts = (int(v) for v in z["counters"])
+                (ex.cand_done, ex.splits, ex.refine_tilts, ex.topup_tilts, ex.recentered,
+                 ex.moved) = (int(v) for v in z["counters"])
         except Exception:
             return None
         n = ex.n_orbits
@@ -448,6 +464,61 @@ def _heavy_orbits(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarra
     """Explored orbits whose weight (:func:`_orbit_weights`) is at least 1e-3 (sorted ids)."""
     w = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
     return np.flatnonzero((w >= _WEIGHT_THRESHOLD) & ex.explored[:ex.n_orbits])
+
+
+def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
+    """Move every representative to the densest point of its members; returns how many moved.
+
+    Members are all landings (start and explored, every rotation) snapped to one of the orbit's
+    states, rotated back to the orbit's frame. The density of a member is the number of members
+    within ``_RECENTER_RADIUS`` (tolerance units); a representative moves to its densest member
+    if that member is shared by at least two landings and lies farther than the radius. Moved
+    orbits lose their landings and are explored again; landings that no longer have a
+    representative within tolerance found new orbits (so every landing stays covered).
+    """
+    G = sym.order
+    pools = [sym.rotate_poses(ex.start_land[b], j) for b in range(len(ex.start_land)) for j in range(G)]
+    done = np.flatnonzero(ex.explored[:ex.n_orbits])
+    flat = ex.land[done].reshape(-1, 3)
+    pools += [sym.rotate_poses(flat, j) for j in range(G)]
+    land = np.concatenate(pools)
+    land = land[np.all(np.isfinite(land), axis=1)]
+    q, _ = index.embed(land)
+    tgt, _ = index._nearest(q)
+    keep = tgt >= 0
+    land, tgt = land[keep], tgt[keep]
+    orbit, rot = tgt // G, tgt % G
+    members = np.empty_like(land)
+    for j in range(G):
+        sel = rot == j
+        members[sel] = sym.rotate_poses(land[sel], -j)
+    mq, _ = index.embed(members)
+    mq[:, 3] = orbit * _GROUP_GAP                         # neighbours only within one orbit
+    from scipy.spatial import cKDTree
+    tree = cKDTree(mq, boxsize=np.array([1e12, 1e12, index.box[2], 1e12]))
+    density = tree.query_ball_point(mq, _RECENTER_RADIUS, return_length=True)
+    order = np.lexsort((np.arange(len(orbit)), -density, orbit))
+    first = order[np.r_[True, orbit[order][1:] != orbit[order][:-1]]] if len(order) else order
+    moved = []
+    for i in first:
+        o = int(orbit[i])
+        if density[i] < 2 or not ex.explored[o]:
+            continue
+        rq, _ = index.embed(ex.orbit_poses[o:o + 1])
+        d = np.abs(mq[i, :3] - rq[0, :3])
+        d[2] = min(d[2], index.box[2] - d[2])
+        if np.sqrt((d ** 2).sum()) <= _RECENTER_RADIUS:
+            continue
+        moved.append((o, members[i]))
+    for o, p in moved:
+        ex.orbit_poses[o] = p
+        ex.explored[o] = False
+        ex.land[o] = np.nan
+        ex.status[o] = NOT_DRAWN
+        index.move(np.arange(o * G, (o + 1) * G), np.concatenate([sym.rotate_poses(p[None], j) for j in range(G)]))
+    if moved:
+        _offer(index, ex, sym, land)                    # landings left uncovered found new orbits
+    return len(moved)
 
 
 def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry, min_dist: float) -> np.ndarray:
@@ -634,6 +705,14 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     for o in orbits:
                         _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, :, :K0]))
                     maybe_checkpoint()
+                if not capped and K == 1 and ex.recentered < settings.recenter_rounds:
+                    ex.recentered += 1
+                    moved = _recenter(ex, index, sym)
+                    ex.moved += moved
+                    maybe_checkpoint(force=True)
+                    if moved:
+                        continue
+                    ex.recentered = settings.recenter_rounds
                 if capped or ex.phase[1] >= (topup_rounds if K0 < K else rounds):
                     break
                 if K0 < K:
@@ -716,7 +795,8 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
         "representatives_split": ex.splits, "refinement_tilts": ex.refine_tilts,
         "adaptive_rounds": ex.phase[1] if (K0 < K and not weighted) else 0,
         "exploration_rounds": ex.phase[1] if weighted else 0,
-        "topup_tilts": ex.topup_tilts, "samples_first": K0})
+        "topup_tilts": ex.topup_tilts, "samples_first": K0, "recentring_rounds": ex.recentered,
+        "representatives_moved": ex.moved})
     if checkpoint and os.path.exists(checkpoint):
         os.unlink(checkpoint)
     return BuildResult(model, stats)

@@ -116,6 +116,14 @@ class PoseIndex:
             self._rebuild()
         return np.arange(start, stop)
 
+    def move(self, indices, poses):
+        """Move representatives ``indices`` to ``poses`` (same report cell and contacts expected)."""
+        q, cells = self.embed(poses)
+        idx = np.asarray(indices, dtype=np.int64)
+        self._buf[idx] = q
+        self._cells[idx] = cells
+        self._rebuild()
+
     def _rebuild(self):
         self._tree = cKDTree(self._points.copy(), boxsize=self.box) if self._n else None
         self._tree_n = self._n

@@ -32,6 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="theta bin offset of the report grid (default half a bin)")
     parser.add_argument("--refine-rounds", type=int, default=None, metavar="R",
                         help="adaptive refinement rounds of a deterministic build (default: the builder's)")
+    parser.add_argument("--recenter-rounds", type=int, default=None, metavar="R",
+                        help="recentring rounds of a deterministic build (default: the builder's)")
     parser.add_argument("--explore-weight", type=float, default=None, metavar="W",
                         help="expand only states that hold probability >= W on some random sequence "
                              "(default 0 = everything without noise, 1e-4 with noise)")
@@ -81,7 +83,8 @@ def run(args: argparse.Namespace) -> dict:
                              grid=args.grid, theta_offset=args.theta_offset, symmetry=not args.no_symmetry,
                              max_states=args.max_states, noise=args.noise, seed=args.seed,
                              explore_weight=args.explore_weight,
-                             **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}))
+                             **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}),
+                             **({} if args.recenter_rounds is None else {"recenter_rounds": args.recenter_rounds}))
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
                                         workers=args.workers, scheduler=args.scheduler,
                                         progress=True if args.progress else None)
