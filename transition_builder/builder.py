@@ -84,6 +84,9 @@ _WEIGHT_SEQUENCES = 200     # random sequences that weigh the rows of an adaptiv
 _WEIGHT_LENGTH = 30
 _WEIGHT_THRESHOLD = 1e-3
 _DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-4
+#: default snapping tolerance (mm and degrees), chosen on the tuning sequences (benchmarks/BUILDER_RESULTS.md)
+_DEFAULT_TOL_DETERMINISTIC = 0.25
+_DEFAULT_TOL_NOISY = 0.5
 _RECENTER_RADIUS = 0.05     # tolerance units: members this close count as one resting point
 _GROUP_GAP = 1e6
 _WEIGHT_STREAM = 12
@@ -95,8 +98,9 @@ class BuildSettings:
 
     Attributes
     ----------
-    tol_mm, tol_deg : float
-        Snapping tolerance (mm in x and y, degrees in theta).
+    tol_mm, tol_deg : float or None
+        Snapping tolerance (mm in x and y, degrees in theta); None: 0.25 / 0.25 without noise,
+        0.5 / 0.5 with noise.
     start_samples : int
         Uniform start poses for the first tilt (the initial distribution).
     samples : int or None
@@ -132,7 +136,7 @@ class BuildSettings:
     samples_first : int
         Samples per row before the top-up.
     recenter_rounds : int
-        Recentring rounds (deterministic builds): once exploration has closed, every
+        Recentring rounds (deterministic builds; default 3): once exploration has closed, every
         representative moves to the densest point of its members (the landings snapped to it:
         where parts really come to rest, e.g. an exact corner-wedge pose that many landings hit)
         and is tilted again from there; exploration then continues from what it reaches.
@@ -144,8 +148,8 @@ class BuildSettings:
         closure is an order of magnitude larger than the deterministic one.
     """
 
-    tol_mm: float = 0.5
-    tol_deg: float = 0.5
+    tol_mm: float | None = None
+    tol_deg: float | None = None
     start_samples: int = 5000
     samples: int | None = None
     grid: str = "4x4x4"
@@ -161,9 +165,13 @@ class BuildSettings:
     adaptive: bool = True
     samples_first: int = 2
     explore_weight: float | None = None
-    recenter_rounds: int = 0
+    recenter_rounds: int = 3
 
     def __post_init__(self):
+        deterministic = parse_noise(self.noise).is_zero
+        for name in ("tol_mm", "tol_deg"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, _DEFAULT_TOL_DETERMINISTIC if deterministic else _DEFAULT_TOL_NOISY)
         for name in ("tol_mm", "tol_deg", "contact_tol_mm"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
@@ -923,7 +931,7 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
         "samples_per_row": K, "start_samples": n0,
         "fault_rate": n_faults / total if total else 0.0, "faults": n_faults,
         "faults_per_action": fault_by_action, "sampled_transitions": total,
-        "tilts_saved_by_symmetry": int((G - 1) * (E * n_act * K + len(reps) * n0)),
+        "tilts_saved_by_symmetry": int(total * (G - 1) // G),
         "start_rows_imputed": imputed, "rows_without_samples": self_loops,
         "noise": settings.noise, **run_stats,
     }

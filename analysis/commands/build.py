@@ -21,8 +21,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
     parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml)")
     parser.add_argument("--noise", default="none", help="process noise: none | pose:SIGMA_MM,SIGMA_DEG")
-    parser.add_argument("--resolution", default="0.5,0.5", metavar="MM,DEG",
-                        help="snapping tolerance of representative rest poses, mm and degrees (default 0.5,0.5)")
+    parser.add_argument("--resolution", default=None, metavar="MM,DEG",
+                        help="snapping tolerance of representative rest poses, mm and degrees "
+                             "(default 0.25,0.25 without noise, 0.5,0.5 with noise)")
     parser.add_argument("--samples", type=int, default=None, metavar="K",
                         help="samples per state and action (default 1 without noise, 8 with noise)")
     parser.add_argument("--start-samples", type=int, default=5000,
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> dict:
     if args.out is not None and not args.out.strip():
         raise InputError("--out must be a file path")
     scene = scene_for(args)
-    mm, deg = _resolution(args.resolution)
+    mm, deg = _resolution(args.resolution) if args.resolution is not None else (None, None)
     settings = BuildSettings(tol_mm=mm, tol_deg=deg, start_samples=args.start_samples, samples=args.samples,
                              grid=args.grid, theta_offset=args.theta_offset, symmetry=not args.no_symmetry,
                              max_states=args.max_states, noise=args.noise, seed=args.seed,
