@@ -20,13 +20,35 @@ import zipfile
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION"]
+__all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION", "atomic_savez"]
 
 #: Marker stored in every saved model; a ``.npz`` without it is rejected as foreign.
 FORMAT_NAME = "kruskal.TransitionModel"
 FORMAT_VERSION = 1
 #: prefix of the ``.npz`` members that hold :attr:`TransitionModel.extras`.
 _EXTRA_PREFIX = "x_"
+
+
+def atomic_savez(path, arrays: dict, prefix: str = ".tmp-") -> str:
+    """Write ``arrays`` to an uncompressed ``.npz`` at ``path`` atomically (temporary file in the same
+    directory, fsync, ``os.replace``): a reader sees the old file or the new one, never a part."""
+    path = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(path))
+    os.makedirs(directory, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=".npz", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
 
 
 class ModelError(ValueError):
@@ -371,21 +393,7 @@ class TransitionModel:
             arrays["partition"] = np.asarray(self.partition)
         for key, value in self.extras.items():
             arrays[_EXTRA_PREFIX + key] = np.asarray(value)
-        directory = os.path.dirname(os.path.abspath(path))
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=directory)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **arrays)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-            raise
-        return path
+        return atomic_savez(path, arrays)
 
     @classmethod
     def load(cls, path, tol: float | None = None) -> "TransitionModel":

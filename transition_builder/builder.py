@@ -46,14 +46,13 @@ import json
 import math
 import os
 import sys
-import tempfile
 import time
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 import scipy.sparse as sp
 
-from kruskal_markov.model import TransitionModel
+from kruskal_markov.model import TransitionModel, atomic_savez
 from transition_builder.executors import make_executor, simulator_for
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_pose
@@ -141,8 +140,8 @@ class BuildSettings:
         where parts really come to rest, e.g. an exact corner-wedge pose that many landings hit)
         and is tilted again from there; exploration then continues from what it reaches.
     explore_weight : float or None
-        None: 0 without noise, 1e-4 with noise. 0: explore everything the actions reach (closure). w > 0: weighted exploration — expand
-        only representatives that hold probability >= w at some step of one of 200 random 30-tilt
+        None: 0 without noise, 1e-4 with noise. 0: explore everything the actions reach (closure).
+        w > 0: weighted exploration — expand only representatives that hold probability >= w at some step of one of 200 random 30-tilt
         sequences through the model built so far (weighed again every few layers); the rest stay
         ``unexplored`` (absorbing, counted in the build's statistics). For noisy scenes, whose
         closure is an order of magnitude larger than the deterministic one.
@@ -365,19 +364,7 @@ class _Exploration:
                   "candidates": self.candidates, "counters": np.array([self.cand_done, self.splits,
                                                                        self.refine_tilts, self.topup_tilts,
                                                                        self.recentered, self.moved])}
-        directory = os.path.dirname(os.path.abspath(path))
-        os.makedirs(directory, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".ckpt-", suffix=".npz", dir=directory)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **arrays)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        atomic_savez(path, arrays, prefix=".ckpt-")
 
     @classmethod
     def load(cls, path: str, key: str, n_actions: int, samples: int) -> "_Exploration | None":

@@ -9,10 +9,14 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from analysis.commands import InputError
-from analysis.commands._common import add_model_source, add_seed, load_model_source, parse_sequence, sequence_rng
+from analysis.commands._common import (
+    add_model_source,
+    add_seed,
+    load_model_source,
+    parse_sequence,
+    sequence_rng,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

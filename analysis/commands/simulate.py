@@ -14,7 +14,6 @@ from analysis.commands import InputError
 from analysis.commands._common import add_seed, parse_sequence, sequence_rng
 
 
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shape", default=None,
                         help="allen-key | triangle:SEED | rectangle:WxH | polygon:x1,y1;x2,y2;... | FILE.json "
