@@ -479,7 +479,7 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     land = np.concatenate(pools)
     land = land[np.all(np.isfinite(land), axis=1)]
     q, _ = index.embed(land)
-    tgt, _ = index._nearest(q)
+    tgt, _ = index.nearest_embedded(q)
     keep = tgt >= 0
     land, tgt = land[keep], tgt[keep]
     orbit, rot = tgt // G, tgt % G
@@ -526,7 +526,7 @@ def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry
     land = np.concatenate(pools)
     land = land[np.all(np.isfinite(land), axis=1)]
     q, _ = index.embed(land)
-    tgt, dist = index._nearest(q)
+    tgt, dist = index.nearest_embedded(q)
     keep = (tgt >= 0) & (dist > min_dist)
     land, tgt, dist = land[keep], tgt[keep], dist[keep]
     orbit, rot = tgt // G, tgt % G

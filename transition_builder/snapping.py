@@ -128,7 +128,9 @@ class PoseIndex:
         self._tree = cKDTree(self._points.copy(), boxsize=self.box) if self._n else None
         self._tree_n = self._n
 
-    def _nearest(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def nearest_embedded(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest representative within tolerance of query coordinates ``q`` (from :meth:`embed`):
+        ``(index or -1, distance in tolerance units or inf)``."""
         n = len(q)
         best = np.full(n, -1, dtype=np.int64)
         dist = np.full(n, np.inf)
@@ -152,4 +154,4 @@ class PoseIndex:
     def snap(self, poses) -> np.ndarray:
         """Index of the nearest representative within tolerance (same cell and contacts), -1 if none."""
         q, _ = self.embed(poses)
-        return self._nearest(q)[0]
+        return self.nearest_embedded(q)[0]
