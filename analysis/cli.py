@@ -3,7 +3,7 @@
 Each sub-command lives in its own module under :mod:`analysis.commands` and exposes
 ``add_arguments(parser)`` and ``run(args) -> dict``. This module adds the options every command
 shares (``--json``), times the run (``"seconds"``), prints the result, and turns bad input into one
-clear line on standard error with exit status 2 (see ``SPEC.md``).
+clear line on standard error with exit status 2 (see ``docs/commands.md``).
 """
 from __future__ import annotations
 

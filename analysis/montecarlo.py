@@ -56,7 +56,7 @@ __all__ = [
     "write_poses_csv",
 ]
 
-#: columns of the ``--poses`` CSV file (SPEC.md).
+#: columns of the ``--poses`` CSV file (docs/commands.md).
 POSES_CSV_COLUMNS = ("trial", "step", "x_mm", "y_mm", "theta_rad", "status")
 
 

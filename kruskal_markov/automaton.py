@@ -1,4 +1,4 @@
-"""Plain JSON automata in and out (the ``--automaton`` format of SPEC.md).
+"""Plain JSON automata in and out (the ``--automaton`` format of docs/commands.md).
 
 Deterministic::
 
@@ -66,13 +66,13 @@ def _int_list(values, what: str, label: str) -> np.ndarray:
 
 
 def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
-    """Build a :class:`TransitionModel` from the SPEC.md automaton JSON.
+    """Build a :class:`TransitionModel` from the docs/commands.md automaton JSON.
 
     Parameters
     ----------
     source : path, JSON string or dict
     tol : float
-        Row-sum tolerance (SPEC.md: 1e-9).
+        Row-sum tolerance (docs/commands.md: 1e-9).
 
     Examples
     --------
@@ -144,7 +144,7 @@ def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
 
 
 def automaton_from_model(model: TransitionModel) -> dict:
-    """The SPEC.md JSON object for ``model`` (deterministic lists when every row is a point mass).
+    """The docs/commands.md JSON object for ``model`` (deterministic lists when every row is a point mass).
 
     ``initial`` is written only when it is not uniform; ``partition``/``cells``/``metadata`` only
     when present. ``model_from_automaton(automaton_from_model(m))`` reproduces ``m`` exactly

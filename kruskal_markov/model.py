@@ -453,7 +453,7 @@ class TransitionModel:
     # ------------------------------------------------------------------ automaton JSON
     @classmethod
     def from_automaton_json(cls, source, tol: float = 1e-9) -> "TransitionModel":
-        """Build a model from the SPEC.md automaton JSON (a path, a JSON string or a dict).
+        """Build a model from the docs/commands.md automaton JSON (a path, a JSON string or a dict).
 
         See :func:`kruskal_markov.automaton.model_from_automaton`.
         """
@@ -462,7 +462,7 @@ class TransitionModel:
         return model_from_automaton(source, tol=tol)
 
     def to_automaton_json(self) -> dict:
-        """The SPEC.md automaton JSON of this model (deterministic form when every row is a point mass).
+        """The docs/commands.md automaton JSON of this model (deterministic form when every row is a point mass).
 
         See :func:`kruskal_markov.automaton.automaton_from_model`.
         """

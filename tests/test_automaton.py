@@ -1,4 +1,4 @@
-"""Tests of kruskal_markov.automaton: the SPEC.md automaton JSON format."""
+"""Tests of kruskal_markov.automaton: the docs/commands.md automaton JSON format."""
 from __future__ import annotations
 
 import json

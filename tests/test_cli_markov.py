@@ -1,4 +1,4 @@
-"""``kruskal entropy`` and ``kruskal ensemble`` through the command line (SPEC.md keys, exit codes)."""
+"""``kruskal entropy`` and ``kruskal ensemble`` through the command line (docs/commands.md keys, exit codes)."""
 from __future__ import annotations
 
 import json

@@ -1,4 +1,4 @@
-"""``kruskal sync`` and ``kruskal convergence`` through the command line (SPEC.md keys)."""
+"""``kruskal sync`` and ``kruskal convergence`` through the command line (docs/commands.md keys)."""
 from __future__ import annotations
 
 import json

@@ -1,6 +1,6 @@
 """Floor friction: a uniform Coulomb coefficient or a seeded spatially varying map (paper, Fig. 5).
 
-Friction spec strings (``--friction``, SPEC.md):
+Friction spec strings (``--friction``, docs/commands.md):
 
 ``0.3``
     A uniform Coulomb coefficient (metal on metal is about 0.2-0.4; it must be below

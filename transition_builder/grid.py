@@ -14,7 +14,7 @@ so bin ``j`` covers ``[j*w - o, (j+1)*w - o)`` (modulo ``2*pi/k``): the bin edge
 ``-o + j*w``. The default ``o = w/2`` (``theta_offset=None``) puts the orientation 0 -- and so
 every axis direction 0, 90, 180, 270 degrees that is a multiple of ``w`` -- at a bin *centre*:
 parts come to rest against a wall at exactly those angles, and an edge there makes the entropy
-flip with round-off (SPEC.md). ``theta_offset=0`` gives the paper's edges ``[0, w), [w, 2w), ...``.
+flip with round-off (docs/commands.md). ``theta_offset=0`` gives the paper's edges ``[0, w), [w, 2w), ...``.
 
 The voxel index is ``(ix * ny + iy) * ntheta + itheta`` (C order over ``(x, y, theta)``).
 ``x == a`` (and ``y == b``) fall in the last bin.

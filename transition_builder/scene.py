@@ -1,6 +1,6 @@
 """The scene of a tray-tilt experiment: tray, part, friction, tilt angle, action set, simulator settings.
 
-Tray frame (SPEC.md): origin at the tray's inner south-west corner, x east, y north, millimetres.
+Tray frame (docs/commands.md): origin at the tray's inner south-west corner, x east, y north, millimetres.
 A pose is ``(x, y, theta)`` of the part's area centroid, ``theta`` counter-clockwise in ``[0, 2 pi)``.
 Tilting ``E`` lowers the east side: the part slides east (downhill direction angle 0); the eight
 actions ``N, NE, E, SE, S, SW, W, NW`` have downhill angles 90, 45, 0, -45, -90, -135, 180, 135 deg.
@@ -26,7 +26,7 @@ from transition_builder.shapes import Shape, check_fits, make_shape, parse_shape
 
 __all__ = ["Scene", "scene_from_options", "ACTIONS", "ACTION_ANGLES_DEG", "DEFAULT_TILT_DEG"]
 
-#: canonical action names in index order (SPEC.md).
+#: canonical action names in index order (docs/commands.md).
 ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 #: downhill direction of each action, degrees counter-clockwise from east (+x).
 ACTION_ANGLES_DEG = {"N": 90.0, "NE": 45.0, "E": 0.0, "SE": -45.0, "S": -90.0, "SW": -135.0,

@@ -1,6 +1,6 @@
 """Simulator settings (:class:`SimSettings`): every knob of the tilt simulator that can change a result.
 
-Results of a rigid-body engine are very sensitive to solver settings (PHYSICS_NOTES.md: the final yaw
+Results of a rigid-body engine are very sensitive to solver settings (docs/simulator.md: the final yaw
 after 64 tilts differed by more than 3 rad between 10 and 50 solver iterations), so every field here
 goes into :meth:`transition_builder.scene.Scene.content_hash`.
 """

@@ -7,7 +7,7 @@ extruded by a thickness, of uniform density. Its vertices are stored counter-clo
 :data:`MAX_CONVEX_PARTS` convex parts for the physics engine (a PyBullet compound body has at
 most 16 children).
 
-Shape specs (``--shape``, SPEC.md):
+Shape specs (``--shape``, docs/commands.md):
 
 ``allen-key`` (or ``allen-key:arm=6,thickness=5``)
     The paper's L-shaped hex key, 77.5 x 27.5 mm outer size, see :func:`allen_key`.

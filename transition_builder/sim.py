@@ -12,7 +12,7 @@ tray frame. A faulted trial is never returned as a pose (NaN pose, status code f
 How the mechanics are made right
 --------------------------------
 Measured with a naive set-up first (a free body, or a joint chain on a box floor, world-fixed
-tray, gravity rotated toward the action), as in PHYSICS_NOTES.md: a 40 x 40 x 5 mm plate with
+tray, gravity rotated toward the action), as in docs/simulator.md: a 40 x 40 x 5 mm plate with
 mu = 0.3 on a 30 degree tilt slid 9-17% too far with 100-230 degrees of spurious rotation in a
 naive x/y/z/yaw joint chain (Bullet's box-box manifold put all the weight on one corner, whose
 friction then spun the part), and free bodies tip and jump walls. Six decisions fix it:
@@ -38,7 +38,7 @@ friction then spun the part), and free bodies tip and jump walls. Six decisions 
    0.35 s). On a map a sliding block follows x'' = g (sin a - mu(x) cos a) within 1.2%.
 3. **Downhill along world +x.** Each action has its own world in which the tray is rotated about
    its centre so that the downhill direction is +x (Bullet's friction is otherwise anisotropic
-   for off-axis sliding, PHYSICS_NOTES.md). Poses are mapped in and out exactly.
+   for off-axis sliding, docs/simulator.md). Poses are mapped in and out exactly.
 4. **A centimetre world.** PyBullet gives every convex hull a fixed collision margin of 0.001
    world units; in a metre world that is 1 mm (a part rested 0.97 mm off the wall and its outline
    was inflated by 1 mm). The world is built at 100 units per metre, where the margin is 0.01 mm,

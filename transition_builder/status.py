@@ -1,4 +1,4 @@
-"""Outcome codes of one simulated tilt (SPEC.md ``--poses`` column ``status``).
+"""Outcome codes of one simulated tilt (docs/commands.md ``--poses`` column ``status``).
 
 A faulted trial is never returned as a pose: its pose is NaN and its status says why.
 """

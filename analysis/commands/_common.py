@@ -8,7 +8,7 @@ import numpy as np
 from analysis.commands import InputError
 from analysis.sequences import sequence_rng  # noqa: F401 - re-exported for the commands
 
-#: The canonical tray actions, in index order 0..7 (SPEC.md).
+#: The canonical tray actions, in index order 0..7 (docs/commands.md).
 TRAY_ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 
 
@@ -51,7 +51,7 @@ def add_model_source(parser: argparse.ArgumentParser) -> None:
     """Add the mutually exclusive ``--model PATH`` / ``--automaton FILE`` options."""
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--model", metavar="PATH", help="a built transition model (.npz)")
-    group.add_argument("--automaton", metavar="FILE", help="an automaton in the JSON format of SPEC.md")
+    group.add_argument("--automaton", metavar="FILE", help="an automaton in the JSON format of docs/commands.md")
 
 
 def load_model_source(args: argparse.Namespace, required: bool = True):
