@@ -638,7 +638,8 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
         capped = False
 
         def sample_orbits(orbits, k_lo, k_hi):
-            """Tilt samples k_lo..k_hi-1 of ``orbits`` under every action, offer the landings."""
+            """Tilt samples k_lo..k_hi-1 of ``orbits`` under every action, offer the landings (in
+            orbit order, so the batching never changes the model)."""
             nonlocal tilts
             for lo in range(0, len(orbits), batch):
                 part = orbits[lo:lo + batch]
@@ -689,16 +690,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     if ex.n_orbits * G >= settings.max_states:
                         capped = True
                         break
-                    orbits = queue[:batch]
-                    res = _run_tilts(executor, scene, settings.noise, settings.seed,
-                                     _orbit_jobs(scene, ex, orbits, 0, K0, _KEY_ORBIT), done)
-                    tilts += n_act * K0 * len(orbits)
-                    for b in range(n_act):
-                        ex.land[orbits, b, :K0] = res[b][0].reshape(len(orbits), K0, 3)
-                        ex.status[orbits, b, :K0] = res[b][1].reshape(len(orbits), K0)
-                    ex.explored[orbits] = True
-                    for o in orbits:
-                        _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, :, :K0]))
+                    sample_orbits(queue[:batch], 0, K0)
                     maybe_checkpoint()
                 if not capped and K == 1 and ex.recentered < settings.recenter_rounds:
                     ex.recentered += 1
@@ -728,16 +720,8 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 tbatch = max(1, int(batch_tilts) // (n_act * (K - K0)))
                 while ex.cand_done < len(cand):
                     lo, hi = ex.cand_done, min(len(cand), ex.cand_done + tbatch)
-                    orbits = cand[lo:hi]
-                    res = _run_tilts(executor, scene, settings.noise, settings.seed,
-                                     _orbit_jobs(scene, ex, orbits, K0, K, _KEY_ORBIT), done)
-                    tilts += n_act * (K - K0) * len(orbits)
-                    ex.topup_tilts += n_act * (K - K0) * len(orbits)
-                    for b in range(n_act):
-                        ex.land[orbits, b, K0:] = res[b][0].reshape(len(orbits), K - K0, 3)
-                        ex.status[orbits, b, K0:] = res[b][1].reshape(len(orbits), K - K0)
-                    for o in orbits:
-                        _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, :, K0:]))
+                    sample_orbits(cand[lo:hi], K0, K)
+                    ex.topup_tilts += n_act * (K - K0) * (hi - lo)
                     ex.cand_done = hi
                     maybe_checkpoint()
                 ex.phase = ("explore", ex.phase[1])
