@@ -141,10 +141,11 @@ class BuildSettings:
         and is tilted again from there; exploration then continues from what it reaches.
     explore_weight : float or None
         None: 0 without noise, 1e-4 with noise. 0: explore everything the actions reach (closure).
-        w > 0: weighted exploration — expand only representatives that hold probability >= w at some step of one of 200 random 30-tilt
-        sequences through the model built so far (weighed again every few layers); the rest stay
-        ``unexplored`` (absorbing, counted in the build's statistics). For noisy scenes, whose
-        closure is an order of magnitude larger than the deterministic one.
+        w > 0: weighted exploration — expand only representatives that hold probability >= w at
+        some step of one of 200 random 30-tilt sequences through the model built so far (weighed
+        again every few layers); the rest stay ``unexplored`` (absorbing, counted in the build's
+        statistics). For noisy scenes, whose closure is an order of magnitude larger than the
+        deterministic one.
     """
 
     tol_mm: float | None = None
