@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 import numpy as np
 
@@ -65,3 +66,14 @@ def load_model_source(args: argparse.Namespace, required: bool = True):
     if required:
         raise InputError("one of --model PATH or --automaton FILE is required")
     return None
+
+
+def parse_resolution(text: str) -> tuple[float, float]:
+    """``"MM,DEG"`` (or one number for both) as floats; InputError otherwise."""
+    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(?:,\s*([0-9.eE+-]+)\s*)?", text or "")
+    try:
+        mm = float(m.group(1))
+        deg = float(m.group(2)) if m.group(2) else mm
+    except (AttributeError, ValueError):
+        raise InputError(f"bad --resolution {text!r}: expected MM,DEG, e.g. 0.5,0.5") from None
+    return mm, deg

@@ -8,10 +8,9 @@ resumes from its checkpoint when started again.
 from __future__ import annotations
 
 import argparse
-import re
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed
+from analysis.commands._common import add_seed, parse_resolution
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -50,16 +49,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--progress", action="store_true", help="progress bar on standard error")
 
 
-def _resolution(text: str) -> tuple[float, float]:
-    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(?:,\s*([0-9.eE+-]+)\s*)?", text or "")
-    try:
-        mm = float(m.group(1))
-        deg = float(m.group(2)) if m.group(2) else mm
-    except (AttributeError, ValueError):
-        raise InputError(f"bad --resolution {text!r}: expected MM,DEG, e.g. 0.5,0.5") from None
-    return mm, deg
-
-
 def scene_for(args):
     """The scene named by --scene/--shape/--friction/--tilt-deg/--support-points."""
     from analysis.commands.simulate import _scene
@@ -79,7 +68,7 @@ def run(args: argparse.Namespace) -> dict:
     if args.out is not None and not args.out.strip():
         raise InputError("--out must be a file path")
     scene = scene_for(args)
-    mm, deg = _resolution(args.resolution) if args.resolution is not None else (None, None)
+    mm, deg = parse_resolution(args.resolution) if args.resolution is not None else (None, None)
     settings = BuildSettings(tol_mm=mm, tol_deg=deg, start_samples=args.start_samples, samples=args.samples,
                              grid=args.grid, theta_offset=args.theta_offset, symmetry=not args.no_symmetry,
                              max_states=args.max_states, noise=args.noise, seed=args.seed,

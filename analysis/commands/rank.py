@@ -1,0 +1,107 @@
+"""``kruskal rank --shapes S1 S2 ...``: orientability ranking of parts from their built models.
+
+Each shape's model is built (or taken from the cache) with ``--resolution`` and the metrics of
+:mod:`analysis.orientability` are computed from it: the shortest synchronizing word, the expected
+number of random tilts to converge, the mean entropy after 10 and 50 random tilts and the share of
+random 50-tilt sequences that converge. ``--check-trials M`` also simulates one random 50-tilt
+sequence per shape directly and reports the rank correlation of model and simulation.
+"""
+from __future__ import annotations
+
+import argparse
+
+from analysis.commands import InputError
+from analysis.commands._common import add_seed, parse_resolution
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--shapes", nargs="+", required=True, metavar="S", help="shape specs (as --shape)")
+    parser.add_argument("--friction", default=None, help="a Coulomb coefficient or map:LEVEL:SEED")
+    parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
+    parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml): tray, friction, simulator; "
+                        "each shape replaces its part")
+    parser.add_argument("--support-points", type=int, default=None,
+                        help="simulator floor contact: 1 sphere (default) or K legs")
+    parser.add_argument("--resolution", default="0.5,0.5", metavar="MM,DEG",
+                        help="snapping tolerance of the models (default 0.5,0.5: cheaper than build's default)")
+    parser.add_argument("--recenter-rounds", type=int, default=1, help="recentring rounds (default 1)")
+    parser.add_argument("--start-samples", type=int, default=5000,
+                        help="uniform start poses of each model's first tilt (default 5000)")
+    parser.add_argument("--count", type=int, default=2000, help="random 50-tilt sequences per shape (default 2000)")
+    parser.add_argument("--runs", type=int, default=500, help="Monte Carlo runs of the expected lengths (default 500)")
+    parser.add_argument("--sync-time-budget", type=float, default=20.0, metavar="S",
+                        help="seconds of exact shortest-word search per shape (default 20)")
+    parser.add_argument("--check-trials", type=int, default=0, metavar="M",
+                        help="also simulate one random 50-tilt sequence per shape with M trials (default 0: off)")
+    add_seed(parser)
+    parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+
+
+def run(args: argparse.Namespace) -> dict:
+    from analysis.commands.build import scene_for
+    from analysis.orientability import part_metrics, rank_parts
+    from analysis.reproduce import direct_summary
+    from analysis.sequences import random_sequences_for
+    from kruskal_markov.entropy import entropy_trajectory
+    from transition_builder.builder import BuildSettings
+    from transition_builder.cache import cached_build
+
+    if args.count < 1 or args.runs < 2 or args.check_trials < 0 or args.recenter_rounds < 0:
+        raise InputError("--count >= 1, --runs >= 2, --check-trials >= 0 and --recenter-rounds >= 0 required")
+    if not args.sync_time_budget > 0:
+        raise InputError("--sync-time-budget must be positive")
+    if len(set(args.shapes)) != len(args.shapes):
+        raise InputError("--shapes lists a shape twice")
+    mm, deg = parse_resolution(args.resolution)
+    scenes = {}
+    for spec in args.shapes:   # every shape checked before the first (long) build
+        try:
+            scenes[spec] = scene_for(argparse.Namespace(**{**vars(args), "shape": spec}))
+        except ValueError as exc:
+            raise InputError(f"--shapes {spec!r}: {exc}") from None
+    try:
+        settings = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=args.recenter_rounds, seed=args.seed,
+                                 start_samples=args.start_samples)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    metrics, checks, models = {}, {}, {}
+    first = scenes[args.shapes[0]]
+    seq = random_sequences_for(len(first.actions), 1, 50, args.seed)[0]
+    for spec, scene in scenes.items():
+        result, path, cached = cached_build(scene, settings, workers=args.workers)
+        models[spec] = {"model": path, "cached": cached, "states": result.model.n_states}
+        metrics[spec] = part_metrics(result.model, seed=args.seed, count=args.count, runs=args.runs,
+                                     sync_time_budget=args.sync_time_budget)
+        if args.check_trials:
+            names = [result.model.actions[a] for a in seq]
+            direct = direct_summary(scene, names, args.check_trials, args.seed, args.workers)
+            checks[spec] = {"model": float(entropy_trajectory(result.model, names).entropy_bits[1:].mean()),
+                            "direct": float(sum(direct["entropy_bits"][1:]) / 50)}
+    ranking = rank_parts(metrics)
+    for row in ranking:
+        row.update(models[row["shape"]])
+    out = {"ranking": ranking, "order": [r["shape"] for r in ranking],
+           "resolution": [mm, deg], "seed": args.seed}
+    if checks:
+        out["check"] = {"sequence": [first.actions[a] for a in seq], "trials": args.check_trials,
+                        "mean_entropy": checks, "on": "mean entropy over one random 50-tilt sequence"}
+        if len(checks) >= 3:
+            from scipy.stats import spearmanr
+
+            rho = spearmanr([c["model"] for c in checks.values()], [c["direct"] for c in checks.values()])[0]
+            out["check"]["spearman"] = float(rho)
+    return out
+
+
+def format_text(result: dict) -> str:
+    """One line per shape, best first."""
+    lines = ["rank  shape                      sync  random tilts  H10    H50    converging  decided by"]
+    for r in result["ranking"]:
+        rt = "-" if r["random_tilts"] is None else f"{r['random_tilts']:.1f}"
+        sl = "-" if r["sync_length"] is None else f"{r['sync_length']}{'' if r['sync_exact'] else '*'}"
+        lines.append(f"{r['rank']:4d}  {r['shape']:<26} {sl:>5} {rt:>13}  {r['mean_entropy_10']:.2f}   "
+                     f"{r['mean_entropy_50']:.2f}   {100 * r['converging_share_50']:5.1f}%     {r['decided_by'] or '-'}")
+    if "check" in result and "spearman" in result["check"]:
+        lines.append(f"model vs direct simulation (Spearman): {result['check']['spearman']:.2f}")
+    lines.append(f"seconds: {result['seconds']:.1f}")
+    return "\n".join(lines)

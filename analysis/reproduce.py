@@ -1,0 +1,259 @@
+"""The paper's experiments A, B and C from built models, and what the paper could not do.
+
+Mannam et al., "Sensorless Pose Determination using Randomized Action Sequences":
+
+- **A** — the allen key under 43 random 50-tilt sequences (their Fig. 3): entropy trends, mean,
+  interquartile range, how many converge, the mean convergence tilt, the best sequence. Here from
+  the key's model; the best sequence is then replayed in direct simulation as a check.
+- **B** — that best sequence on 15 random triangles (their Fig. 4). Here from one model per
+  triangle (built at ``part_build`` settings), with each triangle's best sequence also simulated
+  directly (``b_trials``), which gives the model-against-simulation rank correlation.
+- **C** — that best sequence on the key over 20 friction maps, 13 low, 3 medium and 4 high (their
+  Fig. 6). A friction map breaks the tray's symmetry (a model per map costs about four times a
+  key model), so C is run by direct simulation, as in the paper, with ``c_trials`` trials per map.
+- **Beyond the paper** — the same statistics over ``ensemble_count`` random sequences instead of
+  43; the key's shortest synchronizing word, replayed in direct simulation with ``replay_trials``
+  trials; the expected length of a random sequence; the key model against direct simulation
+  (``kruskal validate``).
+
+:func:`reproduce` runs everything and returns the numbers; :mod:`analysis.report` writes them as
+``index.md`` with figures. Every random choice flows from ``settings.seed``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from analysis.orientability import CONVERGED_BITS, part_metrics
+
+__all__ = ["PAPER", "ReproduceSettings", "direct_summary", "reproduce"]
+
+#: the paper's own figures (Sec. V A-C), for the side-by-side table.
+PAPER = {
+    "A": {"sequences": 43, "converged": 29, "near_zero_by": 20, "best_length": 8, "trials": 10_000},
+    "B": {"parts": 15, "converged": 10, "near_zero_by": 27, "trials": 10_000},
+    "C": {"low": (10, 13), "medium": (0, 3), "high": (0, 4), "trials": 1_000},
+    "erdmann_mason_plan_length": 5,
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class ReproduceSettings:
+    """What :func:`reproduce` runs; :meth:`full` is the paper's scale, :meth:`quick` a few minutes.
+
+    ``friction`` is the floor's uniform friction coefficient (None: the scene default) of the key and
+    the B parts; ``key_build`` and ``part_build`` are :class:`~transition_builder.builder.BuildSettings` changes for
+    the key's model and the B parts' models; ``parts`` are the B shape specs and ``maps`` the C
+    friction specs; ``tray_mm`` the tray of every scene.
+    """
+
+    quick: bool = False
+    seed: int = 0
+    shape: str = "allen-key"
+    tray_mm: tuple = (200.0, 200.0)
+    friction: float | None = None
+    length: int = 50
+    a_sequences: int = 43
+    ensemble_count: int = 1_000_000
+    parts: tuple = tuple(f"triangle:{i}" for i in range(1, 16))
+    maps: tuple = (tuple(f"map:low:{i}" for i in range(1, 14)) + tuple(f"map:medium:{i}" for i in range(1, 4))
+                   + tuple(f"map:high:{i}" for i in range(1, 5)))
+    key_build: dict = dataclasses.field(default_factory=dict)
+    part_build: dict = dataclasses.field(default_factory=lambda: {"tol_mm": 0.5, "tol_deg": 0.5,
+                                                                  "recenter_rounds": 1})
+    a_check_trials: int = 1000
+    b_trials: int = 200
+    c_trials: int = 200
+    replay_trials: int = 10_000
+    validate_sequences: int = 3
+    validate_trials: int = 500
+    validate_length: int = 30
+    metrics_count: int = 2000
+    metrics_runs: int = 500
+    sync_time_budget: float = 60.0
+    part_sync_time_budget: float = 20.0
+    epsilon: float = CONVERGED_BITS
+
+    @classmethod
+    def full(cls, seed: int = 0) -> "ReproduceSettings":
+        """The committed report's settings (about an hour on 2 cores with the key's model cached)."""
+        return cls(seed=seed)
+
+    @classmethod
+    def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":
+        """``--quick``: coarse models (1 mm / 1 degree), 3 triangles, 3 maps, few trials."""
+        coarse = {"tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1, "start_samples": 2000}
+        return cls(quick=True, seed=seed, ensemble_count=10_000, parts=("triangle:1", "triangle:2", "triangle:3"),
+                   maps=("map:low:1", "map:medium:1", "map:high:1"), key_build=coarse, part_build=coarse,
+                   a_check_trials=200, b_trials=100, c_trials=60, replay_trials=500, validate_sequences=2,
+                   validate_trials=200, validate_length=20, metrics_count=500, metrics_runs=200,
+                   sync_time_budget=20.0, part_sync_time_budget=10.0)
+
+
+def _log(progress, text):
+    if progress is not None:
+        progress(text)
+
+
+def _converged_summary(steps: np.ndarray) -> dict:
+    ok = steps[steps >= 0]
+    return {"converged": int(ok.size), "of": int(steps.size),
+            "mean_convergence_tilt": float(ok.mean()) if ok.size else None,
+            "fastest": int(ok.min()) if ok.size else None}
+
+
+def direct_summary(scene, sequence, trials, seed, workers) -> dict:
+    """Direct simulation of one sequence (:func:`analysis.montecarlo.run_direct`) as a JSON-ready summary."""
+    from analysis.montecarlo import run_direct
+
+    res = run_direct(scene, sequence, trials, seed=seed, workers=workers)
+    return {"entropy_bits": res.entropy_bits.tolist(), "trials": int(trials), "faults": dict(res.faults),
+            "tilts": int(res.tilts_simulated)}
+
+
+def _first_at_most(curve, eps) -> int | None:
+    idx = np.flatnonzero(np.asarray(curve) <= eps)
+    return int(idx[0]) if idx.size else None
+
+
+def _build(scene, changes, seed, workers, progress, what):
+    from transition_builder.builder import BuildSettings
+    from transition_builder.cache import cached_build
+
+    t0 = time.perf_counter()
+    result, path, cached = cached_build(scene, BuildSettings(seed=seed, **changes), workers=workers)
+    st = result.stats
+    _log(progress, f"{what}: model with {result.model.n_states} states "
+                   f"({'cached' if cached else f'built in {time.perf_counter() - t0:.0f} s'})")
+    return result.model, {"path": path, "cached": cached, "states": result.model.n_states,
+                          "tilts": st.get("tilts_simulated"), "fault_rate": st.get("fault_rate"),
+                          "seconds": time.perf_counter() - t0, "settings": dict(changes)}
+
+
+def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progress=None) -> dict:
+    """Run experiments A, B, C and the extras (see the module docstring); return every number.
+
+    ``progress`` (a callable taking one line of text) is told what is being done.
+    """
+    from analysis.validate import validate_model
+    from kruskal_markov.ensemble import run_ensemble
+    from kruskal_markov.entropy import entropy_trajectory
+    from transition_builder.scene import scene_from_options
+
+    s = settings
+    t_all = time.perf_counter()
+    eps = s.epsilon
+    out = {"settings": dataclasses.asdict(s), "paper": PAPER}
+    fr = {} if s.friction is None else {"friction_spec": s.friction}
+    key_scene = scene_from_options(s.shape, tray_mm=s.tray_mm, **fr)
+    key, out["key_model"] = _build(key_scene, s.key_build, s.seed, workers, progress, s.shape)
+    names = key.actions
+
+    # --- A: 43 random sequences through the model --------------------------------------------
+    _log(progress, f"A: {s.a_sequences} random sequences of {s.length} tilts")
+    ens = run_ensemble(key, s.a_sequences, s.length, seed=s.seed, epsilon=eps, keep_entropy=True)
+    best = [names[a] for a in ens.best_sequence]
+    a = {"entropy": ens.entropy.tolist(), "mean": ens.mean.tolist(), "q25": ens.q25.tolist(),
+         "q75": ens.q75.tolist(), "best_index": ens.best_index, "best_sequence": best,
+         "best_entropy": ens.best_entropy.tolist(), **_converged_summary(ens.convergence_steps),
+         "mean_near_zero_by": _first_at_most(ens.mean, 0.1)}
+    _log(progress, f"A: best sequence replayed in direct simulation ({s.a_check_trials} trials)")
+    a["best_direct"] = direct_summary(key_scene, best, s.a_check_trials, s.seed, workers)
+    a["best_direct"]["zero_at"] = _first_at_most(a["best_direct"]["entropy_bits"], 0.0)
+    out["A"] = a
+
+    # --- beyond: a million sequences ----------------------------------------------------------
+    _log(progress, f"{s.ensemble_count:,} random sequences through the key's model")
+    t0 = time.perf_counter()
+    big = run_ensemble(key, s.ensemble_count, s.length, seed=s.seed + 1, epsilon=eps)
+    steps = big.convergence_steps
+    hist = np.bincount(steps[steps >= 0], minlength=s.length + 1)
+    out["ensemble"] = {"count": s.ensemble_count, "mean": big.mean.tolist(), "q25": big.q25.tolist(),
+                       "q75": big.q75.tolist(), **_converged_summary(steps),
+                       "converged_by_tilt": np.cumsum(hist).tolist(),
+                       "mean_near_zero_by": _first_at_most(big.mean, 0.1),
+                       "best_sequence": [names[x] for x in big.best_sequence],
+                       "seconds": time.perf_counter() - t0}
+    del big
+
+    # --- beyond: the optimal plan and the expected random length ------------------------------
+    _log(progress, "the key's shortest synchronizing word and expected random lengths")
+    km = part_metrics(key, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
+                      sync_time_budget=s.sync_time_budget)
+    out["key_metrics"] = km.as_dict()
+    if km.sync_word:
+        model_curve = entropy_trajectory(key, km.sync_word).entropy_bits
+        _log(progress, f"sync word ({km.sync_length} tilts) replayed with {s.replay_trials} trials")
+        replay = direct_summary(key_scene, km.sync_word, s.replay_trials, s.seed + 2, workers)
+        replay["model_entropy_bits"] = model_curve.tolist()
+        out["sync_replay"] = replay
+
+    # --- B: the best sequence on other parts ---------------------------------------------------
+    parts = {}
+    for spec in s.parts:
+        scene = scene_from_options(spec, tray_mm=s.tray_mm, **fr)
+        model, info = _build(scene, s.part_build, s.seed, workers, progress, f"B: {spec}")
+        curve = entropy_trajectory(model, best).entropy_bits
+        metrics = part_metrics(model, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
+                               sync_time_budget=s.part_sync_time_budget)
+        _log(progress, f"B: {spec}: best sequence in direct simulation ({s.b_trials} trials)")
+        direct = direct_summary(scene, best, s.b_trials, s.seed, workers)
+        parts[spec] = {"model": info, "entropy_bits": curve.tolist(), "converged_at": _first_at_most(curve, eps),
+                       "direct": direct, "direct_zero_at": _first_at_most(direct["entropy_bits"], 0.0),
+                       "metrics": metrics.as_dict()}
+    curves = np.array([p["entropy_bits"] for p in parts.values()]) if parts else np.zeros((0, s.length + 1))
+    out["B"] = {"parts": parts, "converged": sum(p["converged_at"] is not None for p in parts.values()),
+                "converged_direct": sum(p["direct_zero_at"] is not None for p in parts.values()),
+                "mean": curves.mean(axis=0).tolist() if parts else [],
+                "mean_near_zero_by": _first_at_most(curves.mean(axis=0), 0.1) if parts else None,
+                "rank_correlation": _rank_correlation(parts)}
+
+    # --- C: friction maps (direct simulation) --------------------------------------------------
+    maps = {}
+    for spec in s.maps:
+        scene = scene_from_options(s.shape, friction_spec=spec, tray_mm=s.tray_mm)
+        _log(progress, f"C: {spec}: best sequence in direct simulation ({s.c_trials} trials)")
+        d = direct_summary(scene, best, s.c_trials, s.seed, workers)
+        d["zero_at"] = _first_at_most(d["entropy_bits"], 0.0)
+        maps[spec] = d
+    levels = {}
+    for level in ("low", "medium", "high"):
+        group = [m for k, m in maps.items() if k.split(":")[1] == level]
+        if group:
+            c = np.array([m["entropy_bits"] for m in group])
+            levels[level] = {"maps": len(group), "converged": sum(m["zero_at"] is not None for m in group),
+                             "mean": c.mean(axis=0).tolist(), "q25": np.quantile(c, 0.25, axis=0).tolist(),
+                             "q75": np.quantile(c, 0.75, axis=0).tolist(),
+                             "mean_zero_at": _mean_or_none([m["zero_at"] for m in group])}
+    out["C"] = {"maps": maps, "levels": levels}
+
+    # --- the key's model against direct simulation ---------------------------------------------
+    _log(progress, f"validation: {s.validate_sequences} sequences x {s.validate_length} tilts, "
+                   f"M = {s.validate_trials}")
+    val = validate_model(key, s.validate_sequences, s.validate_trials, s.seed + 3, s.validate_length,
+                         workers=workers)
+    out["validation"] = val
+    out["seconds"] = time.perf_counter() - t_all
+    return out
+
+
+def _mean_or_none(values):
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None
+
+
+def _rank_correlation(parts: dict) -> dict | None:
+    """Spearman correlation of the model's and direct simulation's final entropy along the best
+    sequence, over the B parts (None for fewer than 3 parts)."""
+    if len(parts) < 3:
+        return None
+    from scipy.stats import spearmanr
+
+    model = [p["entropy_bits"][-1] + 1e-3 * np.mean(p["entropy_bits"]) for p in parts.values()]
+    direct = [p["direct"]["entropy_bits"][-1] + 1e-3 * np.mean(p["direct"]["entropy_bits"]) for p in parts.values()]
+    rho, pval = spearmanr(model, direct)
+    return {"spearman": None if not np.isfinite(rho) else float(rho),
+            "p_value": None if not np.isfinite(pval) else float(pval), "parts": len(parts),
+            "on": "final entropy along the best sequence (ties broken by the mean over the sequence)"}

@@ -1,0 +1,127 @@
+"""`kruskal reproduce` and `kruskal rank`: the report and the ranking on small scenes.
+
+The small scene (a 30 mm square in a 90 mm tray, friction 0.1) closes at about a thousand states
+in seconds; the report's numbers are checked against the arrays they are computed from and against
+direct simulation, never against stored values.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SMALL = {"start_samples": 400}
+
+
+@pytest.fixture(scope="module")
+def cache_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cache")
+    old = os.environ.get("KRUSKAL_CACHE")
+    os.environ["KRUSKAL_CACHE"] = str(d)
+    yield d
+    if old is None:
+        os.environ.pop("KRUSKAL_CACHE", None)
+    else:
+        os.environ["KRUSKAL_CACHE"] = old
+
+
+@pytest.fixture(scope="module")
+def report(cache_dir, tmp_path_factory):
+    from analysis.report import write_report
+    from analysis.reproduce import ReproduceSettings, reproduce
+
+    s = ReproduceSettings(quick=True, seed=0, shape="rectangle:30x30", tray_mm=(90.0, 90.0), friction=0.1,
+                          length=12, a_sequences=6, ensemble_count=300, parts=("polygon:0,0;30,0;0,20",),
+                          maps=("map:low:1",), key_build=SMALL, part_build=SMALL, a_check_trials=30,
+                          b_trials=20, c_trials=20, replay_trials=100, validate_sequences=1, validate_trials=30,
+                          validate_length=5, metrics_count=100, metrics_runs=30, sync_time_budget=10,
+                          part_sync_time_budget=10)
+    result = reproduce(s, workers=2)
+    out = tmp_path_factory.mktemp("report")
+    return result, write_report(result, str(out)), out
+
+
+def test_report_files_and_numbers_agree(report):
+    result, paths, out = report
+    text = (out / "index.md").read_text()
+    assert paths["report"] == str(out / "index.md")
+    for f in paths["figures"]:
+        assert pathlib.Path(f).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert os.path.basename(f) in text          # every figure is shown in the report
+    saved = json.loads((out / "results.json").read_text())
+    a = saved["A"]
+    h = np.asarray(a["entropy"])
+    assert h.shape == (6, 13)
+    # the converged count is what the per-sequence curves say
+    assert a["converged"] == int(np.sum(h.min(axis=1) <= result["settings"]["epsilon"]))
+    np.testing.assert_allclose(a["mean"], h.mean(axis=0))
+    assert f"{a['converged']} of 6 (model)" in text
+    assert ",".join(a["best_sequence"]) in text
+    # the ensemble's converged-by-tilt curve ends at its converged count
+    e = saved["ensemble"]
+    assert e["converged_by_tilt"][-1] == e["converged"] <= e["count"] == 300
+
+
+def test_sync_word_replayed_in_direct_simulation(report):
+    """The model's synchronizing word orients the part in the physics engine too."""
+    result, _, _ = report
+    km = result["key_metrics"]
+    assert km["sync_word"] and km["sync_length"] == len(km["sync_word"])
+    rep = result["sync_replay"]
+    assert rep["model_entropy_bits"][-1] <= km["epsilon"]
+    assert rep["trials"] == 100 and len(rep["entropy_bits"]) == km["sync_length"] + 1
+    assert rep["entropy_bits"][-1] <= 0.1
+
+
+def test_parts_and_maps_sections(report):
+    result, _, out = report
+    part = result["B"]["parts"]["polygon:0,0;30,0;0,20"]
+    assert len(part["entropy_bits"]) == 13 and part["model"]["states"] > 0
+    m = part["metrics"]
+    assert 0.0 <= m["converging_share_50"] <= 1.0 and m["mean_entropy_50"] >= 0.0
+    assert result["C"]["levels"]["low"]["maps"] == 1
+    assert len(result["C"]["maps"]["map:low:1"]["entropy_bits"]) == 13
+    assert "polygon:0,0;30,0;0,20" in (out / "index.md").read_text()
+
+
+def test_rank_cli_uses_cached_models_and_orders_by_sync_length(report, cache_dir, tmp_path):
+    """A square is oriented by a short plan; a 20 x 30 rectangle never turns by 90 degrees in a
+    square tray, so no word synchronizes it and it ranks last, decided by the shortest word."""
+    from transition_builder.scene import scene_from_options
+
+    scene = tmp_path / "scene.json"
+    scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)).save(str(scene))
+    res = subprocess.run([sys.executable, "-m", "analysis", "rank", "--shapes", "rectangle:30x30", "rectangle:20x30",
+                          "--scene", str(scene), "--start-samples", "400", "--resolution", "0.25,0.25",
+                          "--recenter-rounds", "3", "--count", "200", "--runs", "30", "--workers", "2", "--json"],
+                         capture_output=True, text=True, timeout=600, cwd=ROOT,
+                         env=dict(os.environ, KRUSKAL_CACHE=str(cache_dir)))
+    assert res.returncode == 0, res.stderr[-2000:]
+    out = json.loads(res.stdout)
+    rows = {r["shape"]: r for r in out["ranking"]}
+    assert rows["rectangle:30x30"]["cached"] is True      # the report's key model, same settings
+    assert out["order"] == ["rectangle:30x30", "rectangle:20x30"]
+    assert rows["rectangle:20x30"]["sync_length"] is None
+    assert rows["rectangle:30x30"]["decided_by"] == "sync_length"
+    assert rows["rectangle:30x30"]["sync_word"] == report[0]["key_metrics"]["sync_word"]
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["reproduce", "--out", "/dev/null"], "not a directory"),
+    (["reproduce", "--out", "x", "--workers", "0"], "workers"),
+    (["rank", "--shapes", "nonsense"], "nonsense"),
+    (["rank", "--shapes", "allen-key", "allen-key"], "twice"),
+    (["rank", "--shapes", "allen-key", "--resolution", "x"], "resolution"),
+])
+def test_bad_input_is_one_line_exit_2(argv, needle):
+    res = subprocess.run([sys.executable, "-m", "analysis", *argv], capture_output=True, text=True, timeout=120,
+                         cwd=ROOT)
+    assert res.returncode == 2, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and needle in lines[0]
