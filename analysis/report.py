@@ -236,6 +236,33 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
             "![sync](fig_sync_replay.png)",
             "",
         ]
+    cm = r.get("contact_models", {})
+    if len(cm) > 1:
+        keys = list(cm)
+        lines += ["## Does the answer depend on the contact model?", "",
+                  "The simulator carries the part on one support sphere under its centroid (default) or on K legs "
+                  "(`--support-points K`). The same build settings, the same random sequences:", "",
+                  "| answer | " + " | ".join(f"{k} support point{'s' if k != '1' else ''}" for k in keys) + " |",
+                  "|---|" + "---|" * len(keys)]
+        rows = [("model states", "states", ",d"),
+                (f"A: of {s['a_sequences']} random sequences converging", "a_converged", "d"),
+                (f"share of {cm[keys[0]]['ensemble_count']:,} random sequences converging", "converging_share", ".1%"),
+                ("mean convergence tilt (converging ones)", "mean_convergence_tilt", ".1f"),
+                ("mean entropy at tilt 20 (bits)", "mean_entropy_20", ".2f"),
+                (f"mean entropy at tilt {s['length']} (bits)", "mean_entropy_end", ".2f"),
+                ("shortest synchronizing word (tilts)", "sync_length", "d"),
+                ("expected random tilts to converge", "random_tilts", ".1f")]
+        for label, k, f in rows:
+            lines.append(f"| {label} | " + " | ".join(_fmt(cm[c][k], f) for c in keys) + " |")
+        verdict = []
+        base, other = cm[keys[0]], cm[keys[1]]
+        for label, k, _ in rows[1:]:
+            x, y = base[k], other[k]
+            if x is None or y is None:
+                continue
+            rel = abs(x - y) / max(abs(x), abs(y), 1e-9)
+            verdict.append(f"{label}: {'agrees within 20%' if rel <= 0.2 else 'differs by ' + format(rel, '.0%')}")
+        lines += ["", "Robustness, metric by metric (relative difference): " + "; ".join(verdict) + ".", ""]
     lines += ["## B: other parts", ""]
     if b["parts"]:
         rc = b["rank_correlation"]

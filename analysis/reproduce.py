@@ -61,11 +61,11 @@ class ReproduceSettings:
     maps: tuple = (tuple(f"map:low:{i}" for i in range(1, 14)) + tuple(f"map:medium:{i}" for i in range(1, 4))
                    + tuple(f"map:high:{i}" for i in range(1, 5)))
     key_build: dict = dataclasses.field(default_factory=dict)
-    part_build: dict = dataclasses.field(default_factory=lambda: {"tol_mm": 0.5, "tol_deg": 0.5,
-                                                                  "recenter_rounds": 1})
-    a_check_trials: int = 1000
-    b_trials: int = 200
-    c_trials: int = 200
+    part_build: dict = dataclasses.field(default_factory=lambda: {"tol_mm": 1.0, "tol_deg": 1.0,
+                                                                  "recenter_rounds": 1, "start_samples": 2000})
+    a_check_trials: int = 500
+    b_trials: int = 100
+    c_trials: int = 100
     replay_trials: int = 10_000
     validate_sequences: int = 3
     validate_trials: int = 500
@@ -74,6 +74,8 @@ class ReproduceSettings:
     metrics_runs: int = 500
     sync_time_budget: float = 60.0
     part_sync_time_budget: float = 20.0
+    compare_support_points: tuple = (4,)
+    contact_ensemble_count: int = 100_000
     epsilon: float = CONVERGED_BITS
 
     @classmethod
@@ -89,7 +91,7 @@ class ReproduceSettings:
                    maps=("map:low:1", "map:medium:1", "map:high:1"), key_build=coarse, part_build=coarse,
                    a_check_trials=200, b_trials=100, c_trials=60, replay_trials=500, validate_sequences=2,
                    validate_trials=200, validate_length=20, metrics_count=500, metrics_runs=200,
-                   sync_time_budget=20.0, part_sync_time_budget=10.0)
+                   sync_time_budget=20.0, part_sync_time_budget=10.0, compare_support_points=())
 
 
 def _log(progress, text):
@@ -190,6 +192,15 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         replay["model_entropy_bits"] = model_curve.tolist()
         out["sync_replay"] = replay
 
+    # --- does the answer depend on the contact model? ------------------------------------------
+    out["contact_models"] = {"1": _contact_summary(key, km, s, names)}
+    for k in s.compare_support_points:
+        scene_k = key_scene.with_settings(support_points=int(k))
+        model_k, info = _build(scene_k, s.key_build, s.seed, workers, progress, f"{s.shape}, {k} support points")
+        mk = part_metrics(model_k, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
+                          sync_time_budget=s.sync_time_budget)
+        out["contact_models"][str(k)] = {**_contact_summary(model_k, mk, s, names), "model": info}
+
     # --- B: the best sequence on other parts ---------------------------------------------------
     parts = {}
     for spec in s.parts:
@@ -237,6 +248,21 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     out["validation"] = val
     out["seconds"] = time.perf_counter() - t_all
     return out
+
+
+def _contact_summary(model, metrics, s: ReproduceSettings, names) -> dict:
+    """The paper-level answers of one key model: A's 43 sequences, a large ensemble, the plan."""
+    from kruskal_markov.ensemble import run_ensemble
+
+    a = run_ensemble(model, s.a_sequences, s.length, seed=s.seed, epsilon=s.epsilon)
+    big = run_ensemble(model, s.contact_ensemble_count, s.length, seed=s.seed + 1, epsilon=s.epsilon)
+    conv = _converged_summary(big.convergence_steps)
+    return {"states": model.n_states, "a_converged": a.converged, "a_sequences": s.a_sequences,
+            "ensemble_count": s.contact_ensemble_count, "converging_share": conv["converged"] / s.contact_ensemble_count,
+            "mean_convergence_tilt": conv["mean_convergence_tilt"], "mean_entropy_20": float(big.mean[min(20, s.length)]),
+            "mean_entropy_end": float(big.mean[-1]), "sync_length": metrics.sync_length,
+            "sync_exact": metrics.sync_exact, "sync_lower_bound": metrics.sync_lower_bound,
+            "random_tilts": metrics.random_tilts, "random_tilts_censored": metrics.random_tilts_censored}
 
 
 def _mean_or_none(values):

@@ -41,7 +41,7 @@ def report(cache_dir, tmp_path_factory):
                           maps=("map:low:1",), key_build=SMALL, part_build=SMALL, a_check_trials=30,
                           b_trials=20, c_trials=20, replay_trials=100, validate_sequences=1, validate_trials=30,
                           validate_length=5, metrics_count=100, metrics_runs=30, sync_time_budget=10,
-                          part_sync_time_budget=10)
+                          part_sync_time_budget=10, compare_support_points=(4,), contact_ensemble_count=200)
     result = reproduce(s, workers=2)
     out = tmp_path_factory.mktemp("report")
     return result, write_report(result, str(out)), out
@@ -88,6 +88,18 @@ def test_parts_and_maps_sections(report):
     assert result["C"]["levels"]["low"]["maps"] == 1
     assert len(result["C"]["maps"]["map:low:1"]["entropy_bits"]) == 13
     assert "polygon:0,0;30,0;0,20" in (out / "index.md").read_text()
+
+
+def test_contact_models_side_by_side(report):
+    """The 4-leg model is a different model of the same scene, with its own paper-level answers."""
+    result, _, out = report
+    cm = result["contact_models"]
+    assert set(cm) == {"1", "4"}
+    assert cm["4"]["model"]["path"] != result["key_model"]["path"]
+    assert cm["1"]["a_converged"] == result["A"]["converged"]      # the same 43-sequence sample
+    for k in cm:
+        assert 0.0 <= cm[k]["converging_share"] <= 1.0
+    assert "Does the answer depend on the contact model?" in (out / "index.md").read_text()
 
 
 def test_rank_cli_uses_cached_models_and_orders_by_sync_length(report, cache_dir, tmp_path):
