@@ -2,3 +2,58 @@
 
 Imports numpy, scipy, numba and networkx only -- never pybullet, ``transition_builder`` or ``analysis``.
 """
+
+
+#: public name -> the module that defines it (imported on first use, so that ``import kruskal_markov`` and
+#: the command line stay fast; PEP 562).
+_EXPORTS = {
+    "TransitionModel": "model",
+    "ModelError": "model",
+    "atomic_savez": "model",
+    "atomic_write_text": "model",
+    "model_from_automaton": "automaton",
+    "automaton_from_model": "automaton",
+    "load_automaton_dict": "automaton",
+    "distribution_entropy_bits": "entropy",
+    "partition_entropy_bits": "entropy",
+    "histogram_entropy_bits": "entropy",
+    "EntropyTrajectory": "entropy",
+    "entropy_trajectory": "entropy",
+    "propagate": "entropy",
+    "BatchEntropy": "entropy",
+    "batch_entropy": "entropy",
+    "EnsembleResult": "ensemble",
+    "run_ensemble": "ensemble",
+    "random_sequences": "ensemble",
+    "StructureReport": "structure",
+    "analyze_structure": "structure",
+    "SyncAutomaton": "sync",
+    "SyncResult": "sync",
+    "support_automaton": "sync",
+    "start_set": "sync",
+    "shortest_synchronizing_word": "sync",
+    "greedy_synchronizing_word": "sync",
+    "epsilon_synchronizing_word": "sync",
+    "is_synchronizing_word": "sync",
+    "expected_sync_length": "convergence",
+    "exact_expected_length": "convergence",
+    "monte_carlo_sync_length": "convergence",
+    "pair_chain_bounds": "convergence",
+    "monte_carlo_entropy_tilts": "convergence",
+    "resample_model": "posterior",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        import importlib
+
+        value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

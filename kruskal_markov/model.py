@@ -20,7 +20,7 @@ import zipfile
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION", "atomic_savez"]
+__all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION", "atomic_savez", "atomic_write_text"]
 
 #: Marker stored in every saved model; a ``.npz`` without it is rejected as foreign.
 FORMAT_NAME = "kruskal.TransitionModel"

@@ -2,3 +2,44 @@
 
 The only package that imports pybullet.
 """
+
+
+#: public name -> the module that defines it (imported on first use, so that ``import transition_builder`` and
+#: the command line stay fast; PEP 562).
+_EXPORTS = {
+    "Scene": "scene",
+    "scene_from_options": "scene",
+    "ACTIONS": "scene",
+    "Shape": "shapes",
+    "parse_shape": "shapes",
+    "allen_key": "shapes",
+    "random_triangle": "shapes",
+    "rectangle": "shapes",
+    "make_shape": "shapes",
+    "SimSettings": "settings",
+    "TraySimulator": "sim",
+    "simulate": "sim",
+    "ReportGrid": "grid",
+    "parse_grid": "grid",
+    "parse_friction": "friction",
+    "parse_noise": "noise",
+    "BuildSettings": "builder",
+    "BuildResult": "builder",
+    "build_model": "builder",
+    "cached_build": "cache",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        import importlib
+
+        value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))
