@@ -222,11 +222,9 @@ class Scene:
 
     def save(self, path) -> None:
         """Write :meth:`to_dict` as JSON (atomically)."""
-        path = os.fspath(path)
-        tmp = f"{path}.tmp{os.getpid()}"
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(self.to_dict(), f, indent=1)
-        os.replace(tmp, path)
+        from kruskal_markov.model import atomic_write_text
+
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=1))
 
     def content_hash(self) -> str:
         """SHA-256 (hex) of the canonical JSON of everything that can change a simulated result.
