@@ -38,7 +38,7 @@ from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene
 from transition_builder.status import OK
 
-__all__ = ["model_scene", "model_grid", "validate_model", "random_sequences_for"]
+__all__ = ["model_scene", "model_grid", "reference_seed", "validate_model", "random_sequences_for"]
 
 _REFERENCE_STREAM = 2
 _PLUGIN_DRAWS = 200
@@ -63,7 +63,8 @@ def model_grid(model: TransitionModel) -> ReportGrid:
                       symmetry_order=g["symmetry_order"], theta_offset=g["theta_offset"])
 
 
-def _reference_seed(seed: int, i: int) -> int:
+def reference_seed(seed: int, i: int) -> int:
+    """The trial seed of the direct-simulation reference of random sequence ``i`` under ``seed``."""
     return int(np.random.default_rng([seed, _REFERENCE_STREAM, i]).integers(0, 2 ** 31 - 1))
 
 
@@ -130,7 +131,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     tvs = []
     for i, seq in enumerate(seqs):
         t = time.perf_counter()
-        ref = simulate(scene, seq, trials, _reference_seed(seed, i), noise)
+        ref = simulate(scene, seq, trials, reference_seed(seed, i), noise)
         sim_seconds += time.perf_counter() - t
         t = time.perf_counter()
         traj = entropy_trajectory(model, seq, return_distributions=True)
@@ -150,7 +151,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         err_exact = np.abs(exact - href)[1:]
         final_ref = np.bincount(labels[-1], minlength=grid.n_voxels) / max(len(labels[-1]), 1)
         tv = 0.5 * float(np.abs(cells[-1] / cells[-1].sum() - final_ref).sum())
-        entry = {"sequence": [model.actions[a] for a in seq], "reference_seed": _reference_seed(seed, i),
+        entry = {"sequence": [model.actions[a] for a in seq], "reference_seed": reference_seed(seed, i),
                  "reference": href.tolist(), "model": matched.tolist(), "model_exact": exact.tolist(),
                  "mean_abs_error_bits": float(err.mean()), "max_abs_error_bits": float(err.max()),
                  "reference_noise_bits": float(sd[1:].mean()), "final_tv_distance": tv,
@@ -169,7 +170,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
             t = time.perf_counter()
             half_scene = scene.with_settings(time_step_s=scene.settings.time_step_s / 2,
                                              substeps=scene.settings.substeps * 2)
-            ref2 = simulate(half_scene, seq, trials, _reference_seed(seed, i), noise)
+            ref2 = simulate(half_scene, seq, trials, reference_seed(seed, i), noise)
             sim_seconds += time.perf_counter() - t
             d = np.abs(ref2.entropy_bits - href)[1:]
             entry["half_time_step"] = ref2.entropy_bits.tolist()

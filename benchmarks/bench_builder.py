@@ -63,7 +63,7 @@ VARIANTS = {
 DEFAULT_SELECTION = "det"
 
 
-def _reference_cache(scene, trials, grid, workers):
+def reference_cache(scene, trials, grid, workers):
     """A ``simulate`` function for :func:`analysis.validate.validate_model` that keeps its results."""
     from analysis.montecarlo import run_direct, summarise_trials
     from transition_builder.noise import parse_noise
@@ -106,7 +106,7 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
     build_s = time.perf_counter() - t0
     model = result.model
     model.save(str(RESULTS / f"model-{name}.npz"))
-    simulate, _ = _reference_cache(scene, trials, model_grid(model), workers)
+    simulate, _ = reference_cache(scene, trials, model_grid(model), workers)
     t1 = time.perf_counter()
     val = validate_model(model, SEQUENCES, trials, SEED, LENGTH, spread=spread and settings.noise == "none",
                          bands=40, simulate=simulate)

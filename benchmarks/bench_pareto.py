@@ -1,0 +1,131 @@
+"""Run time against error for the allen key: transition models beside direct Monte Carlo.
+
+Judge: the held-out references of ``bench_builder`` (6 random 30-tilt sequences, seed 2026, M = 2,000
+trials each, default simulator settings). Two kinds of points on the same axes:
+
+- **Models** (rows of ``benchmarks/results/builder.json`` on the held-out seed): build time on 2
+  cores (the model's own analysis of the 6 sequences takes well under a second and is left out) against
+  the mean and max absolute entropy error of ``kruskal validate``. A model answers *every* sequence
+  after one build, so its cost is paid once.
+- **Direct Monte Carlo** with m trials per sequence: the entropy curves of random subsets of m
+  of the 2,000 reference trials (30 subsets per m) against the full curve, and the time m trials x
+  180 tilts take at the tilt rate measured in this run (a 100-trial direct simulation, 2 workers).
+  The subsets share trials with the judge, which flatters direct simulation as m nears 2,000 (its
+  error against the truth is larger); and its cost is paid again for every new sequence.
+
+Writes ``reports/full/pareto.md`` and ``reports/full/fig_pareto.png``. Needs the references and the
+rows from ``python -m benchmarks builder`` (cached under ``benchmarks/results/``).
+"""
+from __future__ import annotations
+
+import json
+import pathlib
+import time
+
+import numpy as np
+
+HERE = pathlib.Path(__file__).parent
+OUT = HERE.parent / "reports" / "full"
+SIZES = (25, 50, 100, 200, 500, 1000)
+REPEATS = 30
+
+
+def _direct_rate(scene, workers=2) -> float:
+    from analysis.montecarlo import run_direct
+
+    seq = np.random.default_rng(5).integers(0, 8, 30)
+    t = time.perf_counter()
+    res = run_direct(scene, seq, 100, seed=5, workers=workers)
+    return res.tilts_simulated / (time.perf_counter() - t)
+
+
+def _subsample_errors(refs, names, grid, seqs) -> dict:
+    from analysis.montecarlo import summarise_trials
+    from transition_builder.noise import parse_noise
+
+    rng = np.random.default_rng(7)
+    full = [r.entropy_bits for r in refs]
+    out = {}
+    for m in SIZES:
+        means, maxes = [], []
+        for _ in range(REPEATS):
+            errs = []
+            for ref, seq, h in zip(refs, seqs, full):
+                idx = np.sort(rng.choice(ref.poses.shape[0], size=m, replace=False))
+                sub = summarise_trials(seq, names, ref.poses[idx], ref.status[idx], grid, 0, parse_noise("none"))
+                errs.append(np.abs(sub.entropy_bits - h)[1:])
+            e = np.concatenate(errs)
+            means.append(e.mean())
+            maxes.append(e.max())
+        out[m] = {"mean": float(np.mean(means)), "max": float(np.mean(maxes))}
+    return out
+
+
+def main() -> None:
+    from analysis.validate import model_grid, reference_seed
+    from analysis.sequences import random_sequences_for
+    from benchmarks.bench_builder import HELD_OUT_SEED, LENGTH, RESULTS, SEQUENCES, reference_cache
+    from kruskal_markov.model import TransitionModel, atomic_write_text
+    from transition_builder.scene import scene_from_options
+
+    rows = json.loads((RESULTS / "builder.json").read_text())
+    held = {k: v for k, v in rows.items() if k.endswith(f"@{HELD_OUT_SEED}") and v["noise"] == "none"}
+    if not held:
+        raise SystemExit("no held-out deterministic builder rows: run `python -m benchmarks builder` first")
+    trials = max(v["trials"] for v in held.values())
+    scene = scene_from_options("allen-key")
+    grid = model_grid(TransitionModel.load(str(RESULTS / "model-det.npz")))
+    simulate, stats = reference_cache(scene, trials, grid, 2)
+    seqs = random_sequences_for(8, SEQUENCES, LENGTH, HELD_OUT_SEED)
+    refs = [simulate(scene, s, trials, reference_seed(HELD_OUT_SEED, i), "none") for i, s in enumerate(seqs)]
+    if stats["simulated_seconds"]:
+        raise SystemExit("the held-out references were not cached: run `python -m benchmarks builder` first")
+    rate = _direct_rate(scene)
+    mc = _subsample_errors(refs, tuple(scene.actions), grid, seqs)
+    tilts_per_trial = SEQUENCES * LENGTH
+    lines = ["# Run time against error: transition models and direct Monte Carlo (allen key)", "",
+             f"Written by `python -m benchmarks pareto` (see its docstring). Judge: {SEQUENCES} held-out random "
+             f"{LENGTH}-tilt sequences, M = {trials:,} direct-simulation trials each. Direct simulation ran at "
+             f"{rate:.0f} tilts/s on 2 workers in this run.", "",
+             "| method | seconds (2 cores) | mean abs error (bits) | max abs error (bits) | cost of another sequence |",
+             "|---|---|---|---|---|"]
+    points = []
+    for k, v in sorted(held.items(), key=lambda kv: kv[1]["build_seconds"]):
+        lines.append(f"| model: {v['description']} | {v['build_seconds']:.0f} (build, once) | "
+                     f"{v['mean_abs_error_bits']:.3f} | {v['max_abs_error_bits']:.2f} | < 1 s |")
+        points.append(("model", v["build_seconds"], v["mean_abs_error_bits"], v["max_abs_error_bits"], v["variant"]))
+    for m, e in mc.items():
+        sec = m * tilts_per_trial / rate
+        lines.append(f"| direct Monte Carlo, M = {m:,} per sequence | {sec:.0f} | {e['mean']:.3f} | {e['max']:.2f} | "
+                     f"{sec / SEQUENCES:.0f} s |")
+        points.append(("direct", sec, e["mean"], e["max"], f"M={m}"))
+    spread = next((v["simulation_spread_bits"] for v in held.values() if "simulation_spread_bits" in v), None)
+    if spread:
+        lines += ["", f"The simulator's own spread on the same sequences (default against half time step): mean "
+                      f"{spread['mean']:.3f}, max {spread['max']:.2f} bits - no method can be judged more finely."]
+    lines += ["", "![pareto](fig_pareto.png)", ""]
+    OUT.mkdir(parents=True, exist_ok=True)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, col, label in ((axes[0], 2, "mean"), (axes[1], 3, "max")):
+        for kind, marker, color in (("model", "o", "tab:blue"), ("direct", "s", "tab:red")):
+            pts = [p for p in points if p[0] == kind]
+            ax.plot([p[1] for p in pts], [p[col] for p in pts], marker, color=color,
+                    label="transition model (build once)" if kind == "model" else "direct Monte Carlo (6 sequences)")
+            for p in pts:
+                ax.annotate(p[4], (p[1], p[col]), fontsize=6, xytext=(3, 3), textcoords="offset points")
+        if spread:
+            ax.axhline(spread[label], color="gray", ls=":", label="simulator's half-time-step spread")
+        ax.set_xscale("log")
+        ax.set_xlabel("seconds on 2 cores")
+        ax.set_ylabel(f"{label} abs entropy error (bits)")
+        ax.legend(fontsize=7)
+    tmp = OUT / ".fig_pareto.tmp.png"
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    tmp.replace(OUT / "fig_pareto.png")
+    atomic_write_text(OUT / "pareto.md", "\n".join(lines) + "\n")
+    print("\n".join(lines))
