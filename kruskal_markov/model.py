@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import os
 import tempfile
 import zipfile
@@ -70,6 +71,18 @@ def atomic_write_text(path, text: str) -> str:
             pass
         raise
     return path
+
+
+#: the largest row-sum tolerance a model file may ask for: the tolerance belongs to the reader, so a
+#: file cannot switch its own validation off (a file's smaller tolerance is kept).
+MAX_FILE_TOL = 1e-6
+
+
+def _file_tolerance(header: dict) -> float:
+    tol = header.get("tol", 1e-9)
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) or tol < 0:
+        raise ModelError(f"header tolerance must be a finite number >= 0, got {tol!r}")
+    return min(float(tol), MAX_FILE_TOL)
 
 
 class ModelError(ValueError):
@@ -246,7 +259,7 @@ class TransitionModel:
                 nbad = int(np.count_nonzero(dev > tol))
                 more = f" ({nbad} rows out of tolerance)" if nbad > 1 else ""
                 raise ModelError(f"{_fmt_action(name)}: row {row} sums to {sums[row]:.12g}, off by "
-                                 f"{sums[row] - 1.0:+.3g} (tolerance {tol:g}){more}")
+                                 f"{sums[row] - 1.0:+.6g}, more than the tolerance {tol:g}{more}")
             for arr in (m.data, m.indices, m.indptr):
                 arr.flags.writeable = False
             mats.append(m)
@@ -270,8 +283,8 @@ class TransitionModel:
                 raise ModelError(f"initial distribution has a negative entry {init[i]:.6g} at state {i}")
             total = init.sum()
             if abs(total - 1.0) > tol:
-                raise ModelError(f"initial distribution sums to {total:.12g}, off by {total - 1.0:+.3g} "
-                                 f"(tolerance {tol:g})")
+                raise ModelError(f"initial distribution sums to {total:.12g}, off by {total - 1.0:+.6g}, "
+                                 f"more than the tolerance {tol:g}")
         init.flags.writeable = False
         self.initial: np.ndarray = init
 
@@ -461,7 +474,7 @@ class TransitionModel:
                 return cls(actions, mats, initial=initial, partition=partition,
                            n_cells=header.get("n_cells") if partition is not None else None,
                            metadata=header.get("metadata") or {}, extras=extras,
-                           tol=header.get("tol", 1e-9) if tol is None else tol)
+                           tol=_file_tolerance(header) if tol is None else tol)
         except ModelError as exc:
             if str(exc).startswith(path):
                 raise

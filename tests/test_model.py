@@ -233,6 +233,27 @@ def test_load_rejects_tampered_arrays(tmp_path, small_model):
         TransitionModel.load(bad)
 
 
+def test_a_file_cannot_switch_off_its_own_validation(tmp_path, small_model):
+    """A header asking for tolerance 10 does not make rows summing to 5 acceptable."""
+    good = tmp_path / "good.npz"
+    small_model.save(good)
+    with np.load(good) as z:
+        arrays = {k: z[k] for k in z.files}
+    header = json.loads(arrays["header"].tobytes().decode())
+    header["tol"] = 10
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+    arrays["data_0"] = arrays["data_0"] * 5
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **arrays)
+    with pytest.raises(ModelError, match=r"row \d+ sums to 5.*the tolerance 1e-06"):
+        TransitionModel.load(bad)
+    header["tol"] = "lots"
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+    np.savez(bad, **arrays)
+    with pytest.raises(ModelError, match="header tolerance"):
+        TransitionModel.load(bad)
+
+
 def test_saved_file_is_a_plain_npz_without_pickles(tmp_path, small_model):
     path = tmp_path / "m.npz"
     small_model.save(path)
