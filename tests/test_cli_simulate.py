@@ -124,6 +124,9 @@ def test_zero_length_sequence_text_output(capsys):
     (["--sequence", "N", "--noise", "pose:x"], "pose:SIGMA_MM,SIGMA_DEG"),
     (["--sequence", "N", "--noise", "gauss:1,1"], "pose:SIGMA_MM,SIGMA_DEG"),
     (["--sequence", "N", "--trials", "2", "--scheduler", "nonsense://x"], "scheduler"),
+    (["--sequence", "N", "--poses", ""], "empty string"),
+    (["--sequence", "N", "--poses", "/nonexistent-dir/p.csv"], "does not exist"),
+    (["--sequence", "N", "--poses", "/"], "is a directory"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, needle):
     code, out, err = _run(capsys, *argv)

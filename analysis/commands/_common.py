@@ -77,3 +77,24 @@ def parse_resolution(text: str) -> tuple[float, float]:
     except (AttributeError, ValueError):
         raise InputError(f"bad --resolution {text!r}: expected MM,DEG, e.g. 0.5,0.5") from None
     return mm, deg
+
+
+def check_writable_file(path: str | None, option: str) -> None:
+    """Fail before any work if ``path`` (the value of ``option``) cannot be written as a file.
+
+    None means the option was not given; an empty string, a directory, or a path whose directory
+    does not exist or is not writable is an :class:`InputError`.
+    """
+    import os
+
+    if path is None:
+        return
+    if not path.strip():
+        raise InputError(f"{option} must be a file path, got an empty string")
+    if os.path.isdir(path):
+        raise InputError(f"{option} {path!r} is a directory, not a file")
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise InputError(f"{option} {path!r}: directory {directory} does not exist")
+    if not os.access(directory, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
+        raise InputError(f"{option} {path!r} is not writable")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, parse_resolution
+from analysis.commands._common import add_seed, check_writable_file, parse_resolution
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,8 +65,7 @@ def run(args: argparse.Namespace) -> dict:
 
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
-    if args.out is not None and not args.out.strip():
-        raise InputError("--out must be a file path")
+    check_writable_file(args.out, "--out")
     scene = scene_for(args)
     mm, deg = parse_resolution(args.resolution) if args.resolution is not None else (None, None)
     settings = BuildSettings(tol_mm=mm, tol_deg=deg, start_samples=args.start_samples, samples=args.samples,

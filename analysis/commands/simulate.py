@@ -11,7 +11,7 @@ import argparse
 import sys
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, parse_sequence, sequence_rng
+from analysis.commands._common import add_seed, check_writable_file, parse_sequence, sequence_rng
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> dict:
         raise InputError(f"--trials must be at least 1, got {args.trials}")
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
+    check_writable_file(args.poses, "--poses")
     scene = _scene(args)
     rng = sequence_rng(args.seed)
     sequence = parse_sequence(args.sequence, scene.actions, rng)
@@ -97,7 +98,7 @@ def run(args: argparse.Namespace) -> dict:
     out["shape"] = scene.shape.name
     out["friction"] = str(scene.friction)
     out["scene_hash"] = scene.content_hash()
-    if args.poses:
+    if args.poses is not None:
         out["poses"] = write_poses_csv(args.poses, result)
     return out
 
