@@ -125,6 +125,7 @@ def test_zero_length_sequence_text_output(capsys):
     (["--sequence", "N", "--noise", "gauss:1,1"], "pose:SIGMA_MM,SIGMA_DEG"),
     (["--sequence", "N", "--trials", "2", "--scheduler", "nonsense://x"], "scheduler"),
     (["--sequence", "N", "--poses", ""], "empty string"),
+    (["--shape", "", "--sequence", "N"], "--shape is empty"),
     (["--sequence", "N", "--poses", "/nonexistent-dir/p.csv"], "does not exist"),
     (["--sequence", "N", "--poses", "/"], "is a directory"),
 ])

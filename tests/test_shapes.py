@@ -322,3 +322,16 @@ def test_property_random_simple_polygons(pts):
     assert unary_union(polys).symmetric_difference(Polygon(s.vertices)).area < 1e-6 * s.area_mm2
     for p in polys:
         assert p.area == pytest.approx(p.convex_hull.area, rel=1e-9)
+
+
+def test_shape_file_fields_are_checked(tmp_path):
+    """A boolean thickness is not 1 mm, and a non-UTF-8 file is named."""
+    from transition_builder.shapes import parse_shape
+
+    f = tmp_path / "part.json"
+    f.write_text('{"vertices": [[0, 0], [30, 0], [0, 20]], "thickness_mm": true}')
+    with pytest.raises(ValueError, match="thickness_mm.*must be a number, got true"):
+        parse_shape(str(f))
+    f.write_bytes(b'{"vertices": [[0, 0], [30, 0], [0, 20]], "name": "\xff\xfe"}')
+    with pytest.raises(ValueError, match="part.json.*not UTF-8"):
+        parse_shape(str(f))

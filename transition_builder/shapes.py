@@ -554,6 +554,8 @@ def _load_shape_json(path: str) -> Shape:
     try:
         with open(path, encoding="utf-8") as fh:
             data = json.load(fh)
+    except UnicodeDecodeError:
+        raise ValueError(f"shape file {path!r} is not UTF-8 text") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"shape file {path!r} is not valid JSON: {exc.msg} at line {exc.lineno}") from None
     if not isinstance(data, dict) or "vertices" not in data:
@@ -566,6 +568,10 @@ def _load_shape_json(path: str) -> Shape:
         raise ValueError(f"shape file {path!r}: \"vertices\" must be a list of [x, y] pairs")
     if not all(isinstance(c, (int, float)) and not isinstance(c, bool) for p in verts for c in p):
         raise ValueError(f"shape file {path!r}: vertex coordinates must be numbers")
+    for key in ("thickness_mm", "density_kg_m3"):
+        v = data.get(key)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise ValueError(f"shape file {path!r}: \"{key}\" must be a number, got {json.dumps(v)}")
     return make_shape(verts, name=path,
                       thickness_mm=data.get("thickness_mm", DEFAULT_THICKNESS_MM),
                       density_kg_m3=data.get("density_kg_m3", STEEL_DENSITY_KG_M3))

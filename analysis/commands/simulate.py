@@ -74,6 +74,8 @@ def _scene(args):
         kw["friction_spec"] = args.friction
     if args.tilt_deg is not None:
         kw["tilt_deg"] = args.tilt_deg
+    if args.shape is not None and not args.shape.strip():
+        raise InputError("--shape is empty; name a shape, e.g. allen-key (the default when --shape is not given)")
     return scene_from_options(args.shape or "allen-key", **kw)
 
 
