@@ -77,6 +77,13 @@ def test_cli_bad_input(capsys, cerny5, tmp_path):
     assert main(["sync", "--automaton", str(cerny5), "--threshold", "2"]) == 2
     capsys.readouterr()
     assert main(["sync"]) == 2
+    for cmd, opt in (("sync", "--time-budget"), ("sync", "--memory-budget-mb"), ("convergence", "--pair-time-budget"),
+                     ("convergence", "--mc-time-budget")):
+        for bad in ("nan", "inf", "0", "-1"):
+            capsys.readouterr()
+            assert main([cmd, "--automaton", str(cerny5), opt, bad]) == 2
+            err = capsys.readouterr().err
+            assert err.count("\n") == 1 and opt in err
 
 
 def _tray_like_model(seed, n=24, k=4):

@@ -98,3 +98,16 @@ def check_writable_file(path: str | None, option: str) -> None:
         raise InputError(f"{option} {path!r}: directory {directory} does not exist")
     if not os.access(directory, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
         raise InputError(f"{option} {path!r} is not writable")
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (NaN, infinities and non-positive values are refused)."""
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite positive number, got {text!r}")
+    return value

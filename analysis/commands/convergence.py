@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_model_source, add_seed, load_model_source
+from analysis.commands._common import add_model_source, add_seed, load_model_source, positive_float
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,9 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="Monte Carlo: letters per run before a run is censored (default 100000)")
     parser.add_argument("--max-subsets", type=int, default=200_000,
                         help="exact answer only if at most this many subsets are reachable (default 200000)")
-    parser.add_argument("--pair-time-budget", type=float, default=45.0, metavar="S",
+    parser.add_argument("--pair-time-budget", type=positive_float, default=45.0, metavar="S",
                         help="seconds for the pair-chain upper bound iteration (default 45)")
-    parser.add_argument("--mc-time-budget", type=float, default=None, metavar="S",
+    parser.add_argument("--mc-time-budget", type=positive_float, default=None, metavar="S",
                         help="seconds for the Monte Carlo runs; runs still going are censored, which makes "
                              "the result depend on the machine's speed (default: none, so the same seed "
                              "gives the same output; --max-steps still censors)")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, parse_resolution
+from analysis.commands._common import add_seed, parse_resolution, positive_float
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="uniform start poses of each model's first tilt (default 5000)")
     parser.add_argument("--count", type=int, default=2000, help="random 50-tilt sequences per shape (default 2000)")
     parser.add_argument("--runs", type=int, default=500, help="Monte Carlo runs of the expected lengths (default 500)")
-    parser.add_argument("--sync-time-budget", type=float, default=20.0, metavar="S",
+    parser.add_argument("--sync-time-budget", type=positive_float, default=20.0, metavar="S",
                         help="seconds of exact shortest-word search per shape (default 20)")
     parser.add_argument("--check-trials", type=int, default=0, metavar="M",
                         help="also simulate one random 50-tilt sequence per shape with M trials (default 0: off)")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_model_source, load_model_source
+from analysis.commands._common import add_model_source, load_model_source, positive_float
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,9 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--start", choices=("auto", "all", "initial"), default="auto",
                         help="start set: all states, the support of the initial distribution, or auto "
                              "(all states for deterministic automata, else the initial support)")
-    parser.add_argument("--time-budget", type=float, default=60.0, metavar="S",
+    parser.add_argument("--time-budget", type=positive_float, default=60.0, metavar="S",
                         help="seconds for the exact search before falling back to greedy (default 60)")
-    parser.add_argument("--memory-budget-mb", type=float, default=2048.0, metavar="MB",
+    parser.add_argument("--memory-budget-mb", type=positive_float, default=2048.0, metavar="MB",
                         help="memory for the exact search's subset stores (default 2048)")
     parser.add_argument("--max-length", type=int, default=30,
                         help="--epsilon search: longest word tried (default 30)")
