@@ -77,7 +77,10 @@ def _format_text(result: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the process exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:   # --help, or a usage error already printed as one line
+        return exc.code if isinstance(exc.code, int) else 2
     start = time.perf_counter()
     try:
         result = args._module.run(args)
