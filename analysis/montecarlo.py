@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from kruskal_markov.entropy import histogram_entropy_bits
+from kruskal_markov.limits import check_memory
 from transition_builder.executors import (
     Executor,
     SerialExecutor,
@@ -308,6 +309,9 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
     """
     names = _action_names(scene)
     seq = resolve_sequence(sequence, names)
+    if isinstance(trials, (int, np.integer)) and trials > 0:
+        check_memory(float(trials) * (seq.size + 1) * 26 * 2, f"{trials:,} trials of {seq.size:,} tilts",
+                     "use fewer --trials or a shorter sequence")
     rgrid = report_grid_for(scene, grid, theta_offset)
     a, b = _tray_size(scene)
     noise = parse_noise(noise)
@@ -522,6 +526,8 @@ def read_poses_csv(path) -> PoseRecords:
 
 def entropy_by_step(records: PoseRecords, grid: ReportGrid) -> np.ndarray:
     """Report-grid entropy (bits) of the ``ok`` poses at every step 0..max step of ``records``."""
+    check_memory(records.n_steps * 8.0 * 4, f"poses with steps up to {records.n_steps - 1:,}",
+                 "the step column counts tilts from 0")
     out = np.zeros(records.n_steps)
     for k in range(records.n_steps):
         sel = (records.step == k) & (records.status == OK)

@@ -50,6 +50,8 @@ def load_automaton_dict(source) -> tuple[dict, str]:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise ModelError(f"{label}: not valid JSON ({exc})") from None
+        except RecursionError:
+            raise ModelError(f"{label}: JSON nested too deeply") from None
         if not isinstance(data, dict):
             raise ModelError(f"{label}: expected a JSON object with 'states' and 'actions'")
         return data, label
@@ -62,7 +64,11 @@ def _int_list(values, what: str, label: str) -> np.ndarray:
     for v in values:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or (isinstance(v, float) and v != int(v)):
             raise ModelError(f"{label}: {what} must contain integers only, found {v!r}")
-    return np.asarray(values, dtype=np.int64) if values else np.zeros(0, dtype=np.int64)
+    try:
+        return np.asarray(values, dtype=np.int64) if values else np.zeros(0, dtype=np.int64)
+    except OverflowError:
+        big = next(v for v in values if not -2 ** 63 <= v < 2 ** 63)
+        raise ModelError(f"{label}: {what} has an entry {big!r} beyond any state index") from None
 
 
 def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
@@ -88,6 +94,11 @@ def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ModelError(f"{label}: 'states' must be a positive integer, got {n!r}")
     actions = data.get("actions")
+    if isinstance(actions, dict):
+        from kruskal_markov.limits import check_memory
+
+        check_memory(float(n) * 8 * (3 * len(actions) + 4), f"{label}: an automaton of {n:,} states",
+                     "is 'states' right?")
     if not isinstance(actions, dict) or not actions:
         raise ModelError(f"{label}: 'actions' must be a non-empty object mapping action names to "
                          f"transitions")

@@ -12,6 +12,7 @@ import dataclasses
 import numpy as np
 
 from kruskal_markov.entropy import batch_entropy
+from kruskal_markov.limits import check_memory
 from kruskal_markov.model import ModelError, TransitionModel
 
 __all__ = ["random_sequences", "EnsembleResult", "run_ensemble", "convergence_steps", "best_sequence_index"]
@@ -150,6 +151,8 @@ def run_ensemble(model: TransitionModel, count: int, length: int, seed=None, eps
         raise ModelError(f"epsilon must be finite and >= 0, got {epsilon!r}")
     if isinstance(count, bool) or int(count) != count or count < 1:
         raise ModelError(f"count must be a positive integer, got {count!r}")
+    check_memory(float(count) * (length + 1) * (8 * 3 + 1), f"{count:,} random sequences of {length:,} tilts",
+                 "use a smaller --count or --length")
     seqs = random_sequences(model.n_actions, count, length, seed=seed, weights=weights)
     res = batch_entropy(model, seqs, initial=initial, threads=threads)
     h = res.entropy_bits

@@ -109,6 +109,8 @@ def _normalise_metadata(metadata) -> dict:
         text = json.dumps(metadata, default=_json_default, allow_nan=False)
     except (TypeError, ValueError) as exc:
         raise ModelError(f"metadata is not JSON-serialisable: {exc}") from None
+    except RecursionError:
+        raise ModelError("metadata is nested too deeply") from None
     return json.loads(text)
 
 
@@ -479,7 +481,9 @@ class TransitionModel:
             if str(exc).startswith(path):
                 raise
             raise ModelError(f"{path}: invalid model: {exc}") from None
-        except (zipfile.BadZipFile, EOFError, KeyError, ValueError, TypeError, OSError,
+        except RecursionError:
+            raise ModelError(f"{path}: invalid model: its header is nested too deeply") from None
+        except (zipfile.BadZipFile, EOFError, KeyError, ValueError, TypeError, OSError, AttributeError,
                 io.UnsupportedOperation) as exc:
             raise ModelError(f"{path} is not a readable kruskal model ({type(exc).__name__}: "
                              f"{str(exc).splitlines()[0] if str(exc) else 'corrupt file'})") from None

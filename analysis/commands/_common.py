@@ -27,6 +27,9 @@ def parse_sequence(text: str, action_names, rng: np.random.Generator | None = No
             raise InputError(f"bad sequence {text!r}: expected random:N with an integer N") from None
         if length < 0:
             raise InputError(f"bad sequence {text!r}: length must be >= 0")
+        from kruskal_markov.limits import check_memory
+
+        check_memory(length * 8.0 * 4, f"--sequence {text}", "use a shorter sequence")
         if rng is None:
             rng = np.random.default_rng()
         return rng.integers(0, len(names), size=length).astype(np.int64)

@@ -1,0 +1,55 @@
+"""Hostile but fair input: every case answers with exit status 2 and exactly one line on stderr,
+before allocating what it asks for (docs/commands.md: bad input)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from analysis.cli import main
+
+FILES = {
+    "huge_index.json": '{"states": 3, "actions": {"a": [1, 2, 100000000000000000000], "b": [0, 0, 2]}}',
+    "float_index.json": '{"states": 3, "actions": {"a": [1, 2, 1e300], "b": [0, 0, 2]}}',
+    "huge_states.json": '{"states": 100000000000, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1.0]}}}',
+    "billions.json": '{"states": 3000000000, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1.0]}}}',
+    "deep.json": '{"states": 2, "actions": {"a": [1, 1]}, "x": ' + "[" * 100000 + "]" * 100000 + "}",
+    "ok.json": '{"states": 2, "actions": {"a": [1, 1], "b": [0, 0]}}',
+    "far_step.csv": "trial,step,x_mm,y_mm,theta_rad\n0,99999999999,10,10,0\n",
+}
+
+
+@pytest.fixture
+def files(tmp_path, monkeypatch):
+    for name, text in FILES.items():
+        (tmp_path / name).write_text(text)
+    # a .npz whose header member is not a .npy array
+    np.savez(tmp_path / "fake.npz", initial=np.ones(2))
+    import zipfile
+
+    with zipfile.ZipFile(tmp_path / "fake.npz", "a") as z:
+        z.writestr("header.npy", b"this is not an npy file")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["sync", "--automaton", "huge_index.json"], "beyond any state index"),
+    (["sync", "--automaton", "float_index.json"], "beyond any state index"),
+    (["entropy", "--automaton", "huge_states.json", "--sequence", "a"], "100,000,000,000 states needs"),
+    (["entropy", "--automaton", "billions.json", "--sequence", "a"], "3,000,000,000 states needs"),
+    (["entropy", "--automaton", "deep.json", "--sequence", "a"], "nested too deeply"),
+    (["entropy", "--automaton", "ok.json", "--sequence", "random:1000000000000"], "use a shorter sequence"),
+    (["simulate", "--sequence", "random:1000000000000"], "use a shorter sequence"),
+    (["simulate", "--sequence", "N", "--trials", "100000000000"], "use fewer --trials"),
+    (["ensemble", "--automaton", "ok.json", "--count", "1000000000000", "--length", "5"], "smaller --count"),
+    (["entropy", "--poses", "far_step.csv", "--shape", "allen-key"], "counts tilts from 0"),
+    (["entropy", "--model", "fake.npz", "--sequence", "N"], "fake.npz"),
+])
+def test_refused_in_one_line_before_allocating(files, capsys, argv, needle):
+    assert main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert err.count("\n") == 1 and needle in err, err
+    assert "Traceback" not in err
