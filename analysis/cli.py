@@ -35,14 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
         cmd = sub.add_parser(name, help=help_text, description=help_text)
         cmd.add_argument("--json", action="store_true",
                          help="print exactly one JSON object on standard output (logs go to stderr)")
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name != module_name:
-                raise
-            sub._name_parser_map.pop(name, None)  # not built yet: leave the command out
-            sub._choices_actions[:] = [a for a in sub._choices_actions if a.dest != name]
-            continue
+        module = importlib.import_module(module_name)
         module.add_arguments(cmd)
         cmd.set_defaults(_module=module)
     return parser

@@ -1,7 +1,4 @@
-"""Sub-commands of ``kruskal``: one module each, ``add_arguments(parser)`` and ``run(args) -> dict``.
-
-A command that is not built yet is simply absent from :data:`COMMANDS`.
-"""
+"""Sub-commands of ``kruskal``: one module each, ``add_arguments(parser)`` and ``run(args) -> dict``."""
 from __future__ import annotations
 
 

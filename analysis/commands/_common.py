@@ -9,9 +9,6 @@ import numpy as np
 from analysis.commands import InputError
 from analysis.sequences import sequence_rng  # noqa: F401 - re-exported for the commands
 
-#: The canonical tray actions, in index order 0..7 (docs/commands.md).
-TRAY_ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
-
 
 def parse_sequence(text: str, action_names, rng: np.random.Generator | None = None) -> np.ndarray:
     """Parse ``"NE,S,W"`` (or ``"random:N"``, drawn from ``rng``, see :func:`sequence_rng`) into action indices.
