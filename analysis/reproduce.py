@@ -62,13 +62,13 @@ class ReproduceSettings:
                    + tuple(f"map:high:{i}" for i in range(1, 5)))
     key_build: dict = dataclasses.field(default_factory=dict)
     part_build: dict = dataclasses.field(default_factory=lambda: {"tol_mm": 1.0, "tol_deg": 1.0,
-                                                                  "recenter_rounds": 1, "start_samples": 2000})
-    a_check_trials: int = 500
+                                                                  "recenter_rounds": 1, "start_samples": 1000})
+    a_check_trials: int = 300
     b_trials: int = 100
-    c_trials: int = 100
+    c_trials: int = 60
     replay_trials: int = 10_000
-    validate_sequences: int = 3
-    validate_trials: int = 500
+    validate_sequences: int = 2
+    validate_trials: int = 300
     validate_length: int = 30
     metrics_count: int = 2000
     metrics_runs: int = 500
