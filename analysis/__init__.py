@@ -1,5 +1,5 @@
 """What users run: the ``kruskal`` command line, direct simulation, experiments, figures and reports."""
-
+from kruskal_markov.lazy import lazy_exports
 
 #: public name -> the module that defines it (imported on first use, so that ``import analysis`` and
 #: the command line stay fast; PEP 562).
@@ -20,16 +20,4 @@ _EXPORTS = {
 }
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name):
-    if name in _EXPORTS:
-        import importlib
-
-        value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

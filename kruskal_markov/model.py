@@ -30,16 +30,16 @@ FORMAT_VERSION = 1
 _EXTRA_PREFIX = "x_"
 
 
-def atomic_savez(path, arrays: dict, prefix: str = ".tmp-") -> str:
-    """Write ``arrays`` to an uncompressed ``.npz`` at ``path`` atomically (temporary file in the same
-    directory, fsync, ``os.replace``): a reader sees the old file or the new one, never a part."""
+def _atomic_write(path, write, suffix: str, prefix: str = ".tmp-", binary: bool = True) -> str:
+    """Call ``write(fh)`` on a temporary file in ``path``'s directory, fsync, then ``os.replace`` it
+    onto ``path``: a reader sees the old file or the new one, never a part."""
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
     os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=".npz", dir=directory)
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=directory)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
+        with (os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8")) as fh:
+            write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -50,27 +50,17 @@ def atomic_savez(path, arrays: dict, prefix: str = ".tmp-") -> str:
             pass
         raise
     return path
+
+
+def atomic_savez(path, arrays: dict, prefix: str = ".tmp-") -> str:
+    """Write ``arrays`` to an uncompressed ``.npz`` at ``path`` atomically (temporary file in the same
+    directory, fsync, ``os.replace``): a reader sees the old file or the new one, never a part."""
+    return _atomic_write(path, lambda fh: np.savez(fh, **arrays), ".npz", prefix)
 
 
 def atomic_write_text(path, text: str) -> str:
     """Write ``text`` (UTF-8) to ``path`` atomically, like :func:`atomic_savez`."""
-    path = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=directory)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-    return path
+    return _atomic_write(path, lambda fh: fh.write(text), os.path.splitext(os.fspath(path))[1], binary=False)
 
 
 #: the largest row-sum tolerance a model file may ask for: the tolerance belongs to the reader, so a
