@@ -67,8 +67,21 @@ def _format_text(result: dict) -> str:
     return "\n".join(lines)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into the same clean unwinding as Ctrl-C (workers shut down, files left whole)."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; return the process exit status."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _raise_terminated)
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -81,6 +94,9 @@ def main(argv: list[str] | None = None) -> int:
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         sys.stderr.write(f"kruskal {args.command}: error: {message}\n")
         return 2
+    except Terminated:
+        sys.stderr.write(f"kruskal {args.command}: terminated\n")
+        return 143
     except KeyboardInterrupt:
         sys.stderr.write(f"kruskal {args.command}: interrupted\n")
         return 130

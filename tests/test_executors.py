@@ -193,3 +193,48 @@ def test_local_workers_die_with_a_killed_parent(made_by):
     for p in left:  # do not leave them behind if the test fails
         os.kill(p, signal.SIGKILL)
     assert not left, f"worker(s) {left} outlived their parent"
+
+
+def _descendants(pid: int) -> list[int]:
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            kids = [int(c) for t in os.listdir(f"/proc/{p}/task")
+                    for c in open(f"/proc/{p}/task/{t}/children").read().split()]
+        except OSError:
+            kids = []
+        out += kids
+        todo += kids
+    return out
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="needs /proc")
+@pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 143), (signal.SIGKILL, -9)])
+def test_killed_simulate_leaves_no_worker_behind(sig, status):
+    """`kruskal simulate` killed mid-run (SIGTERM: a clean one-line exit; SIGKILL) leaves no process."""
+    proc = subprocess.Popen([sys.executable, "-m", "analysis", "simulate", "--sequence", "random:50",
+                             "--trials", "100000", "--workers", "2"], cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    workers = []
+    try:
+        end = time.monotonic() + 60
+        while time.monotonic() < end and len(workers) < 2:
+            time.sleep(0.2)
+            workers = _descendants(proc.pid)
+        assert len(workers) >= 2, "no workers started within 60 s"
+        time.sleep(1.0)
+        proc.send_signal(sig)
+        assert proc.wait(15) == status
+        if sig == signal.SIGTERM:
+            assert proc.stderr.read().strip().splitlines()[-1] == "kruskal simulate: terminated"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    end = time.monotonic() + 5
+    while time.monotonic() < end and any(_alive(p) for p in workers):
+        time.sleep(0.1)
+    left = [p for p in workers if _alive(p)]
+    for p in left:
+        os.kill(p, signal.SIGKILL)
+    assert not left, f"worker(s) {left} outlived `kruskal simulate`"

@@ -45,6 +45,7 @@ __all__ = [
     "make_executor",
     "shutdown_workers",
     "simulator_for",
+    "terminate_workers",
 ]
 
 #: simulators kept per process and thread (least recently used first out).
@@ -265,6 +266,23 @@ def shutdown_workers() -> None:
 atexit.register(shutdown_workers)
 
 
+def terminate_workers() -> None:
+    """Stop the kept local workers now, without waiting for their running tasks (after Ctrl-C or
+    SIGTERM: a task may run for minutes). ProcessPoolExecutor has no public way to do this before
+    Python 3.14 (``terminate_workers``), hence its ``_processes`` map."""
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            return
+        pool, _POOL = _POOL[1], None
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        try:
+            proc.terminate()
+        except (OSError, AttributeError):  # pragma: no cover - already gone
+            pass
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
 class LocalExecutor(Executor):
     """Runs tasks in ``workers`` spawned worker processes of this machine (a kept, shared pool).
 
@@ -297,9 +315,11 @@ class LocalExecutor(Executor):
                 fut.cancel()
             shutdown_workers()
             raise RuntimeError(_BROKEN_MESSAGE) from exc
-        except BaseException:  # also KeyboardInterrupt, and GeneratorExit when the caller stops
+        except BaseException as exc:  # also KeyboardInterrupt, and GeneratorExit when the caller stops
             for fut in futures:
                 fut.cancel()
+            if isinstance(exc, KeyboardInterrupt):   # Ctrl-C or SIGTERM: do not wait for running tasks
+                terminate_workers()
             raise
 
 
