@@ -111,7 +111,8 @@ def test_rank_cli_uses_cached_models_and_orders_by_sync_length(report, cache_dir
     scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)).save(str(scene))
     res = subprocess.run([sys.executable, "-m", "analysis", "rank", "--shapes", "rectangle:30x30", "rectangle:20x30",
                           "--scene", str(scene), "--start-samples", "400", "--resolution", "0.25,0.25",
-                          "--recenter-rounds", "3", "--count", "200", "--runs", "30", "--workers", "2", "--json"],
+                          "--recenter-rounds", "3", "--count", "200", "--runs", "30", "--workers", "2", "--json",
+                          "--markdown", str(tmp_path / "rank.md")],
                          capture_output=True, text=True, timeout=600, cwd=ROOT,
                          env=dict(os.environ, KRUSKAL_CACHE=str(cache_dir)))
     assert res.returncode == 0, res.stderr[-2000:]
@@ -122,6 +123,8 @@ def test_rank_cli_uses_cached_models_and_orders_by_sync_length(report, cache_dir
     assert rows["rectangle:20x30"]["sync_length"] is None
     assert rows["rectangle:30x30"]["decided_by"] == "sync_length"
     assert rows["rectangle:30x30"]["sync_word"] == report[0]["key_metrics"]["sync_word"]
+    table = (tmp_path / "rank.md").read_text()
+    assert "| 1 | rectangle:30x30 |" in table and "| 2 | rectangle:20x30 |" in table
 
 
 @pytest.mark.parametrize("argv, needle", [

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, parse_resolution, positive_float
+from analysis.commands._common import add_seed, check_writable_file, parse_resolution, positive_float
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds of exact shortest-word search per shape (default 20)")
     parser.add_argument("--check-trials", type=int, default=0, metavar="M",
                         help="also simulate one random 50-tilt sequence per shape with M trials (default 0: off)")
+    parser.add_argument("--markdown", metavar="FILE.md", help="also write the ranking as a Markdown table")
     add_seed(parser)
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
 
@@ -52,6 +53,7 @@ def run(args: argparse.Namespace) -> dict:
         raise InputError("--sync-time-budget must be positive")
     if len(set(args.shapes)) != len(args.shapes):
         raise InputError("--shapes lists a shape twice")
+    check_writable_file(args.markdown, "--markdown")
     mm, deg = parse_resolution(args.resolution)
     scenes = {}
     for spec in args.shapes:   # every shape checked before the first (long) build
@@ -90,7 +92,40 @@ def run(args: argparse.Namespace) -> dict:
 
             rho = spearmanr([c["model"] for c in checks.values()], [c["direct"] for c in checks.values()])[0]
             out["check"]["spearman"] = float(rho)
+    if args.markdown:
+        from kruskal_markov.model import atomic_write_text
+
+        atomic_write_text(args.markdown, markdown_table(out, " ".join(args.shapes)))
+        out["markdown"] = args.markdown
     return out
+
+
+def markdown_table(result: dict, shapes: str = "") -> str:
+    """The ranking as a Markdown table (best first) with the check, if any."""
+    def f(x, spec):
+        return "-" if x is None else format(x, spec)
+
+    mm, deg = result["resolution"]
+    lines = ["# Orientability ranking", "",
+             f"`kruskal rank --shapes {shapes}` (models at {mm:g} mm / {deg:g} degrees, seed {result['seed']}). "
+             "Metrics from each part's model (docs/commands.md): the shortest synchronizing word (* = greedy, "
+             "not proven shortest), the expected number of random tilts until the predicted entropy is "
+             "<= 1e-3 bits (censored: random runs that never got there in 1,000 tilts), the mean entropy "
+             "after 10 and 50 random tilts, and the share of random 50-tilt sequences that converge.", "",
+             "| rank | part | states | shortest word | expected random tilts (censored) | H after 10 / 50 | "
+             "converging | decided by |", "|---|---|---|---|---|---|---|---|"]
+    for r in result["ranking"]:
+        word = "none" if r["sync_length"] is None else f"{r['sync_length']}{'' if r['sync_exact'] else '*'}"
+        lines.append(f"| {r['rank']} | {r['shape']} | {r['states']:,} | {word} | {f(r['random_tilts'], '.1f')} "
+                     f"({r['random_tilts_censored']}) | {r['mean_entropy_10']:.2f} / {r['mean_entropy_50']:.2f} | "
+                     f"{100 * r['converging_share_50']:.0f}% | {r['decided_by'] or '-'} |")
+    c = result.get("check")
+    if c:
+        lines += ["", f"Check against direct simulation ({c['on']}, M = {c['trials']}): "
+                      + ", ".join(f"{k} model {v['model']:.2f} / direct {v['direct']:.2f} bits"
+                                  for k, v in c["mean_entropy"].items())
+                      + (f"; Spearman rank correlation {c['spearman']:.2f}." if "spearman" in c else ".")]
+    return "\n".join(lines) + "\n"
 
 
 def format_text(result: dict) -> str:
