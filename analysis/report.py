@@ -147,6 +147,20 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
     p = r["paper"]
     a, e, b, c, km, v = r["A"], r["ensemble"], r["B"], r["C"], r["key_metrics"], r["validation"]
     eps = s["epsilon"]
+    from analysis.reproduce import settled_steps
+
+    a_settled = int(np.count_nonzero(settled_steps(a["entropy"], eps) >= 0))
+    nb = len(b["parts"])
+    b_model_end = sum(q["entropy_bits"][-1] <= eps for q in b["parts"].values())
+    b_direct_end = sum(q["direct"]["entropy_bits"][-1] == 0.0 for q in b["parts"].values())
+    reach = next((t for t, h in enumerate(a["best_entropy"]) if h <= eps), None)
+    settle = int(settled_steps(a["best_entropy"], eps)[0])
+    bd = a["best_direct"]
+    best_text = (f"the model's best reaches zero at tilt {_fmt(reach, 'd', 'never')}"
+                 + (f" and stays from tilt {settle}" if settle >= 0 else ", then splits again (ends at "
+                    f"{a['best_entropy'][-1]:.2f} bits)")
+                 + f"; in direct simulation (M = {bd['trials']}) it reaches "
+                 f"{min(bd['entropy_bits']):.3f} bits at best and ends at {bd['entropy_bits'][-1]:.3f}")
     lines = [
         "# Sensorless orientation by random tray tilts: the paper's experiments from transition models",
         "",
@@ -182,33 +196,42 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         "| experiment | paper | this report |",
         "|---|---|---|",
         f"| A: random sequences converging to zero | {p['A']['converged']} of {p['A']['sequences']} | "
-        f"{a['converged']} of {a['of']} (model) |",
-        f"| A: mean entropy near zero (<= 0.1 bits) by tilt | ~{p['A']['near_zero_by']} | {_fmt(a['mean_near_zero_by'], 'd', 'not within 50')} |",
-        f"| A: mean convergence tilt of the converging ones | - | {_fmt(a['mean_convergence_tilt'], '.1f')} |",
-        f"| A: best random sequence converges in | {p['A']['best_length']} tilts | "
-        f"{_fmt(a['fastest'], 'd', 'never')} tilts (model); direct simulation of it reaches zero at tilt "
-        f"{_fmt(a['best_direct']['zero_at'], 'd', 'never')} (M = {a['best_direct']['trials']}) |",
+        f"{a_settled} of {a['of']} reach zero and stay there to tilt {s['length']}; {a['converged']} reach it at "
+        "some tilt (model) |",
+        f"| A: mean entropy near zero (<= 0.1 bits) by tilt | ~{p['A']['near_zero_by']} | "
+        f"{_fmt(a['mean_near_zero_by'], 'd', 'not within ' + str(s['length']))} |",
+        f"| A: mean convergence tilt of the converging ones | - | {_fmt(a['mean_convergence_tilt'], '.1f')} "
+        "(first reach) |",
+        f"| A: best random sequence converges in | {p['A']['best_length']} tilts | {best_text} |",
         f"| B: parts converging under the best sequence | {p['B']['converged']} of {p['B']['parts']} | "
-        f"{b['converged']} of {len(b['parts'])} (models); {b['converged_direct']} of {len(b['parts'])} "
-        f"(direct, M = {s['b_trials']}) |",
-        f"| B: mean near zero by tilt | ~{p['B']['near_zero_by']} | {_fmt(b['mean_near_zero_by'], 'd', 'not within 50')} |",
+        f"models: {b['converged']} of {nb} reach zero, {b_model_end} end there; direct (M = {s['b_trials']}): "
+        f"{b['converged_direct']} reach zero, {b_direct_end} end there |",
+        f"| B: mean near zero by tilt | ~{p['B']['near_zero_by']} | "
+        f"{_fmt(b['mean_near_zero_by'], 'd', 'not within ' + str(s['length']))} |",
     ]
     for level, g in c["levels"].items():
         pc, pn = p["C"][level]
+        ends = sum(m["entropy_bits"][-1] == 0.0 for k, m in c["maps"].items() if k.split(":")[1] == level)
         lines.append(f"| C: {level}-noise friction maps converging | {pc} of {pn} | {g['converged']} of {g['maps']} "
-                     f"(direct, M = {s['c_trials']}; mean zero tilt {_fmt(g['mean_zero_at'], '.1f')}) |")
+                     f"reach zero (mean tilt {_fmt(g['mean_zero_at'], '.1f')}), {ends} end there "
+                     f"(direct, M = {s['c_trials']}) |")
     lines += [
         f"| optimal sensorless plan for the key | Erdmann and Mason: {p['erdmann_mason_plan_length']} tilts (by hand) | "
         f"{_fmt(km['sync_length'], 'd', 'none found')} tilts ({'proven shortest' if km['sync_exact'] else 'greedy; lower bound ' + _fmt(km['sync_lower_bound'], 'd')}) |",
         "",
         "![A](fig_a_random_sequences.png)",
         "",
-        f"Best sequence (A): `{','.join(a['best_sequence'])}`.",
+        f"Best sequence (A; chosen as the one that "
+        f"{a.get('best_rule', 'reaches entropy <= epsilon first (ties: lowest final entropy)')}): "
+        f"`{','.join(a['best_sequence'])}`. Zero entropy on the report grid means one *cell*, not one pose: "
+        "a sequence can reach it and split again, which is why reaching and staying are counted apart.",
         "",
         "## Beyond the paper",
         "",
         f"**{e['count']:,} random sequences instead of 43** ({e['seconds']:.0f} s): {e['converged']:,} "
-        f"({100 * e['converged'] / e['count']:.1f}%) converge within {s['length']} tilts, the fastest in "
+        f"({100 * e['converged'] / e['count']:.1f}%) reach zero within {s['length']} tilts"
+        + (f" and {e['settled']['converged']:,} ({100 * e['settled']['converged'] / e['count']:.1f}%) stay there"
+           if "settled" in e else "") + ", the fastest in "
         f"{_fmt(e['fastest'], 'd', '-')}; mean convergence tilt {_fmt(e['mean_convergence_tilt'], '.1f')}; "
         f"mean entropy {e['mean'][min(20, s['length'])]:.2f} bits at tilt 20 and {e['mean'][-1]:.2f} at tilt {s['length']} "
         f"(the 43-sequence sample: {a['mean'][min(20, s['length'])]:.2f} and {a['mean'][-1]:.2f}).",
@@ -263,6 +286,16 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
             rel = abs(x - y) / max(abs(x), abs(y), 1e-9)
             verdict.append(f"{label}: {'agrees within 20%' if rel <= 0.2 else 'differs by ' + format(rel, '.0%')}")
         lines += ["", "Robustness, metric by metric (relative difference): " + "; ".join(verdict) + ".", ""]
+        both = all(cm[k]["sync_length"] is not None for k in keys)
+        lines += ["What holds under either contact model: "
+                  + ("a synchronizing word exists (" + " and ".join(str(cm[k]["sync_length"]) for k in keys)
+                     + " tilts), " if both else "")
+                  + "random sequences orient the key (" + " and ".join(f"{100 * cm[k]['converging_share']:.0f}%"
+                                                                       for k in keys)
+                  + f" of random {s['length']}-tilt sequences converge), and the expected random length is finite. "
+                  "How many converge, how fast, and how short the optimal plan is depend on the contact model, "
+                  "so those numbers are only as good as the simulator's contact model; no direct measurement "
+                  "on a physical tray decides between them yet.", ""]
     lines += ["## B: other parts", ""]
     if b["parts"]:
         rc = b["rank_correlation"]
@@ -283,7 +316,10 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
                       f"{_fmt(rc['spearman'])} (p = {_fmt(rc['p_value'], '.2g')}, {rc['parts']} parts).", ""]
     lines += ["## C: friction noise (direct simulation)", "",
               "A friction map breaks the tray's rotation symmetry, so each map would need its own full model; "
-              f"C is therefore run as the paper ran it, by direct simulation (M = {s['c_trials']} per map).", ""]
+              f"C is therefore run as the paper ran it, by direct simulation (M = {s['c_trials']} per map). "
+              f"With uniform friction the same sequence ends at {bd['entropy_bits'][-1]:.2f} bits (M = {bd['trials']}). "
+              f"A zero with M = {s['c_trials']} trials says only that fewer than about {300 / s['c_trials']:.0f}% of "
+              "parts would end elsewhere (95% confidence).", ""]
     if c["levels"]:
         lines += ["![C](fig_c_friction.png)", ""]
     lines += ["## How the differences arise", "",

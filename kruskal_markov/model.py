@@ -42,6 +42,9 @@ def _atomic_write(path, write, suffix: str, prefix: str = ".tmp-", binary: bool 
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)   # mkstemp's 0600 would make every result private
         os.replace(tmp, path)
     except BaseException:
         try:
