@@ -61,7 +61,14 @@ def test_report_files_and_numbers_agree(report):
     # the converged count is what the per-sequence curves say
     assert a["converged"] == int(np.sum(h.min(axis=1) <= result["settings"]["epsilon"]))
     np.testing.assert_allclose(a["mean"], h.mean(axis=0))
-    assert f"{a['converged']} of 6 (model)" in text
+    assert f"{a['converged']} reach it at some tilt (model)" in text
+    # reached and stayed, recounted from the curves; the best sequence settles no later than any other
+    eps = result["settings"]["epsilon"]
+    stays = [max((t for t in range(13) if row[t] > eps), default=-1) + 1 for row in h]
+    stays = [t if t <= 12 else -1 for t in stays]
+    assert a["settled"]["converged"] == sum(t >= 0 for t in stays)
+    if a["settled"]["converged"]:
+        assert stays[a["best_index"]] == min(t for t in stays if t >= 0)
     assert ",".join(a["best_sequence"]) in text
     # the ensemble's converged-by-tilt curve ends at its converged count
     e = saved["ensemble"]
