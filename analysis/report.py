@@ -296,6 +296,22 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
                   "How many converge, how fast, and how short the optimal plan is depend on the contact model, "
                   "so those numbers are only as good as the simulator's contact model; no direct measurement "
                   "on a physical tray decides between them yet.", ""]
+    if "entropy_bits_log" in bd:
+        model_h = np.asarray(a["best_entropy"])
+        log_h = np.asarray(bd["entropy_bits_log"])
+        lines += ["## A robot's log beside the model", "",
+                  "A physical tray's camera log, one row per part and tilt in the `--poses` CSV format "
+                  "(`trial,step,x_mm,y_mm,theta_rad,status`; docs/commands.md), is compared with the model "
+                  "like this:", "", "```",
+                  f"kruskal entropy --poses log.csv --shape {s['shape']} --json         # the log's entropy",
+                  f"kruskal entropy --model KEY.npz --sequence {','.join(a['best_sequence'][:4])},... --json"
+                  "   # the model's prediction", "```", "",
+                  f"Here the log is the direct simulation of A's best sequence ({bd['trials']} trials), written "
+                  f"and read back through that CSV: its entropy agrees with the simulation's to "
+                  f"{np.abs(log_h - np.asarray(bd['entropy_bits'])).max():.1e} bits, and the model's "
+                  f"prediction differs from it by {np.abs(model_h - log_h).mean():.3f} bits on average "
+                  f"(max {np.abs(model_h - log_h).max():.2f}; the log's own sampling noise at "
+                  f"{bd['trials']} trials is part of that).", ""]
     lines += ["## B: other parts", ""]
     if b["parts"]:
         rc = b["rank_correlation"]

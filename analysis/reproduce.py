@@ -132,13 +132,26 @@ def _converged_summary(steps: np.ndarray) -> dict:
             "fastest": int(ok.min()) if ok.size else None}
 
 
-def direct_summary(scene, sequence, trials, seed, workers) -> dict:
-    """Direct simulation of one sequence (:func:`analysis.montecarlo.run_direct`) as a JSON-ready summary."""
-    from analysis.montecarlo import run_direct
+def direct_summary(scene, sequence, trials, seed, workers, recorded: bool = False) -> dict:
+    """Direct simulation of one sequence (:func:`analysis.montecarlo.run_direct`) as a JSON-ready summary.
+
+    With ``recorded``, the trials also go the way a robot's log would: written as a ``--poses`` CSV,
+    read back and binned on the report grid (``entropy_bits_log``), so the format round trip is checked
+    on every report.
+    """
+    from analysis.montecarlo import entropy_by_step, read_poses_csv, run_direct, write_poses_csv
 
     res = run_direct(scene, sequence, trials, seed=seed, workers=workers)
-    return {"entropy_bits": res.entropy_bits.tolist(), "trials": int(trials), "faults": dict(res.faults),
-            "tilts": int(res.tilts_simulated)}
+    out = {"entropy_bits": res.entropy_bits.tolist(), "trials": int(trials), "faults": dict(res.faults),
+           "tilts": int(res.tilts_simulated)}
+    if recorded:
+        import os
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as d:
+            log = read_poses_csv(write_poses_csv(os.path.join(d, "log.csv"), res))
+            out["entropy_bits_log"] = entropy_by_step(log, res.grid).tolist()
+    return out
 
 
 def _first_at_most(curve, eps) -> int | None:
@@ -191,7 +204,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
          "settled": _converged_summary(settled_steps(ens.entropy, eps)),
          "mean_near_zero_by": _first_at_most(ens.mean, 0.1)}
     _log(progress, f"A: best sequence replayed in direct simulation ({s.a_check_trials} trials)")
-    a["best_direct"] = direct_summary(key_scene, best, s.a_check_trials, s.seed, workers)
+    a["best_direct"] = direct_summary(key_scene, best, s.a_check_trials, s.seed, workers, recorded=True)
     a["best_direct"]["zero_at"] = _first_at_most(a["best_direct"]["entropy_bits"], 0.0)
     out["A"] = a
 

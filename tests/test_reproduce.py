@@ -75,6 +75,14 @@ def test_report_files_and_numbers_agree(report):
     assert e["converged_by_tilt"][-1] == e["converged"] <= e["count"] == 300
 
 
+def test_recorded_log_round_trip(report):
+    """The A check's trials, written as a --poses CSV and read back, give the simulation's entropy."""
+    result, _, out = report
+    bd = result["A"]["best_direct"]
+    np.testing.assert_allclose(bd["entropy_bits_log"], bd["entropy_bits"], atol=1e-12)
+    assert "A robot's log beside the model" in (out / "index.md").read_text()
+
+
 def test_sync_word_replayed_in_direct_simulation(report):
     """The model's synchronizing word orients the part in the physics engine too."""
     result, _, _ = report
