@@ -99,6 +99,21 @@ def main() -> None:
         lines.append(f"| direct Monte Carlo, M = {m:,} per sequence | {sec:.0f} | {e['mean']:.3f} | {e['max']:.2f} | "
                      f"{sec / SEQUENCES:.0f} s |")
         points.append(("direct", sec, e["mean"], e["max"], f"M={m}"))
+    # break-even: the smallest M whose mean error is no better than the default model's, and how many
+    # sequences the model's one build costs at that M
+    det = held.get(f"det@{trials}@{HELD_OUT_SEED}")
+    if det:
+        worse = [m for m, e in mc.items() if e["mean"] >= det["mean_abs_error_bits"]]
+        if worse:
+            m = max(worse)
+            per_seq = m * LENGTH / rate
+            lines += ["", f"Break-even: direct simulation with M = {m:,} per sequence (mean error "
+                          f"{mc[m]['mean']:.3f}, no better than the default model's {det['mean_abs_error_bits']:.3f}) "
+                          f"costs {per_seq:.0f} s per {LENGTH}-tilt sequence, so the model's {det['build_seconds']:.0f} s "
+                          f"build pays for itself from about {det['build_seconds'] / per_seq:.0f} sequences on; "
+                          "the paper's 43 sequences x 50 tilts are near that point, a million random sequences "
+                          "(45 s through the model) are far past it. The model's worst step is another matter: "
+                          "its max error is that of about M = 25."]
     spread = next((v["simulation_spread_bits"] for v in held.values() if "simulation_spread_bits" in v), None)
     if spread:
         lines += ["", f"The simulator's own spread on the same sequences (default against half time step): mean "
