@@ -541,8 +541,8 @@ def _greedy_descent(aut, s, node_budget):
         cur = st.rows[found].copy()
 
 
-#: bytes per state pair of the pair-graph check (distance table and BFS work arrays).
-_PAIR_CHECK_BYTES = 40
+#: bytes per state pair of the pair-graph synchronizability check (distance table and BFS work arrays).
+PAIR_CHECK_BYTES = 40
 
 
 def shortest_synchronizing_word(aut: SyncAutomaton, start=None, time_budget: float = 60.0,
@@ -567,7 +567,7 @@ def shortest_synchronizing_word(aut: SyncAutomaton, start=None, time_budget: flo
     s = _as_start(aut, start)
     if s.size == 1:
         return SyncResult([], 0, True, "trivial", seconds=time.perf_counter() - t0)
-    pair_mb = aut.n * (aut.n - 1) / 2 * _PAIR_CHECK_BYTES / 2 ** 20
+    pair_mb = aut.n * (aut.n - 1) / 2 * PAIR_CHECK_BYTES / 2 ** 20
     skipped = pair_mb > 0.5 * memory_budget_mb
     if not skipped:
         check = synchronizability(aut, s)

@@ -109,6 +109,17 @@ def test_cerny_4_expected_length_and_reproducible_mc():
     assert a["monte_carlo"] == b["monte_carlo"]
 
 
+def test_pair_check_skipped_beyond_the_memory_budget_same_answers():
+    """Past half the memory budget the quadratic pair check is skipped, and every estimate stays."""
+    table = np.array([[1, 2, 3, 0], [0, 1, 2, 0]])
+    aut = SyncAutomaton.from_table(table)
+    full = expected_sync_length(aut, seed=5, runs=500)
+    lean = expected_sync_length(aut, seed=5, runs=500, memory_budget_mb=1e-6)
+    assert full["pair_check"] == "done" and lean["pair_check"].startswith("skipped")
+    for key in ("exact", "monte_carlo", "ci95", "pair_lower", "pair_upper"):
+        assert lean[key] == full[key]
+
+
 def test_set_valued_exact_matches_brute_force():
     rng = np.random.default_rng(4)
     done = 0

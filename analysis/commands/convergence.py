@@ -35,6 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds for the Monte Carlo runs; runs still going are censored, which makes "
                              "the result depend on the machine's speed (default: none, so the same seed "
                              "gives the same output; --max-steps still censors)")
+    parser.add_argument("--memory-budget-mb", type=positive_float, default=2048.0, metavar="MB",
+                        help="memory for the quadratic pair-graph check; skipped beyond half of it (default 2048)")
     parser.add_argument("--epsilon", type=float, default=None,
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
 
@@ -87,7 +89,8 @@ def run(args: argparse.Namespace) -> dict:
     start = start_set(model, whole)
     res = expected_sync_length(aut, start, w, seed=args.seed, runs=args.runs,
                                max_subsets=args.max_subsets, max_steps=args.max_steps,
-                               pair_time_budget=args.pair_time_budget, mc_time_budget=args.mc_time_budget)
+                               pair_time_budget=args.pair_time_budget, mc_time_budget=args.mc_time_budget,
+                               memory_budget_mb=args.memory_budget_mb)
     keys = ("exact", "monte_carlo", "ci95", "pair_lower", "pair_upper")
     out = {"expected_length": {k: res[k] for k in keys}}
     out.update({k: v for k, v in res.items() if k not in keys})
