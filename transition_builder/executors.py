@@ -280,7 +280,7 @@ def terminate_workers() -> None:
             proc.terminate()
         except (OSError, AttributeError):  # pragma: no cover - already gone
             pass
-    pool.shutdown(wait=False, cancel_futures=True)
+    pool.shutdown(wait=False)
 
 
 class LocalExecutor(Executor):
@@ -316,10 +316,13 @@ class LocalExecutor(Executor):
             shutdown_workers()
             raise RuntimeError(_BROKEN_MESSAGE) from exc
         except BaseException as exc:  # also KeyboardInterrupt, and GeneratorExit when the caller stops
-            for fut in futures:
-                fut.cancel()
             if isinstance(exc, KeyboardInterrupt):   # Ctrl-C or SIGTERM: do not wait for running tasks
+                # no cancel() first: the pool's manager thread fails every pending future when its
+                # workers die, and a cancelled one makes it raise InvalidStateError (Python 3.11)
                 terminate_workers()
+            else:
+                for fut in futures:
+                    fut.cancel()
             raise
 
 
