@@ -147,13 +147,13 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
     p = r["paper"]
     a, e, b, c, km, v = r["A"], r["ensemble"], r["B"], r["C"], r["key_metrics"], r["validation"]
     eps = s["epsilon"]
-    from analysis.reproduce import settled_steps
+    from analysis.reproduce import first_at_most, settled_steps
 
     a_settled = int(np.count_nonzero(settled_steps(a["entropy"], eps) >= 0))
     nb = len(b["parts"])
     b_model_end = sum(q["entropy_bits"][-1] <= eps for q in b["parts"].values())
     b_direct_end = sum(q["direct"]["entropy_bits"][-1] == 0.0 for q in b["parts"].values())
-    reach = next((t for t, h in enumerate(a["best_entropy"]) if h <= eps), None)
+    reach = first_at_most(a["best_entropy"], eps)
     settle = int(settled_steps(a["best_entropy"], eps)[0])
     bd = a["best_direct"]
     best_text = (f"the model's best reaches zero at tilt {_fmt(reach, 'd', 'never')}"

@@ -28,7 +28,7 @@ import numpy as np
 
 from analysis.orientability import CONVERGED_BITS, part_metrics
 
-__all__ = ["PAPER", "ReproduceSettings", "direct_summary", "reproduce", "settled_steps"]
+__all__ = ["PAPER", "ReproduceSettings", "direct_summary", "first_at_most", "reproduce", "settled_steps"]
 
 #: the paper's own figures (Sec. V A-C), for the side-by-side table.
 PAPER = {
@@ -154,9 +154,13 @@ def direct_summary(scene, sequence, trials, seed, workers, recorded: bool = Fals
     return out
 
 
-def _first_at_most(curve, eps) -> int | None:
-    idx = np.flatnonzero(np.asarray(curve) <= eps)
-    return int(idx[0]) if idx.size else None
+def first_at_most(curve, eps) -> int | None:
+    """First step of ``curve`` with entropy ``<= eps`` (None if never): one row of
+    :func:`kruskal_markov.ensemble.convergence_steps`."""
+    from kruskal_markov.ensemble import convergence_steps
+
+    step = int(convergence_steps(np.atleast_2d(np.asarray(curve, dtype=float)), eps)[0])
+    return None if step < 0 else step
 
 
 def _build(scene, changes, seed, workers, progress, what):
@@ -202,10 +206,10 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
          "best_rule": "settles first (reaches entropy <= epsilon and stays there), else reaches first",
          "best_entropy": ens.entropy[best_index].tolist(), **_converged_summary(ens.convergence_steps),
          "settled": _converged_summary(settled_steps(ens.entropy, eps)),
-         "mean_near_zero_by": _first_at_most(ens.mean, 0.1)}
+         "mean_near_zero_by": first_at_most(ens.mean, 0.1)}
     _log(progress, f"A: best sequence replayed in direct simulation ({s.a_check_trials} trials)")
     a["best_direct"] = direct_summary(key_scene, best, s.a_check_trials, s.seed, workers, recorded=True)
-    a["best_direct"]["zero_at"] = _first_at_most(a["best_direct"]["entropy_bits"], 0.0)
+    a["best_direct"]["zero_at"] = first_at_most(a["best_direct"]["entropy_bits"], 0.0)
     out["A"] = a
 
     # --- beyond: a million sequences ----------------------------------------------------------
@@ -218,7 +222,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     out["ensemble"] = {"count": s.ensemble_count, "mean": big.mean.tolist(), "q25": big.q25.tolist(),
                        "q75": big.q75.tolist(), **_converged_summary(steps),
                        "converged_by_tilt": np.cumsum(hist).tolist(),
-                       "mean_near_zero_by": _first_at_most(big.mean, 0.1),
+                       "mean_near_zero_by": first_at_most(big.mean, 0.1),
                        "best_sequence": [names[x] for x in big.best_sequence], "settled": settled,
                        "seconds": time.perf_counter() - t0}
     del big
@@ -254,14 +258,14 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
                                sync_time_budget=s.part_sync_time_budget)
         _log(progress, f"B: {spec}: best sequence in direct simulation ({s.b_trials} trials)")
         direct = direct_summary(scene, best, s.b_trials, s.seed, workers)
-        parts[spec] = {"model": info, "entropy_bits": curve.tolist(), "converged_at": _first_at_most(curve, eps),
-                       "direct": direct, "direct_zero_at": _first_at_most(direct["entropy_bits"], 0.0),
+        parts[spec] = {"model": info, "entropy_bits": curve.tolist(), "converged_at": first_at_most(curve, eps),
+                       "direct": direct, "direct_zero_at": first_at_most(direct["entropy_bits"], 0.0),
                        "metrics": metrics.as_dict()}
     curves = np.array([p["entropy_bits"] for p in parts.values()]) if parts else np.zeros((0, s.length + 1))
     out["B"] = {"parts": parts, "converged": sum(p["converged_at"] is not None for p in parts.values()),
                 "converged_direct": sum(p["direct_zero_at"] is not None for p in parts.values()),
                 "mean": curves.mean(axis=0).tolist() if parts else [],
-                "mean_near_zero_by": _first_at_most(curves.mean(axis=0), 0.1) if parts else None,
+                "mean_near_zero_by": first_at_most(curves.mean(axis=0), 0.1) if parts else None,
                 "rank_correlation": _rank_correlation(parts)}
 
     # --- C: friction maps (direct simulation) --------------------------------------------------
@@ -270,7 +274,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         scene = scene_from_options(s.shape, friction_spec=spec, tray_mm=s.tray_mm)
         _log(progress, f"C: {spec}: best sequence in direct simulation ({s.c_trials} trials)")
         d = direct_summary(scene, best, s.c_trials, s.seed, workers)
-        d["zero_at"] = _first_at_most(d["entropy_bits"], 0.0)
+        d["zero_at"] = first_at_most(d["entropy_bits"], 0.0)
         maps[spec] = d
     levels = {}
     for level in ("low", "medium", "high"):

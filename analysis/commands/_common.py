@@ -111,3 +111,19 @@ def positive_float(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"expected a finite positive number, got {text!r}")
     return value
+
+
+def check_writable_dir(path: str, option: str) -> None:
+    """Fail before any work if ``path`` (the value of ``option``) cannot be used as an output directory:
+    empty, an existing non-directory, or under a directory that is not writable."""
+    import os
+
+    if not path.strip():
+        raise InputError(f"{option} must name a directory")
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise InputError(f"{option} {path!r} exists and is not a directory")
+    parent = os.path.abspath(path)
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.access(parent, os.W_OK):
+        raise InputError(f"{option} {path!r}: {parent} is not writable")

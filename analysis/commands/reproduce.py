@@ -8,11 +8,10 @@ report under ``reports/``; about an hour on 2 cores when the key's model is cach
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed
+from analysis.commands._common import add_seed, check_writable_dir
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,25 +22,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
 
 
-def _check_writable(directory: str) -> None:
-    if not directory.strip():
-        raise InputError("--out must name a directory")
-    if os.path.exists(directory) and not os.path.isdir(directory):
-        raise InputError(f"--out {directory!r} exists and is not a directory")
-    parent = os.path.abspath(directory)
-    while not os.path.exists(parent):
-        parent = os.path.dirname(parent)
-    if not os.access(parent, os.W_OK):
-        raise InputError(f"--out {directory!r}: {parent} is not writable")
-
-
 def run(args: argparse.Namespace) -> dict:
     from analysis.report import write_report
     from analysis.reproduce import ReproduceSettings, reproduce
 
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
-    _check_writable(args.out)
+    check_writable_dir(args.out, "--out")
     settings = (ReproduceSettings.quick_settings(args.seed) if args.quick
                 else ReproduceSettings.full(args.seed))
 
