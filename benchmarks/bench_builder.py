@@ -10,7 +10,9 @@ gives the reference's own sampling noise, and for the deterministic scene the si
 spread (the same trials at half the time step).
 
 Run: ``python -m benchmarks builder`` (the default build, about 1 hour on 2 cores with fresh references) or select with
-``KRUSKAL_BENCH_BUILDER=det,det-recenter,noise`` and ``KRUSKAL_BENCH_BUILDER_TRIALS=1000``.
+``KRUSKAL_BENCH_BUILDER=det,det-recenter,noise`` and ``KRUSKAL_BENCH_BUILDER_TRIALS=1000``;
+``KRUSKAL_BENCH_BUILDER_REUSE=PATH`` validates a model already built with the (one) selected
+variant's settings (checked by its build key) and reports its recorded build time.
 Writes ``benchmarks/results/builder.json`` and the markdown table ``benchmarks/BUILDER_RESULTS.md``.
 """
 from __future__ import annotations
@@ -57,6 +59,8 @@ VARIANTS = {
                  "noise pose:0.5,0.5, K = 8 everywhere, weighted exploration 1e-4, 0.5 / 0.5"),
     "noise-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0},
                   "noise pose:0.5,0.5, K = 2 / 8, weighted exploration 1e-4, 1 / 1"),
+    "noise-1mm-w1e-3": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0, "explore_weight": 1e-3},
+                        "noise pose:0.5,0.5, K = 2 / 8, weighted exploration 1e-3 with borrowed rows, 1 / 1"),
     "noise-closed-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0, "explore_weight": 0.0},
                          "noise pose:0.5,0.5, K = 2 / 8, full closure, 1 / 1"),
 }
@@ -102,21 +106,33 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
     settings = BuildSettings(**changes)
     t0 = time.perf_counter()
     cpu0 = time.process_time()
-    result = build_model(scene, settings, workers=workers, progress=None)
-    build_s = time.perf_counter() - t0
-    model = result.model
+    reuse = os.environ.get("KRUSKAL_BENCH_BUILDER_REUSE")
+    if reuse:
+        # a model this variant's settings already built (e.g. `kruskal build ... --out PATH`): validate it
+        from kruskal_markov.model import TransitionModel
+        from transition_builder.builder import build_key
+
+        model = TransitionModel.load(reuse)
+        if model.metadata.get("build_key") != build_key(scene, settings):
+            raise SystemExit(f"{reuse} was not built with the settings of variant {name!r}")
+        st = dict(model.metadata["stats"])
+        build_s = float(st["simulation_seconds"])
+    else:
+        result = build_model(scene, settings, workers=workers, progress=None)
+        build_s = time.perf_counter() - t0
+        model, st = result.model, result.stats
     model.save(str(RESULTS / f"model-{name}.npz"))
     simulate, _ = reference_cache(scene, trials, model_grid(model), workers)
     t1 = time.perf_counter()
     val = validate_model(model, SEQUENCES, trials, SEED, LENGTH, spread=spread and settings.noise == "none",
                          bands=40, simulate=simulate)
-    st = result.stats
     row = {
         "variant": name, "description": description, "build_seconds": build_s,
         "parent_cpu_seconds": time.process_time() - cpu0, "states": st["states"],
         "representatives": st["representatives"], "tilts": st["tilts_simulated"],
         "splits": st.get("representatives_split", 0), "moved": st.get("representatives_moved", 0),
-        "unexplored": st.get("unexplored_states", 0), "noise": settings.noise, "samples": settings.samples,
+        "unexplored": st.get("unexplored_states", 0), "borrowed": st.get("rows_borrowed", 0),
+        "noise": settings.noise, "samples": settings.samples,
         "mean_abs_error_bits": val["mean_abs_error_bits"], "max_abs_error_bits": val["max_abs_error_bits"],
         "median_abs_error_bits": val["median_abs_error_bits"],
         "share_steps_above_0_25": val["share_steps_above_0_25"], "final_tv_distance": val["final_tv_distance"],

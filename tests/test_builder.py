@@ -351,3 +351,38 @@ def test_recentring_moves_representatives_onto_resting_points():
     assert np.all(status == 0)
     targets = [m.matrices[1].getrow(s).indices[0] for s in rest]
     assert np.array_equal(grid.voxel_index(land), m.partition[targets])
+
+
+def test_weighted_exploration_borrows_rows_of_nearby_explored_states():
+    """Weighted exploration (noisy scenes) expands only states that carry probability; an unexplored
+    state takes the row of the nearest explored state in its report cell and contact group, and
+    that is said in the model (``borrowed_from``) and in the statistics -- the samples still add up."""
+    from transition_builder.builder import STATE_UNEXPLORED
+
+    scene = _square_scene()
+    s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5)
+    r = build_model(scene, s, executor=SerialExecutor())
+    m, st = r.model, r.stats
+    kind = m.extras["state_kind"]
+    assert st["unexplored_states"] > 0 and st["rows_borrowed"] > 0
+    lender = m.extras["borrowed_from"]
+    borrowers = np.flatnonzero(lender >= 0)
+    assert len(borrowers) == st["rows_borrowed"]
+    assert np.all(kind[borrowers] == STATE_UNEXPLORED) and np.all(kind[lender[borrowers]] == STATE_REST)
+    assert np.array_equal(m.partition[borrowers], m.partition[lender[borrowers]])       # same report cell
+    poses = m.extras["state_poses"]
+    d = np.abs(poses[borrowers, :2] - poses[lender[borrowers], :2]).max(axis=1)
+    assert np.all(d <= 8 * s.tol_mm + 1e-9)
+    for a, P in enumerate(m.matrices):
+        for b in borrowers[:50]:
+            row, src = P.getrow(b), P.getrow(lender[b])
+            assert np.array_equal(row.indices, src.indices) and np.allclose(row.data, src.data)
+        assert np.all(m.extras["samples"][a][borrowers] == 0)
+        counts = np.asarray(m.extras[f"counts_{a}"], dtype=np.int64)
+        rows = np.repeat(np.arange(m.n_states), np.diff(P.indptr))
+        per_row = np.bincount(rows, weights=counts, minlength=m.n_states)
+        np.testing.assert_array_equal(per_row + m.extras["faults"][a], m.extras["samples"][a])
+        np.testing.assert_allclose(np.asarray(P.sum(axis=1)).ravel(), 1.0)
+    # unexplored states with nothing to borrow stay put, and are counted
+    stay = np.flatnonzero((kind == STATE_UNEXPLORED) & (lender < 0))
+    assert st["rows_without_samples"] >= len(stay)

@@ -14,7 +14,9 @@ the same resolution would have ~10^8 voxels.
 (the paper's initial distribution) are tilted under every action and their landings found the
 first representatives; every new representative is tilted ``samples`` times under every action,
 breadth-first, until no landing founds a new one (or ``max_states`` is reached: the rest is
-reported as unexplored, never silently dropped).
+reported as unexplored, never silently dropped). Noisy scenes explore by weight instead
+(``explore_weight``): only states that carry probability along random sequences are expanded, and
+an unexplored state borrows the row of the nearest explored one in its report cell.
 
 **Start states.** The uniform start distribution is not a set of rest poses; it enters the model
 as one *start state per report cell* (Ulam's method proper): its initial probability is the share
@@ -54,6 +56,7 @@ import scipy.sparse as sp
 
 from kruskal_markov.model import TransitionModel, atomic_savez
 from transition_builder.executors import make_executor, simulator_for
+from transition_builder.friction import parse_friction
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_pose
 from transition_builder.sampling import sample_start_poses
@@ -77,7 +80,10 @@ _CHECKPOINT_FORMAT = 3
 NOT_DRAWN = -1
 _PHASES = ("explore", "refine", "topup", "done")
 _MAX_WEIGHT_ROUNDS = 200    # weighted exploration: at most this many weigh-and-expand rounds
-_SPECULATIVE_LAYERS = 2     # weighted exploration: layers expanded between two weighings
+#: weighted exploration's design, in the cache key of weighted builds: an unexplored state borrows
+#: the row of the nearest explored state in its report cell and contact group (``_BORROW_RADIUS``)
+_WEIGHTED_DESIGN = "borrow-1"
+_BORROW_RADIUS = 8.0        # tolerance units (half the snapping index's group spacing)
 _TOPUP_ROUNDS = 4           # adaptive sampling: at most this many weigh-and-top-up rounds
 _WEIGHT_SEQUENCES = 200     # random sequences that weigh the rows of an adaptive build
 _WEIGHT_LENGTH = 30
@@ -143,9 +149,11 @@ class BuildSettings:
         None: 0 without noise, 1e-4 with noise. 0: explore everything the actions reach (closure).
         w > 0: weighted exploration — expand only representatives that hold probability >= w at
         some step of one of 200 random 30-tilt sequences through the model built so far (weighed
-        again every few layers); the rest stay ``unexplored`` (absorbing, counted in the build's
-        statistics). For noisy scenes, whose closure is an order of magnitude larger than the
-        deterministic one.
+        again after every expansion); the rest stay ``unexplored``: each borrows the row of the
+        nearest explored state in its report cell and contact group (within 8 tolerance units;
+        ``rows_borrowed`` in the statistics, ``extras["borrowed_from"]`` in the model), or stays
+        put if there is none (``rows_without_samples``). For noisy scenes, whose closure is an
+        order of magnitude larger than the deterministic one.
     """
 
     tol_mm: float | None = None
@@ -255,11 +263,15 @@ def build_key(scene: Scene, settings: BuildSettings) -> str:
     the build settings (noise and seed included), the builder and package versions."""
     payload = {"scene": scene.content_hash(), "settings": settings.to_dict(), "builder": BUILDER_VERSION,
                "package": _package_version()}
+    if settings.explore_weight > 0:
+        payload["weighted"] = _WEIGHTED_DESIGN
+    if parse_friction(scene.friction).kind == "map":
+        payload["friction_map_tasks"] = "fresh-worlds"     # TraySimulator.fresh_start per task
     text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-@dataclass
+@dataclass(frozen=True)
 class BuildResult:
     """A built model and what it cost (``stats``: the JSON keys of ``kruskal build``)."""
 
@@ -284,7 +296,9 @@ def tilt_chunk(scene: Scene, action: str, poses: np.ndarray, noise_text: str, se
     if not noise.is_zero:
         for i in range(len(p)):
             p[i], _ = perturb_pose(scene, p[i], noise, noise_rng(seed, *(int(k) for k in keys[i])))
-    rest, status = simulator_for(scene).tilt(p, action)
+    sim = simulator_for(scene)
+    sim.fresh_start()        # a task's result depends on its own tilts only (friction maps)
+    rest, status = sim.tilt(p, action)
     return np.asarray(rest, dtype=np.float64), np.asarray(status, dtype=np.int8)
 
 
@@ -442,17 +456,22 @@ def _orbit_jobs(scene, ex, orbits, k_lo, k_hi, key_tag):
 
 def _orbit_weights(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarray:
     """Weight of every orbit: the largest probability any of its states holds at some step of one of
-    ``_WEIGHT_SEQUENCES`` random sequences through the model built so far (unexplored orbits are
-    absorbing there, so their weight is all the mass that reaches them)."""
-    from kruskal_markov.entropy import entropy_trajectory
-
+    ``_WEIGHT_SEQUENCES`` random sequences through the model built so far (an unexplored orbit
+    passes its mass on through the row it borrows, or keeps it if it borrows none)."""
     model, _ = _assemble(scene, settings, sym, grid, index, ex, reps, key, {})
     n_start = int(np.sum(model.extras["state_kind"] == STATE_START))
     rng = np.random.default_rng([settings.seed, _WEIGHT_STREAM])
-    weight = np.zeros(model.n_states)
-    for seq in rng.integers(0, model.n_actions, size=(_WEIGHT_SEQUENCES, _WEIGHT_LENGTH)):
-        d = entropy_trajectory(model, seq, return_distributions=True).distributions
-        np.maximum(weight, d.max(axis=0), out=weight)
+    seqs = rng.integers(0, model.n_actions, size=(_WEIGHT_SEQUENCES, _WEIGHT_LENGTH))
+    # all sequences at once: column s of ``dist`` is sequence s's distribution after each step
+    transposed = [P.T.tocsr() for P in model.matrices]
+    dist = np.asfortranarray(np.repeat(model.initial[:, None], _WEIGHT_SEQUENCES, axis=1))
+    weight = dist.max(axis=1)
+    for t in range(_WEIGHT_LENGTH):
+        for a in range(model.n_actions):
+            cols = np.flatnonzero(seqs[:, t] == a)
+            if len(cols):
+                dist[:, cols] = transposed[a] @ dist[:, cols]
+        np.maximum(weight, dist.max(axis=1), out=weight)
     return weight[n_start:].reshape(-1, sym.order).max(axis=1)
 
 
@@ -670,12 +689,6 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     capped = True
                     break
                 sample_orbits(todo, 0, K0)
-                for _ in range(_SPECULATIVE_LAYERS):        # the next layers, before weighing again
-                    new = np.arange(n, ex.n_orbits)
-                    n = ex.n_orbits
-                    if len(new) == 0 or ex.n_orbits * G >= settings.max_states:
-                        break
-                    sample_orbits(new, 0, K0)
                 if len(top):
                     sample_orbits(top, K0, K)
                     ex.topup_tilts += n_act * (K - K0) * len(top)
@@ -784,6 +797,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
 
 def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
     """Counts -> row-stochastic matrices, initial distribution, partition, extras, stats."""
+    index.compact()
     G, n_act, K = sym.order, len(scene.actions), settings.samples
     n_orbits = len(ex.orbit_poses)
     n_rest = n_orbits * G
@@ -839,6 +853,15 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
     kind = np.full(n, STATE_UNEXPLORED, dtype=np.int8)
     kind[:n_start] = STATE_START
     kind[(n_start + done[:, None] * G + np.arange(G)[None, :]).ravel()] = STATE_REST
+    # weighted builds: an unexplored state borrows the row of the nearest explored one nearby
+    borrowed_from = np.full(n, -1, dtype=np.int64)
+    if settings.explore_weight > 0 and E < n_orbits:
+        unexplored = np.flatnonzero(kind[n_start:] == STATE_UNEXPLORED)
+        src = index.nearest_among(unexplored, np.flatnonzero(kind[n_start:] == STATE_REST), _BORROW_RADIUS)
+        hit = src >= 0
+        borrowed_from[n_start + unexplored[hit]] = n_start + src[hit]
+    borrowers = np.flatnonzero(borrowed_from >= 0)
+    lend = sp.csr_matrix((np.ones(len(borrowers)), (borrowers, borrowed_from[borrowers])), shape=(n, n))
     mats, count_data = [], {}
     imputed = 0
     self_loops = 0
@@ -861,8 +884,8 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
                 extra_c.append(nz)
                 extra_v.append(pooled[nz] / pooled.sum())
             imputed += len(empty_start)
-        # unexplored states, and rows whose every sample faulted: stay put (reported)
-        stay = empty[empty >= n_start]
+        # unexplored states that borrow no row, and rows whose every sample faulted: stay put (reported)
+        stay = empty[(empty >= n_start) & (borrowed_from[empty] < 0)]
         self_loops += len(stay)
         P = sp.csr_matrix((C.data / rowsum[np.repeat(np.arange(n), np.diff(C.indptr))], C.indices, C.indptr),
                           shape=(n, n))
@@ -871,6 +894,8 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
             add_c = np.concatenate(extra_c + [stay])
             add_v = np.concatenate(extra_v + [np.ones(len(stay))])
             P = P + sp.csr_matrix((add_v, (add_r, add_c)), shape=(n, n))
+        if len(borrowers):
+            P = P + lend @ P         # a borrower's own row is empty
         P = sp.csr_matrix(P)
         P.sum_duplicates()
         P.eliminate_zeros()
@@ -887,6 +912,8 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
     state_poses[n_start:] = rest_poses
     extras = {"state_poses": state_poses, "state_kind": kind, "faults": faults.astype(np.int32),
               "samples": samples.astype(np.int32), **count_data}
+    if len(borrowers):
+        extras["borrowed_from"] = borrowed_from
     total = int(samples.sum())
     n_faults = int(faults.sum())
     fault_by_action = {scene.actions[a]: {STATUS_NAMES[c]: int(fault_kinds[a, c])
@@ -905,6 +932,7 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
         "faults_per_action": fault_by_action, "sampled_transitions": total,
         "tilts_saved_by_symmetry": int(total * (G - 1) // G),
         "start_rows_imputed": imputed, "rows_without_samples": self_loops,
+        "rows_borrowed": int(len(borrowers)),
         "noise": settings.noise, **run_stats,
     }
     metadata = {

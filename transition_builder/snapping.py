@@ -124,6 +124,12 @@ class PoseIndex:
         self._cells[idx] = cells
         self._rebuild()
 
+    def compact(self):
+        """Put the representatives added since the last rebuild into the k-d tree (before many
+        queries; the answers are the same either way)."""
+        if self._n > self._tree_n:
+            self._rebuild()
+
     def _rebuild(self):
         self._tree = cKDTree(self._points.copy(), boxsize=self.box) if self._n else None
         self._tree_n = self._n
@@ -150,6 +156,23 @@ class PoseIndex:
             best[better] = self._tree_n + j[better]
             dist[better] = dj[better]
         return best, dist
+
+    def nearest_among(self, queries, candidates, radius: float) -> np.ndarray:
+        """For representatives ``queries``, the nearest of the representatives ``candidates`` in the
+        same report cell and contact group within ``radius`` tolerance units (at most half the group
+        spacing, so a match never crosses a group), -1 where there is none."""
+        if not 0 < radius <= _GROUP_SPACING / 2:
+            raise ValueError(f"radius must be in (0, {_GROUP_SPACING / 2}], got {radius!r}")
+        queries = np.asarray(queries, dtype=np.int64)
+        candidates = np.asarray(candidates, dtype=np.int64)
+        out = np.full(len(queries), -1, dtype=np.int64)
+        if len(queries) == 0 or len(candidates) == 0:
+            return out
+        tree = cKDTree(self._points[candidates], boxsize=self.box)
+        d, i = tree.query(self._points[queries], k=1, distance_upper_bound=radius)
+        hit = np.isfinite(d)
+        out[hit] = candidates[i[hit]]
+        return out
 
     def snap(self, poses) -> np.ndarray:
         """Index of the nearest representative within tolerance (same cell and contacts), -1 if none."""
