@@ -119,7 +119,7 @@ def resolve_sequence(sequence, action_names) -> np.ndarray:
 # result
 # ----------------------------------------------------------------------------------------------
 
-@dataclass
+@dataclass(frozen=True)
 class DirectResult:
     """Outcome of :func:`run_direct`.
 
@@ -248,7 +248,11 @@ def _run_chunk(sim, starts: np.ndarray, sequence_names: list[str], scene=None, n
 
 
 def _worker_chunk(scene, factory, starts, sequence_names, noise=None, noise_seed=0, first_trial=0):
-    return _run_chunk(simulator_for(scene, factory), starts, sequence_names, scene, noise, noise_seed, first_trial)
+    sim = simulator_for(scene, factory)
+    fresh = getattr(sim, "fresh_start", None)
+    if fresh is not None:
+        fresh()              # a chunk's result depends on its own trials only (friction maps)
+    return _run_chunk(sim, starts, sequence_names, scene, noise, noise_seed, first_trial)
 
 
 def _chunk_size(trials: int) -> int:
@@ -438,7 +442,7 @@ def write_poses_csv(path, result: DirectResult) -> str:
     return path
 
 
-@dataclass
+@dataclass(frozen=True)
 class PoseRecords:
     """Rows of a ``--poses`` CSV file: one (trial, step, pose, status) per row."""
 

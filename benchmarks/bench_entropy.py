@@ -137,11 +137,11 @@ def main(argv=None):
         out = fn()
         return out, time.perf_counter() - w0, time.process_time() - c0
 
-    from kruskal_markov.entropy import _prefer_images
+    from kruskal_markov.entropy import prefers_images
 
     batch_entropy(model, seqs[:512], method="images")
     batch_entropy(model, seqs[:512], method="trie")
-    chosen = "images" if _prefer_images(model, True) else "trie"
+    chosen = "images" if prefers_images(model, True) else "trie"
     res, t_engine, c_engine = timed(lambda: batch_entropy(model, seqs))
     _, t_trie, c_trie = timed(lambda: batch_entropy(model, seqs, method="trie"))
     res_plain, t_plain, c_plain = timed(lambda: batch_entropy(model, seqs, share_prefixes=False,

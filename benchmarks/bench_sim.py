@@ -21,8 +21,7 @@ def _ours(**settings):
     from transition_builder.scene import scene_from_options
     from transition_builder.sim import TraySimulator
     sim = TraySimulator(scene_from_options("allen-key", **settings))
-    for a in range(8):                          # build the worlds outside the timing
-        sim._world(a)
+    sim.prepare()                               # build the worlds outside the timing
 
     def run(poses, actions):
         status = np.empty(len(poses), dtype=np.int8)

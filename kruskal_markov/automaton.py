@@ -17,6 +17,7 @@ extensions, ``"partition"`` (state -> report cell), ``"cells"`` (number of cells
 from __future__ import annotations
 
 import json
+import math
 import os
 
 import numpy as np
@@ -61,9 +62,11 @@ def load_automaton_dict(source) -> tuple[dict, str]:
 def _int_list(values, what: str, label: str) -> np.ndarray:
     if not isinstance(values, list):
         raise ModelError(f"{label}: {what} must be a list of integers")
-    for v in values:
+    for i, v in enumerate(values):
+        if isinstance(v, float) and not math.isfinite(v):
+            raise ModelError(f"{label}: {what} has a non-finite entry {v!r} at position {i}")
         if isinstance(v, bool) or not isinstance(v, (int, float)) or (isinstance(v, float) and v != int(v)):
-            raise ModelError(f"{label}: {what} must contain integers only, found {v!r}")
+            raise ModelError(f"{label}: {what} must contain integers only, found {v!r} at position {i}")
     try:
         return np.asarray(values, dtype=np.int64) if values else np.zeros(0, dtype=np.int64)
     except OverflowError:

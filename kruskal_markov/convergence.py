@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -30,7 +31,11 @@ import scipy.sparse.linalg as spla
 from scipy.sparse import csgraph
 
 from kruskal_markov import _convergence_kernels as _ck
-from kruskal_markov.sync import SyncAutomaton, _as_start, _Store
+from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov.sync import SyncAutomaton, as_automaton
+
+if TYPE_CHECKING:
+    from kruskal_markov.model import TransitionModel
 
 __all__ = [
     "exact_expected_length",
@@ -39,6 +44,7 @@ __all__ = [
     "monte_carlo_entropy_tilts",
     "monte_carlo_sync_length",
     "pair_chain_bounds",
+    "pair_chain_memory_mb",
 ]
 
 
@@ -59,18 +65,19 @@ def _finite_or_none(x):
 
 
 # ----------------------------------------------------------------------------- exact
-def exact_expected_length(aut: SyncAutomaton, start=None, weights=None, max_subsets: int = 200_000):
+def exact_expected_length(aut: SyncAutomaton | TransitionModel, start=None, weights=None, max_subsets: int = 200_000):
     """Exact ``E[T]`` from the absorbing chain on reachable subsets.
 
     Returns ``(value, info)``: ``value`` is a float, ``math.inf`` (some reachable subset can never
     be synchronized, so ``T`` is infinite with positive probability) or None (more than
     ``max_subsets`` reachable subsets). ``info`` holds ``subsets`` (how many were enumerated).
     """
-    s = _as_start(aut, start)
+    aut, start = as_automaton(aut, start)
+    s = as_start(aut, start)
     w = letter_weights(aut.k, weights)
     if s.size == 1:
         return 0.0, {"subsets": 1}
-    st = _Store(aut.n_words, 1024, max_subsets)
+    st = SubsetStore(aut.n_words, 1024, max_subsets)
     st.add_roots([aut.bits(s)])
     while True:
         grown = st.expand(aut, True)
@@ -126,7 +133,7 @@ def _popcount_row(row):
 
 
 # ----------------------------------------------------------------------------- Monte Carlo
-def monte_carlo_sync_length(aut: SyncAutomaton, start=None, weights=None, runs: int = 2000, seed=0,
+def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weights=None, runs: int = 2000, seed=0,
                             max_steps: int = 100_000, chunk: int = 64, time_budget: float | None = None):
     """Monte Carlo estimate of ``E[T]`` over ``runs`` random words (seeded).
 
@@ -136,10 +143,11 @@ def monte_carlo_sync_length(aut: SyncAutomaton, start=None, weights=None, runs: 
     Without a time budget the result depends only on the inputs and ``seed``; with one, censoring
     (and so the result) can depend on the machine's speed.
     """
+    aut, start = as_automaton(aut, start)
     t0 = time.perf_counter()
     if runs < 2:
         raise ValueError("Monte Carlo needs at least 2 runs")
-    s = _as_start(aut, start)
+    s = as_start(aut, start)
     w = letter_weights(aut.k, weights)
     rng = np.random.default_rng(seed)
     cur = np.tile(aut.bits(s), (runs, 1))
@@ -172,23 +180,31 @@ def monte_carlo_sync_length(aut: SyncAutomaton, start=None, weights=None, runs: 
 
 
 # ----------------------------------------------------------------------------- pair chain
-def pair_chain_bounds(aut: SyncAutomaton, start=None, weights=None, max_iterations: int = 200_000,
-                      time_budget: float = 45.0, tol: float = 1e-12):
+def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=None, max_iterations: int = 200_000,
+                      time_budget: float = 45.0, tol: float = 1e-12, memory_budget_mb: float | None = None):
     """Lower and upper bounds on ``E[T]`` from the chain on pairs (deterministic automata).
 
     Returns ``dict(lower, upper, pairs, memory_mb, iterations, residual)``; bounds are ``inf``
     when some start pair can never merge, and None for set-valued automata (the image of a pair
-    is then a set, not a pair). The pair chain is restricted to the pairs reachable in one or
-    more steps from the start pairs; the expected merging times ``h`` solve ``(I - Q) h = 1``.
+    is then a set, not a pair) or when the pair chain's worst-case arrays
+    (:func:`pair_chain_memory_mb`) exceed ``memory_budget_mb`` (``note`` says so; nothing is
+    allocated). The pair chain is restricted to the pairs reachable in one or more steps from
+    the start pairs; the expected merging times ``h`` solve ``(I - Q) h = 1``.
     """
+    aut, start = as_automaton(aut, start)
     t0 = time.perf_counter()
-    s = _as_start(aut, start)
+    s = as_start(aut, start)
     w = letter_weights(aut.k, weights)
     if s.size == 1:
         return {"lower": 0.0, "upper": 0.0, "pairs": 0, "memory_mb": 0.0, "iterations": 0, "residual": 0.0}
     if not aut.deterministic:
         return {"lower": None, "upper": None, "pairs": None, "memory_mb": None, "iterations": 0,
                 "residual": None, "note": "pair bounds need a deterministic automaton"}
+    need = pair_chain_memory_mb(aut.n, aut.k, s.size)
+    if memory_budget_mb is not None and need > memory_budget_mb:
+        return {"lower": None, "upper": None, "pairs": None, "memory_mb": None, "iterations": 0,
+                "residual": None, "note": f"pair bounds skipped: {aut.n:,} states need up to {need:,.0f} MB "
+                                          f"(over the memory budget of {memory_budget_mb:,.0f} MB)"}
     n = aut.n
     delta = aut.delta
     p, q = np.triu_indices(s.size, 1)
@@ -256,6 +272,16 @@ def pair_chain_bounds(aut: SyncAutomaton, start=None, weights=None, max_iteratio
             "iterations": int(t), "residual": residual}
 
 
+def pair_chain_memory_mb(n: int, k: int, n_start: int) -> float:
+    """Worst-case memory (MB) of :func:`pair_chain_bounds` on ``n`` states, ``k`` letters and
+    ``n_start`` start states: the dense pair index (8 bytes per pair of states), the reachable
+    pairs with their images and the chain's matrix (every pair reachable, row pointers included),
+    the start pairs, and a page of fixed overhead."""
+    pairs = n * (n - 1) / 2
+    start_pairs = n_start * (n_start - 1) / 2
+    return (pairs * (8 + 8 + 4 * k + 12 * (k + 1)) + start_pairs * 24 + 16 * (pairs + 1) + 4096) / 2 ** 20
+
+
 def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
     k = d_use.shape[0]
     first = np.array([p * n - (p * (p + 1)) // 2 for p in range(n + 1)], dtype=np.int64)
@@ -273,7 +299,7 @@ def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
 
 
 # ----------------------------------------------------------------------------- all together
-def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, runs: int = 2000,
+def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weights=None, seed=0, runs: int = 2000,
                          max_subsets: int = 200_000, max_steps: int = 100_000,
                          pair_time_budget: float = 45.0, mc_time_budget: float | None = None,
                          memory_budget_mb: float = 2048.0) -> dict:
@@ -283,8 +309,10 @@ def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, r
 
     The pair-graph synchronizability check (quadratic in the states) runs first only when its
     arrays fit in half of ``memory_budget_mb``; otherwise it is skipped (``pair_check`` says so) and
-    a never-merging start set shows as censored Monte Carlo runs instead.
+    a never-merging start set shows as censored Monte Carlo runs instead. The pair-chain bounds
+    run only within ``memory_budget_mb`` (``pair_bounds`` says why they are missing).
     """
+    aut, start = as_automaton(aut, start)
     from kruskal_markov.sync import PAIR_CHECK_BYTES, synchronizability
 
     out = {}
@@ -294,7 +322,7 @@ def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, r
         check = {"synchronizing": None, "witness": None}
     else:
         out["pair_check"] = "done"
-        check = synchronizability(aut, _as_start(aut, start))
+        check = synchronizability(aut, as_start(aut, start))
     if check["synchronizing"] is False:
         # some start pair never merges: T is infinite on every word
         return {"exact": None, "monte_carlo": None, "ci95": [None, None], "pair_lower": None,
@@ -314,7 +342,9 @@ def expected_sync_length(aut: SyncAutomaton, start=None, weights=None, seed=0, r
     out["ci95"] = mc["ci95"]
     out["mc_runs"] = mc["runs"]
     out["mc_censored"] = mc["censored"]
-    pb = pair_chain_bounds(aut, start, weights, time_budget=pair_time_budget)
+    pb = pair_chain_bounds(aut, start, weights, time_budget=pair_time_budget, memory_budget_mb=memory_budget_mb)
+    if "note" in pb:
+        out["pair_bounds"] = pb["note"]
     if pb["lower"] is not None and math.isinf(pb["lower"]):
         infinite = True
     out["pair_lower"] = _finite_or_none(pb["lower"])

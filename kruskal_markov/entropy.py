@@ -51,7 +51,7 @@ def histogram_entropy_bits(counts) -> float:
 # --------------------------------------------------------------------------------------------
 __all__ = ["histogram_entropy_bits", "distribution_entropy_bits", "partition_entropy_bits",
            "EntropyTrajectory", "BatchEntropy", "entropy_trajectory", "propagate", "batch_entropy",
-           "as_sequence", "as_sequences"]
+           "as_sequence", "as_sequences", "prefers_images"]
 
 
 def distribution_entropy_bits(p) -> float:
@@ -162,15 +162,16 @@ def _initial_support(model: TransitionModel, initial):
 
 def _kernel_arrays(model: TransitionModel):
     """Packed matrices with each row's pivot first (cached on the model), and the partition."""
-    if "entropy_packed" not in model._cache:
+    def pack():
         indptr, indices, data = model.packed()
         indices, data = indices.copy(), data.copy()
         _k.pivot_first(indptr, indices, data)
         img_ptr, img_idx = _k.action_images(indptr, indices, model.n_states)
         for arr in (indices, data, img_ptr, img_idx):
             arr.flags.writeable = False
-        model._cache["entropy_packed"] = (indptr, indices, data, img_ptr, img_idx)
-    indptr, indices, data, img_ptr, img_idx = model._cache["entropy_packed"]
+        return indptr, indices, data, img_ptr, img_idx
+
+    indptr, indices, data, img_ptr, img_idx = model.memo("entropy_packed", pack)
     if model.partition is None:
         partition, n_cells, has = np.zeros(1, dtype=np.int64), 1, False
     else:
@@ -188,22 +189,21 @@ _BLOCK_BUDGET = 2.0
 def _image_blocks(model: TransitionModel, conservative: bool):
     """The per-(previous action, action) gather blocks of :func:`_entropy_kernels.image_blocks`,
     cached on the model; None when they would be too large (images close to the full state set)."""
-    key = ("image_blocks", bool(conservative))
-    if key not in model._cache:
+    def build():
         indptr, indices, data, img_ptr, img_idx, _, _, _ = _kernel_arrays(model)
         row_len = np.diff(indptr, axis=1)
         total = sum(int(row_len[a, img_idx[img_ptr[b]:img_ptr[b + 1]]].sum())
                     for b in range(model.n_actions) for a in range(model.n_actions))
         nnz = int(indptr[-1, -1])
         if total > _BLOCK_BUDGET * nnz + 10_000:
-            model._cache[key] = None
-        else:
-            blocks = _k.image_blocks(indptr, indices, data, img_ptr, img_idx, model.n_states,
-                                     bool(conservative))
-            for arr in blocks:
-                arr.flags.writeable = False
-            model._cache[key] = blocks
-    return model._cache[key]
+            return None
+        blocks = _k.image_blocks(indptr, indices, data, img_ptr, img_idx, model.n_states,
+                                 bool(conservative))
+        for arr in blocks:
+            arr.flags.writeable = False
+        return blocks
+
+    return model.memo(("image_blocks", bool(conservative)), build)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -294,7 +294,7 @@ class BatchEntropy:
 
 def _images_layout(model: TransitionModel):
     """Per action: local report cell of every image state (for the image engine)."""
-    if "images_layout" not in model._cache:
+    def layout():
         _, _, _, img_ptr, img_idx, partition, _, has = _kernel_arrays(model)
         k = model.n_actions
         cell_ptr = img_ptr[:-1].astype(np.int64)
@@ -305,27 +305,27 @@ def _images_layout(model: TransitionModel):
                 uniq, loc = np.unique(partition[img_idx[img_ptr[a]:img_ptr[a + 1]]], return_inverse=True)
                 cell_loc[img_ptr[a]:img_ptr[a + 1]] = loc
                 n_cells_img[a] = max(1, uniq.size)
-        model._cache["images_layout"] = (cell_ptr, cell_loc, n_cells_img)
-    return model._cache["images_layout"]
+        return cell_ptr, cell_loc, n_cells_img
+
+    return model.memo("images_layout", layout)
 
 
-def _prefer_images(model: TransitionModel, conservative: bool) -> bool:
+def prefers_images(model: TransitionModel, conservative: bool) -> bool:
     """Deterministic choice of the image engine: the gather blocks exist, every image has at
     least 64 states, and on 16 fixed random sequences the support fills on average at least
     half of the image after each of the first 6 steps (mixing, tray-like models -- not a
     contracting tray whose supports shrink to a few states, where the trie is faster)."""
-    key = ("prefer_images", bool(conservative))
-    if key not in model._cache:
-        verdict = False
+    def verdict():
         img_ptr = _kernel_arrays(model)[3]
         sizes = np.diff(img_ptr)
-        if sizes.min() >= 64 and _image_blocks(model, conservative) is not None:
-            rng = np.random.default_rng(12345)
-            fills = [entropy_trajectory(model, seq, conservative=conservative).support[1:] / sizes[seq]
-                     for seq in rng.integers(0, model.n_actions, size=(16, 6))]
-            verdict = bool(np.mean(fills) >= 0.5)
-        model._cache[key] = verdict
-    return model._cache[key]
+        if sizes.min() < 64 or _image_blocks(model, conservative) is None:
+            return False
+        rng = np.random.default_rng(12345)
+        fills = [entropy_trajectory(model, seq, conservative=conservative).support[1:] / sizes[seq]
+                 for seq in rng.integers(0, model.n_actions, size=(16, 6))]
+        return bool(np.mean(fills) >= 0.5)
+
+    return model.memo(("prefer_images", bool(conservative)), verdict)
 
 
 def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_prefixes: bool = True,
@@ -360,7 +360,7 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         action) and advanced by vectorized sparse-times-dense products
         (:func:`kruskal_markov._entropy_kernels.batch_images`) -- for models whose
         distributions fill the actions' images. ``"auto"``: ``"images"`` when a deterministic
-        test on the model says so (:func:`_prefer_images`), else ``"trie"``. All methods agree
+        test on the model says so (:func:`prefers_images`), else ``"trie"``. All methods agree
         to round-off (~1e-14).
     chunk : int
         Sequences per task of the image engine (memory: 3 x largest image x chunk float64).
@@ -385,7 +385,7 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         method = "independent"
     if method == "auto":
         method = "images" if (image_blocks is not False and s_count >= 256 and n_steps >= 1
-                              and _prefer_images(model, conservative)) else "trie"
+                              and prefers_images(model, conservative)) else "trie"
     if method == "images" and _image_blocks(model, conservative) is None:
         raise ValueError("method 'images' needs gather blocks, too large for this model (its actions "
                          "do not map into small images)")

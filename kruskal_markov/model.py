@@ -151,7 +151,7 @@ def _as_csr(matrix, name: str) -> sp.csr_matrix:
         bad = int(np.flatnonzero(~np.isfinite(m.data))[0])
         row = int(np.searchsorted(m.indptr, bad, side="right") - 1)
         raise ModelError(f"{_fmt_action(name)}: row {row} has a non-finite entry "
-                         f"{m.data[bad]!r} at column {int(m.indices[bad])}")
+                         f"{float(m.data[bad])!r} at column {int(m.indices[bad])}")
     if np.any(m.data < 0):
         bad = int(np.argmin(m.data))
         row = int(np.searchsorted(m.indptr, bad, side="right") - 1)
@@ -350,6 +350,13 @@ class TransitionModel:
                 return i
         raise ModelError(f"unknown action {name!r}; known actions: {','.join(self.actions)}")
 
+    def memo(self, key, compute):
+        """Data derived from this (immutable) model, computed once: the value kept under ``key``,
+        or ``compute()`` kept and returned. Engines use it for packed and gathered layouts."""
+        if key not in self._cache:
+            self._cache[key] = compute()
+        return self._cache[key]
+
     def is_deterministic(self) -> bool:
         """True if every row of every matrix is a single entry (equal to 1 within ``tol``)."""
         if "det" not in self._cache:
@@ -481,22 +488,3 @@ class TransitionModel:
             raise ModelError(f"{path} is not a readable kruskal model ({type(exc).__name__}: "
                              f"{str(exc).splitlines()[0] if str(exc) else 'corrupt file'})") from None
 
-    # ------------------------------------------------------------------ automaton JSON
-    @classmethod
-    def from_automaton_json(cls, source, tol: float = 1e-9) -> "TransitionModel":
-        """Build a model from the docs/commands.md automaton JSON (a path, a JSON string or a dict).
-
-        See :func:`kruskal_markov.automaton.model_from_automaton`.
-        """
-        from kruskal_markov.automaton import model_from_automaton
-
-        return model_from_automaton(source, tol=tol)
-
-    def to_automaton_json(self) -> dict:
-        """The docs/commands.md automaton JSON of this model (deterministic form when every row is a point mass).
-
-        See :func:`kruskal_markov.automaton.automaton_from_model`.
-        """
-        from kruskal_markov.automaton import automaton_from_model
-
-        return automaton_from_model(self)

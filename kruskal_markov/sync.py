@@ -26,15 +26,21 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 
 from kruskal_markov import _sync_kernels as _k
+from kruskal_markov._subsets import SubsetStore, as_start
+
+if TYPE_CHECKING:
+    from kruskal_markov.model import TransitionModel
 
 __all__ = [
     "SyncAutomaton",
     "SyncResult",
+    "as_automaton",
     "epsilon_synchronizing_word",
     "greedy_synchronizing_word",
     "is_synchronizing_word",
@@ -232,24 +238,28 @@ def start_set(model, whole: bool | None = None) -> np.ndarray:
     return np.flatnonzero(np.asarray(model.initial) > 0)
 
 
-def _as_start(aut: SyncAutomaton, start) -> np.ndarray:
-    if start is None:
-        return np.arange(aut.n)
-    s = np.unique(np.asarray(start, dtype=np.int64).ravel())
-    if s.size == 0:
-        raise ValueError("the start set is empty")
-    if s[0] < 0 or s[-1] >= aut.n:
-        raise ValueError(f"start states must lie in [0, {aut.n})")
-    return s
+def as_automaton(aut, start=None):
+    """``(automaton, start)`` for the sync and convergence functions, which take a
+    :class:`SyncAutomaton` or a :class:`~kruskal_markov.model.TransitionModel` alike: a model
+    stands for its support automaton (:func:`support_automaton`, kept on the model) and, when
+    ``start`` is None, for its start set (:func:`start_set`)."""
+    if isinstance(aut, SyncAutomaton):
+        return aut, start
+    if hasattr(aut, "matrices") and hasattr(aut, "memo"):
+        model = aut
+        return (model.memo(("support_automaton", 0.0), lambda: support_automaton(model)),
+                start_set(model) if start is None else start)
+    raise TypeError(f"expected a SyncAutomaton or a TransitionModel, got {type(aut).__name__}")
 
 
-def is_synchronizing_word(aut: SyncAutomaton, word, start=None) -> bool:
+def is_synchronizing_word(aut: SyncAutomaton | TransitionModel, word, start=None) -> bool:
     """True if ``word`` maps the start set (default: all states) onto one state."""
-    return len(aut.image(_as_start(aut, start), word)) == 1
+    aut, start = as_automaton(aut, start)
+    return len(aut.image(as_start(aut, start), word)) == 1
 
 
 # ----------------------------------------------------------------------------- synchronizability
-def synchronizability(aut: SyncAutomaton, start=None) -> dict:
+def synchronizability(aut: SyncAutomaton | TransitionModel, start=None) -> dict:
     """Polynomial synchronizability test via the pair graph.
 
     Returns ``{"synchronizing": True | False | None, "witness": dict | None}``. ``False`` comes with
@@ -261,7 +271,8 @@ def synchronizability(aut: SyncAutomaton, start=None) -> dict:
     >>> synchronizability(a)["synchronizing"]
     True
     """
-    s = _as_start(aut, start)
+    aut, start = as_automaton(aut, start)
+    s = as_start(aut, start)
     if s.size == 1:
         return {"synchronizing": True, "witness": None}
     dist, _ = aut.pair_distances()
@@ -310,12 +321,13 @@ def _reachable_states(aut: SyncAutomaton, s) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- results
-@dataclass
+@dataclass(frozen=True)
 class SyncResult:
-    """Outcome of a synchronizing-word search.
+    """Outcome of a synchronizing-word search (immutable).
 
     ``word`` (letter indices) and ``length`` are None when no word exists (``exact`` True, with a
-    ``witness``) or when none was found within the budgets (``exact`` False).
+    ``witness``) or when none was found within the budgets (``exact`` False). ``best_word`` is
+    the lowest-entropy word an epsilon search had seen when its budget ran out (else None).
     """
 
     word: list | None
@@ -327,7 +339,11 @@ class SyncResult:
     greedy_length: int | None = None
     states_explored: int = 0
     seconds: float = 0.0
-    notes: list = field(default_factory=list)
+    notes: tuple = ()
+    best_word: list | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "notes", tuple(self.notes))
 
     def as_dict(self, actions=None) -> dict:
         word = self.word
@@ -339,96 +355,13 @@ class SyncResult:
                 "notes": list(self.notes)}
 
 
-class _Store:
-    """A growable, hashed store of bitsets with parent pointers (one search direction)."""
-
-    def __init__(self, W, cap, max_rows):
-        self.W = W
-        self.max_rows = max_rows
-        cap = max(16, min(cap, max_rows))
-        self.rows = np.zeros((cap, W), dtype=np.uint64)
-        self.parent = np.full(cap, -1, dtype=np.int64)
-        self.letter = np.full(cap, -1, dtype=np.int32)
-        self.table = np.full(_pow2(2 * cap), -1, dtype=np.int64)
-        self.count = 0
-        self.levels = []
-
-    def ensure(self, need):
-        need = min(need, self.max_rows)
-        cap = self.rows.shape[0]
-        if need <= cap:
-            return
-        new = min(self.max_rows, max(need, 2 * cap))
-        rows = np.zeros((new, self.W), dtype=np.uint64)
-        rows[:self.count] = self.rows[:self.count]
-        parent = np.full(new, -1, dtype=np.int64)
-        parent[:self.count] = self.parent[:self.count]
-        letter = np.full(new, -1, dtype=np.int32)
-        letter[:self.count] = self.letter[:self.count]
-        self.rows, self.parent, self.letter = rows, parent, letter
-        self.table = np.full(_pow2(2 * new), -1, dtype=np.int64)
-        _k.rehash(self.rows, self.count, self.table)
-
-    def add_roots(self, bitsets):
-        self.ensure(self.count + len(bitsets))
-        lo = self.count
-        for b in bitsets:
-            self.rows[self.count] = b
-            self.count += 1
-        _k.rehash(self.rows, self.count, self.table)
-        self.levels.append((lo, self.count))
-
-    def expand(self, aut, forward, prune=False):
-        lo, hi = self.levels[-1]
-        self.ensure(self.count + (hi - lo) * aut.k)
-        inv_ptr, inv_idx, supcount = aut.inverse
-        new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.sup, aut.deterministic,
-                              forward, self.table, self.parent, self.letter, self.rows.shape[0],
-                              inv_ptr, inv_idx, supcount)
-        if new < 0:
-            _k.rehash(self.rows, self.count, self.table)   # drop the partial level
-            return None
-        lo2 = self.count
-        self.count = new
-        if prune and new - lo2 > 1:
-            dead = np.zeros(new - lo2, dtype=np.bool_)
-            _k.mark_dominated(self.rows, lo2, new, aut.n, forward, 1 << 16, dead)
-            if dead.any():
-                keep = lo2 + np.flatnonzero(~dead)
-                m = keep.size
-                self.rows[lo2:lo2 + m] = self.rows[keep]
-                self.parent[lo2:lo2 + m] = self.parent[keep]
-                self.letter[lo2:lo2 + m] = self.letter[keep]
-                self.count = new = lo2 + m
-                _k.rehash(self.rows, self.count, self.table)
-        self.levels.append((lo2, new))
-        return new - lo2
-
-    def path(self, i):
-        out = []
-        while self.parent[i] >= 0:
-            out.append(int(self.letter[i]))
-            i = self.parent[i]
-        return out, i
-
-    def nbytes(self):
-        return self.rows.nbytes + self.parent.nbytes + self.letter.nbytes + self.table.nbytes
-
-
-_BACKWARD_WEIGHT = 1.0
-_PRUNE = False   # within-level dominance pruning: correct, but measured slower (see bench notes)
 _BLOCK = 1 << 16
 
 
 def _choose_forward(fwd, bwd, k):
-    """Which side to expand: the smaller newest level (an inverse step costs ~ n per set, so the
-    backward level counts ``_BACKWARD_WEIGHT`` times)."""
+    """Which side to expand: the one with the smaller newest level (forward on a tie)."""
     (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
-    return (fhi - flo) <= _BACKWARD_WEIGHT * (bhi - blo)
-
-
-def _pow2(x):
-    return 1 << max(4, int(x - 1).bit_length())
+    return (fhi - flo) <= (bhi - blo)
 
 
 def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
@@ -438,8 +371,8 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
     W = aut.n_words
     row_bytes = 8 * W + 8 + 4 + 16 * 2      # rows + parent + letter + hash table (load <= 1/2, x2 growth)
     max_rows = max(1024, int(memory_budget_mb * 2 ** 20 / row_bytes / 2))   # per direction
-    fwd = _Store(W, 1024, max_rows)
-    bwd = _Store(W, max(1024, aut.n), max_rows)
+    fwd = SubsetStore(W, 1024, max_rows)
+    bwd = SubsetStore(W, max(1024, aut.n), max_rows)
     fwd.add_roots([aut.bits(start)])
     singletons = []
     for q in range(aut.n):
@@ -476,7 +409,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
         if time.perf_counter() - t0 + predicted > time_budget:
             return None, "budget", fwd.count + bwd.count, total + 1
         te = time.perf_counter()
-        grown = store.expand(aut, forward, _PRUNE)
+        grown = store.expand(aut, forward)
         if grown is None:
             return None, "budget", fwd.count + bwd.count, total + 1
         if grown > 10_000:
@@ -486,7 +419,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
         total += 1
 
 
-def greedy_synchronizing_word(aut: SyncAutomaton, start=None, node_budget: int = 200_000):
+def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, node_budget: int = 200_000):
     """A synchronizing word, not necessarily shortest, or None if none was found.
 
     Deterministic automata: Eppstein's (1990) greedy pair merging (``O(k n^2)`` pair BFS plus
@@ -495,7 +428,8 @@ def greedy_synchronizing_word(aut: SyncAutomaton, start=None, node_budget: int =
     most ``node_budget`` subsets from the current set to the nearest strictly smaller image.
     The returned word is verified.
     """
-    s = _as_start(aut, start)
+    aut, start = as_automaton(aut, start)
+    s = as_start(aut, start)
     if s.size == 1:
         return []
     word = None
@@ -521,7 +455,7 @@ def _greedy_descent(aut, s, node_budget):
         size = len(aut.states_of(cur))
         if size == 1:
             return word
-        st = _Store(W, 1024, node_budget)
+        st = SubsetStore(W, 1024, node_budget)
         st.add_roots([cur])
         found = None
         while found is None:
@@ -545,7 +479,7 @@ def _greedy_descent(aut, s, node_budget):
 PAIR_CHECK_BYTES = 40
 
 
-def shortest_synchronizing_word(aut: SyncAutomaton, start=None, time_budget: float = 60.0,
+def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, time_budget: float = 60.0,
                                 memory_budget_mb: float = 2048.0) -> SyncResult:
     """The shortest word synchronizing ``start`` (default: all states).
 
@@ -561,10 +495,11 @@ def shortest_synchronizing_word(aut: SyncAutomaton, start=None, time_budget: flo
     >>> r.length, r.exact
     (4, True)
     """
+    aut, start = as_automaton(aut, start)
     if time_budget <= 0 or memory_budget_mb <= 0:
         raise ValueError("time and memory budgets must be positive")
     t0 = time.perf_counter()
-    s = _as_start(aut, start)
+    s = as_start(aut, start)
     if s.size == 1:
         return SyncResult([], 0, True, "trivial", seconds=time.perf_counter() - t0)
     pair_mb = aut.n * (aut.n - 1) / 2 * PAIR_CHECK_BYTES / 2 ** 20
@@ -587,19 +522,17 @@ def shortest_synchronizing_word(aut: SyncAutomaton, start=None, time_budget: flo
                                              "is a single state"},
                           seconds=time.perf_counter() - t0)
     greedy = greedy_synchronizing_word(aut, s)
-    res = SyncResult(greedy, None if greedy is None else len(greedy), False,
-                     "greedy-eppstein" if aut.deterministic else "greedy-descent",
-                     lower_bound=lower, states_explored=explored,
-                     greedy_length=None if greedy is None else len(greedy),
-                     seconds=time.perf_counter() - t0)
-    res.notes.append(f"exact search stopped by its budget; no synchronizing word is shorter than {lower}")
+    method = "greedy-eppstein" if aut.deterministic else "greedy-descent"
+    notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
     if skipped:
-        res.notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
-                         f"{pair_mb:,.0f} MB (over half the memory budget)")
-    if greedy is not None and len(greedy) <= lower:
-        res.exact = True            # the greedy word meets the proven lower bound
-        res.method += "+lower-bound"
-    return res
+        notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
+                     f"{pair_mb:,.0f} MB (over half the memory budget)")
+    meets_bound = greedy is not None and len(greedy) <= lower   # the greedy word meets the proven lower bound
+    return SyncResult(greedy, None if greedy is None else len(greedy), meets_bound,
+                      method + "+lower-bound" if meets_bound else method,
+                      lower_bound=lower, states_explored=explored,
+                      greedy_length=None if greedy is None else len(greedy),
+                      seconds=time.perf_counter() - t0, notes=notes)
 
 
 # ----------------------------------------------------------------------------- epsilon-synchronizing
@@ -660,14 +593,11 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
                                       notes=[f"entropy {h:.6g} bits"])
                 nxt.append((q, w + [a]))
             if explored > max_nodes or time.perf_counter() - t0 > time_budget:
-                res = SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
-                                 lower_bound=depth, seconds=time.perf_counter() - t0)
-                res.notes.append(f"budget reached at depth {depth}; lowest entropy seen "
-                                 f"{best[0]:.6g} bits by a word of length {len(best[1])}")
-                res.witness = None
-                res.greedy_length = len(best[1])
-                res.best_word = best[1]
-                return res
+                return SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
+                                  lower_bound=depth, seconds=time.perf_counter() - t0,
+                                  greedy_length=len(best[1]), best_word=best[1],
+                                  notes=[f"budget reached at depth {depth}; lowest entropy seen "
+                                         f"{best[0]:.6g} bits by a word of length {len(best[1])}"])
         if not nxt:
             return SyncResult(None, None, True, "distribution-bfs", states_explored=explored,
                               witness={"kind": "exhaustive",
@@ -675,7 +605,6 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
                                                  f"> {epsilon}"},
                               seconds=time.perf_counter() - t0)
         frontier = nxt
-    res = SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
-                     lower_bound=max_length + 1, seconds=time.perf_counter() - t0)
-    res.notes.append(f"no word of length <= {max_length} reaches entropy <= {epsilon}")
-    return res
+    return SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
+                      lower_bound=max_length + 1, seconds=time.perf_counter() - t0,
+                      notes=[f"no word of length <= {max_length} reaches entropy <= {epsilon}"])

@@ -16,7 +16,7 @@ def test_deterministic_from_dict_and_file(tmp_path):
     path = tmp_path / "aut.json"
     path.write_text(json.dumps(doc))
     for source in (doc, path, str(path), json.dumps(doc)):
-        m = TransitionModel.from_automaton_json(source)
+        m = model_from_automaton(source)
         assert m.actions == ("a", "b")
         assert m.is_deterministic()
         np.testing.assert_array_equal(m.deterministic_table(), [[1, 2, 0], [0, 0, 2]])
@@ -60,9 +60,9 @@ def test_round_trip_stochastic(seed):
 
 def test_round_trip_deterministic_uses_lists():
     m = TransitionModel(["a", "b"], [np.eye(4)[[1, 2, 3, 0]], np.eye(4)[[0, 0, 2, 3]]])
-    doc = m.to_automaton_json()
+    doc = automaton_from_model(m)
     assert doc == {"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 0, 2, 3]}}
-    back = TransitionModel.from_automaton_json(doc)
+    back = model_from_automaton(doc)
     np.testing.assert_array_equal(back.deterministic_table(), m.deterministic_table())
 
 

@@ -12,6 +12,7 @@ import scipy.sparse as sp
 
 from analysis.cli import main
 from kruskal_markov.entropy import entropy_trajectory
+from kruskal_markov.automaton import model_from_automaton
 from kruskal_markov.model import TransitionModel
 
 
@@ -105,7 +106,7 @@ def test_ensemble_cli(capsys, cerny4):
             break
     from kruskal_markov.ensemble import run_ensemble
 
-    lib = run_ensemble(TransitionModel.from_automaton_json(cerny4), 500, 20, seed=3)
+    lib = run_ensemble(model_from_automaton(cerny4), 500, 20, seed=3)
     assert res["mean"] == lib.mean.tolist() and res["q25"] == lib.q25.tolist() and res["q75"] == lib.q75.tolist()
     assert res["best_sequence"] == [["a", "b"][i] for i in lib.best_sequence]
     assert res["zero_entropy_excluded"] is False and "one closed class" in res["structure"]

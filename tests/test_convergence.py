@@ -16,6 +16,7 @@ from kruskal_markov.convergence import (
     monte_carlo_entropy_tilts,
     monte_carlo_sync_length,
     pair_chain_bounds,
+    pair_chain_memory_mb,
 )
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.sync import SyncAutomaton, support_automaton
@@ -116,8 +117,18 @@ def test_pair_check_skipped_beyond_the_memory_budget_same_answers():
     full = expected_sync_length(aut, seed=5, runs=500)
     lean = expected_sync_length(aut, seed=5, runs=500, memory_budget_mb=1e-6)
     assert full["pair_check"] == "done" and lean["pair_check"].startswith("skipped")
-    for key in ("exact", "monte_carlo", "ci95", "pair_lower", "pair_upper"):
+    for key in ("exact", "monte_carlo", "ci95"):
         assert lean[key] == full[key]
+    # the pair-chain bounds, too, stay within the budget: skipped with a reason, nothing allocated
+    assert full["pair_lower"] is not None and "pair_bounds" not in full
+    assert lean["pair_lower"] is None and lean["pair_upper"] is None
+    assert "pair bounds skipped" in lean["pair_bounds"] and "MB" in lean["pair_bounds"]
+    # within exactly the worst-case estimate they run and give the same bounds
+    need = pair_chain_memory_mb(aut.n, aut.k, aut.n)
+    fit = pair_chain_bounds(aut, memory_budget_mb=need)
+    assert (fit["lower"], fit["upper"]) == (full["pair_lower"], full["pair_upper"])
+    assert fit["memory_mb"] <= need
+    assert pair_chain_bounds(aut, memory_budget_mb=0.99 * need)["lower"] is None
 
 
 def test_set_valued_exact_matches_brute_force():

@@ -11,6 +11,7 @@ from kruskal_markov.ensemble import (
     run_ensemble,
 )
 from kruskal_markov.entropy import batch_entropy, entropy_trajectory
+from kruskal_markov.automaton import model_from_automaton
 from kruskal_markov.model import ModelError, TransitionModel
 
 
@@ -18,7 +19,7 @@ def cerny(n: int) -> TransitionModel:
     """Černý automaton C_n: a = cyclic shift, b merges state 0 into 1; shortest reset word (n-1)^2."""
     a = [(i + 1) % n for i in range(n)]
     b = [1] + list(range(1, n))
-    return TransitionModel.from_automaton_json({"states": n, "actions": {"a": a, "b": b}})
+    return model_from_automaton({"states": n, "actions": {"a": a, "b": b}})
 
 
 def image_sizes(model, seq):
@@ -161,7 +162,7 @@ def test_ensemble_reproducible():
 
 
 def test_never_converging_model():
-    model = TransitionModel.from_automaton_json({"states": 4, "actions": {"a": [1, 0, 3, 2], "b": [0, 1, 2, 3]}})
+    model = model_from_automaton({"states": 4, "actions": {"a": [1, 0, 3, 2], "b": [0, 1, 2, 3]}})
     res = run_ensemble(model, 30, 10, seed=0)
     assert res.converged == 0
     assert np.all(res.convergence_steps == -1)

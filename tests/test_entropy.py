@@ -441,8 +441,8 @@ def test_image_engine_auto_choice_and_errors():
     rng = np.random.default_rng(4)
     mixing = _imagey_model(rng, cells=5)
     seqs = rng.integers(0, 4, size=(400, 5))
-    from kruskal_markov.entropy import _prefer_images
-    assert _prefer_images(mixing, True)
+    from kruskal_markov.entropy import prefers_images
+    assert prefers_images(mixing, True)
     auto = batch_entropy(mixing, seqs)
     np.testing.assert_allclose(auto.entropy_bits, batch_entropy(mixing, seqs, method="trie").entropy_bits,
                                rtol=0, atol=1e-12)
@@ -450,7 +450,7 @@ def test_image_engine_auto_choice_and_errors():
     n = 200
     halve = np.arange(n) // 2
     det = TransitionModel(["a", "b"], [np.eye(n)[halve], np.eye(n)[halve + 100]])
-    assert not _prefer_images(det, True)
+    assert not prefers_images(det, True)
     with pytest.raises(ValueError, match="unknown method"):
         batch_entropy(mixing, seqs, method="fast")
     with pytest.raises(ValueError, match="chunk"):

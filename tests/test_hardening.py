@@ -2,7 +2,6 @@
 before allocating what it asks for (docs/commands.md: bad input)."""
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import pytest
@@ -15,6 +14,8 @@ FILES = {
     "huge_states.json": '{"states": 100000000000, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1.0]}}}',
     "billions.json": '{"states": 3000000000, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1.0]}}}',
     "deep.json": '{"states": 2, "actions": {"a": [1, 1]}, "x": ' + "[" * 100000 + "]" * 100000 + "}",
+    "nan_next.json": '{"states": 3, "actions": {"a": [0, NaN, 2]}}',
+    "nan_prob.json": '{"states": 2, "actions": {"a": {"rows": [0, 1], "cols": [1, 0], "probs": [1.0, NaN]}}}',
     "ok.json": '{"states": 2, "actions": {"a": [1, 1], "b": [0, 0]}}',
     "far_step.csv": "trial,step,x_mm,y_mm,theta_rad\n0,99999999999,10,10,0\n",
 }
@@ -37,6 +38,8 @@ def files(tmp_path, monkeypatch):
 @pytest.mark.parametrize("argv, needle", [
     (["sync", "--automaton", "huge_index.json"], "beyond any state index"),
     (["sync", "--automaton", "float_index.json"], "beyond any state index"),
+    (["sync", "--automaton", "nan_next.json"], "nan_next.json: action 'a': next-state list has a non-finite entry nan at position 1"),
+    (["entropy", "--automaton", "nan_prob.json", "--sequence", "a"], "nan_prob.json: action 'a': row 1 has a non-finite entry nan"),
     (["entropy", "--automaton", "huge_states.json", "--sequence", "a"], "100,000,000,000 states needs"),
     (["entropy", "--automaton", "billions.json", "--sequence", "a"], "3,000,000,000 states needs"),
     (["entropy", "--automaton", "deep.json", "--sequence", "a"], "nested too deeply"),

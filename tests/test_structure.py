@@ -7,6 +7,7 @@ import pytest
 import scipy.sparse as sp
 
 from kruskal_markov.ensemble import run_ensemble
+from kruskal_markov.automaton import model_from_automaton
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.structure import analyze_structure, closed_classes, support_graph
 
@@ -37,7 +38,7 @@ def test_closed_classes_match_networkx(seed):
 
 def test_two_absorbing_states_exclude_zero_entropy():
     # states 0 and 3 absorbing; 1, 2 transient
-    model = TransitionModel.from_automaton_json(
+    model = model_from_automaton(
         {"states": 4, "actions": {"a": [0, 0, 3, 3], "b": [0, 2, 1, 3]}})
     rep = analyze_structure(model)
     assert [c.tolist() for c in rep.closed_classes] == [[0], [3]]
@@ -53,7 +54,7 @@ def test_two_absorbing_states_exclude_zero_entropy():
 
 def test_reachable_but_not_holding_classes_allow_zero():
     # from state 0 (the only initial state) action a goes to 1, b to 2; both absorbing
-    model = TransitionModel.from_automaton_json(
+    model = model_from_automaton(
         {"states": 3, "actions": {"a": [1, 1, 2], "b": [2, 1, 2]}, "initial": [1, 0, 0]})
     rep = analyze_structure(model)
     assert rep.reachable_classes == [0, 1] and rep.holding_classes == []
@@ -62,21 +63,21 @@ def test_reachable_but_not_holding_classes_allow_zero():
 
 
 def test_partition_sharing_a_cell():
-    model = TransitionModel.from_automaton_json(
+    model = model_from_automaton(
         {"states": 4, "actions": {"a": [0, 0, 3, 3]}, "partition": [0, 1, 1, 0], "cells": 2})
     rep = analyze_structure(model)
     assert rep.zero_entropy_excluded and not rep.zero_cell_entropy_excluded
     assert "could" in rep.message
     res = run_ensemble(model, 1, 1, seed=0, keep_entropy=True)
     assert res.entropy[0, 1] == 0.0  # the report-grid entropy does reach zero
-    separate = TransitionModel.from_automaton_json(
+    separate = model_from_automaton(
         {"states": 4, "actions": {"a": [0, 0, 3, 3]}, "partition": [0, 1, 1, 1], "cells": 2})
     assert analyze_structure(separate).zero_cell_entropy_excluded
 
 
 def test_single_class_synchronizing():
     n = 5
-    model = TransitionModel.from_automaton_json(
+    model = model_from_automaton(
         {"states": n, "actions": {"a": [(i + 1) % n for i in range(n)], "b": [1] + list(range(1, n))}})
     rep = analyze_structure(model)
     assert len(rep.closed_classes) == 1 and rep.closed_classes[0].tolist() == list(range(n))
@@ -86,7 +87,7 @@ def test_single_class_synchronizing():
 
 
 def test_analyze_with_initial_override():
-    model = TransitionModel.from_automaton_json({"states": 4, "actions": {"a": [0, 0, 3, 3]}})
+    model = model_from_automaton({"states": 4, "actions": {"a": [0, 0, 3, 3]}})
     rep = analyze_structure(model, initial=[0, 1, 0, 0])
     assert rep.holding_classes == [] and rep.reachable_classes == [0]
     with pytest.raises(ValueError, match="3 entries"):

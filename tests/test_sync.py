@@ -409,19 +409,6 @@ def test_epsilon_word_matches_exhaustive_enumeration():
             assert _entropy(p, partition) <= eps + 1e-9
 
 
-def test_dominance_pruning_mode_matches_brute_force(monkeypatch):
-    import kruskal_markov.sync as sync_mod
-
-    monkeypatch.setattr(sync_mod, "_PRUNE", True)
-    rng = np.random.default_rng(77)
-    for _ in range(60):
-        n = int(rng.integers(2, 40))
-        k = int(rng.choice([2, 3, 8])) if n <= 30 else 2
-        table = random_table(rng, n, k)
-        res = shortest_synchronizing_word(SyncAutomaton.from_table(table))
-        assert res.exact and res.length == brute_bitmask(table)
-
-
 @pytest.mark.parametrize("parallel", [False, True])
 @pytest.mark.parametrize("chunk,block", [(1, 64), (7, 128), (256, 1 << 16)])
 def test_meet_kernel_against_numpy(chunk, block, parallel):
@@ -451,3 +438,36 @@ def test_meet_kernel_against_numpy(chunk, block, parallel):
         if f >= 0:
             assert not np.any(F[f] & ~B[b])
     assert outcomes == {True, False}
+
+
+def test_functions_take_a_model_or_its_support_automaton_alike():
+    """A TransitionModel stands for its support automaton and start set: same words, same answers;
+    anything else is refused."""
+    from kruskal_markov.convergence import exact_expected_length, pair_chain_bounds
+
+    rng = np.random.default_rng(4)
+    n = 7
+    mats = []
+    for _ in range(2):
+        a = np.zeros((n, n))
+        a[np.arange(n), rng.integers(0, n, n)] = 0.7
+        a[np.arange(n), rng.integers(0, n, n)] += 0.3
+        mats.append(sp.csr_matrix(a))
+    init = np.zeros(n)
+    init[[1, 3, 4]] = 1 / 3
+    model = TransitionModel(["a", "b"], mats, initial=init)
+    aut, start = support_automaton(model), start_set(model)
+    assert list(start) == [1, 3, 4]
+    via_model = shortest_synchronizing_word(model)
+    via_aut = shortest_synchronizing_word(aut, start)
+    assert via_model.as_dict() == via_aut.as_dict()
+    assert greedy_synchronizing_word(model) == greedy_synchronizing_word(aut, start)
+    assert synchronizability(model) == synchronizability(aut, start)
+    if via_aut.word is not None:
+        assert is_synchronizing_word(model, via_aut.word)
+    e_model = exact_expected_length(model)
+    e_aut = exact_expected_length(aut, start)
+    assert e_model == e_aut
+    assert pair_chain_bounds(model) == pair_chain_bounds(aut, start)
+    with pytest.raises(TypeError, match="SyncAutomaton or a TransitionModel"):
+        shortest_synchronizing_word([[0, 1], [1, 1]])

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from transition_builder.friction import DEFAULT_MU, FrictionSpec, parse_friction
-from transition_builder.settings import SimSettings
+from transition_builder.settings import SIMULATOR_VERSION, SimSettings
 from transition_builder.shapes import Shape, check_fits, make_shape, parse_shape
 
 __all__ = ["Scene", "scene_from_options", "ACTIONS", "ACTION_ANGLES_DEG", "DEFAULT_TILT_DEG"]
@@ -232,8 +232,7 @@ class Scene:
         Includes the shape's vertices and convex parts, tray, friction, tilt, actions, every
         simulator setting, the simulator's model version and the PyBullet version.
         """
-        from transition_builder import sim  # local: sim imports scene
-        payload = dict(self.to_dict(), pybullet=_pybullet_version(), simulator=sim.SIMULATOR_VERSION)
+        payload = dict(self.to_dict(), pybullet=_pybullet_version(), simulator=SIMULATOR_VERSION)
         text = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
 

@@ -9,7 +9,11 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields
 
-__all__ = ["SimSettings"]
+__all__ = ["SimSettings", "SIMULATOR_VERSION"]
+
+#: bump when the simulator's model changes in a way that changes results (part of the scene hash;
+#: re-exported by :mod:`transition_builder.sim`).
+SIMULATOR_VERSION = "planar-chain-2"
 
 
 @dataclass(frozen=True)

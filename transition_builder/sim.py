@@ -9,82 +9,24 @@ levelled: the part stays where it came to rest, so the rest pose is read and map
 tray frame. A faulted trial is never returned as a pose (NaN pose, status code from
 :mod:`transition_builder.status`). Sleeping is disabled and every joint is reset before a trial.
 
-How the mechanics are made right
---------------------------------
-Measured with a naive set-up first (a free body, or a joint chain on a box floor, world-fixed
-tray, gravity rotated toward the action), as in docs/simulator.md: a 40 x 40 x 5 mm plate with
-mu = 0.3 on a 30 degree tilt slid 9-17% too far with 100-230 degrees of spurious rotation in a
-naive x/y/z/yaw joint chain (Bullet's box-box manifold put all the weight on one corner, whose
-friction then spun the part), and free bodies tip and jump walls. Six decisions fix it:
+The design, in short (the measurements behind each choice, and the errors measured against
+mechanics: ``docs/simulator.md``):
 
-1. **Planar by construction.** The part is a fixed-base multibody chain: prismatic x, prismatic
-   y, prismatic z, revolute yaw (the part's mass and exact z inertia about its centroid), with the
-   prism's convex parts as fixed child links. It cannot roll or pitch, so it cannot tip or ride
-   over a wall (``TIPPED`` then only means "lifted off the floor"). Default joint motors are
-   disabled (``force=0``: a velocity motor on the z slide would carry weight and remove friction)
-   and all damping is zero. The intermediate links weigh 1e-4 of the part.
-2. **One well-defined floor contact.** The prism floats ``floor_clearance_mm`` above the floor,
-   farther than the contact threshold, so it only ever touches the walls; the weight rests on one
-   small sphere under the centroid (a sphere-box contact is a single exact point with a vertical
-   normal). Its lateral friction gives ``mu N`` opposite the centroid's velocity; its spinning
-   friction, set to the part's friction radius ``(1/A) int |r| dA``, gives the friction torque of
-   uniform pressure for spinning in place. Bullet combines spinning friction as
-   ``spin_A * lateral_B + spin_B * lateral_A`` (setting the floor's spinning friction too froze
-   every rotation), and lateral friction as the product: the floor has lateral friction 1 and the
-   support sphere carries ``mu`` (and ``mu`` x friction radius). A friction map (``map:LEVEL:SEED``)
-   sets the sphere's coefficient to the tile under it before every physics step; separate tile
-   bodies, each with its own friction, made the small sphere catch on tile seams (Bullet's
-   speculative contact with the next tile's edge braked a sliding block by up to 57 mm in
-   0.35 s). On a map a sliding block follows x'' = g (sin a - mu(x) cos a) within 1.2%.
-3. **Downhill along world +x.** Each action has its own world in which the tray is rotated about
-   its centre so that the downhill direction is +x (Bullet's friction is otherwise anisotropic
-   for off-axis sliding, docs/simulator.md). Poses are mapped in and out exactly.
-4. **A centimetre world.** PyBullet gives every convex hull a fixed collision margin of 0.001
-   world units; in a metre world that is 1 mm (a part rested 0.97 mm off the wall and its outline
-   was inflated by 1 mm). The world is built at 100 units per metre, where the margin is 0.01 mm,
-   and the convex parts are inset by it: rest poses touch the wall within 0.001 mm.
-5. **A tight contact threshold and a robust rest test.** With Bullet's contacts kept up to 8 mm
-   apart, stale wall contacts made parts creep along walls at about 1 mm/s (3% of allen-key tilts
-   at 10 solver iterations never settled) and sharp triangle corners jitter (4% of second tilts of
-   ``triangle:1``); at 2 mm and with the rest test on mean velocities both are gone for the key,
-   even at 10 iterations. A triangle wedged between two walls still crept (about 1 mm/s, never
-   settling) in 7 of 16 four-tilt test sequences at 30 iterations, 3 at 50, none at 100: 100 are
-   used (Bullet stops iterating once the residual is small, so they cost little in free slides).
-6. **No memory between trials.** Before every trial the part is moved 1 m away and collision
-   detection is run, which drops cached contacts and their warm-start impulses: a trial's outcome
-   does not depend on the trial before it (bit-identical in any batch order and across processes).
-
-Measured (``tests/test_sim_mechanics.py``, ``tests/test_sim_faults.py``; pybullet 3.2.7, 1/240 s):
-
-- free slide, 40 x 40 mm block, mu = 0.3, each of the 8 directions x yaws 0, 30, 45 deg: the
-  acceleration fitted to distance vs time over 0.3 s is within 0.03% of g (sin a - mu cos a)
-  (the same in all 24 cases), sideways drift < 0.01 mm over 107 mm, no rotation; mu = 0.7 >
-  tan 30 deg: no motion (< 1e-3 mm);
-- a slender 80 x 10 mm rectangle (mu = 0.1) tilted into a wall from 8 yaws rests flush within 0.03
-  deg, touching the wall. At mu = 0.3 a part that meets a wall nearly end-on can rest on a corner:
-  the gravity torque toward flush is then smaller than the floor-friction torque - true Coulomb
-  behaviour, not an engine artefact;
-- rotating pose and action by 90 degrees: rest poses agree within 0.51 mm / 0.69 deg (worst of 400
-  allen-key tilts), median below 0.001 mm (each direction has its own rotated world, so round-off
-  differs and a few near-critical trials amplify it);
-- faults: 0 in 20,000 random allen-key tilts from uniform start poses; 0 in 14,400 tilts of
-  8-tilt random sequences of the 15 paper-style triangles, two rectangles and the key;
-- speed (``python -m benchmarks sim``, shared 2-core machine at load 2.6-3.6): 310-330 allen-key
-  tilts/s per core (CPU time), about 105 physics steps per tilt; the naive free body measured
-  side by side: 410-460 tilts/s with 0.7-2% faults;
-- against a 1/480 s reference, 93% of random allen-key tilts rest within 1 mm and 1 degree of the
-  reference pose (median 0.05 mm); the rest reach a different resting configuration from a
-  near-critical start (sensitivity, not drift). Contact thresholds 2, 4 and 8 mm agree equally.
-
-Known limitation: with a single contact the friction force and torque are limited independently
-(a "box" limit surface), which over-resists rotation about a far point (a part pivoting on a
-wall corner) compared with distributed Coulomb friction. ``SimSettings(support_points=K)`` with
-K > 1 replaces the sphere by K legs (independent prismatic-z links under K equal-area cells, each
-carrying its cell's weight), i.e. distributed point-contact Coulomb friction; it passes the same
-slide tests but is 2-3x slower (about 140 tilts/s with K = 4). On 400 and 1,000 random allen-key tilts
-the two models rest within 1 mm / 1 deg of each other for 56-59% (the key ends flush against a
-wall after 25% vs 32% of tilts): where a part comes to rest after pivoting is sensitive to the
-friction model, and the paper's Simscape contact model is a third, different choice.
+1. **Planar by construction**: the part is a fixed-base multibody chain (prismatic x, y, z and a
+   revolute yaw) carrying the prism's convex parts; it cannot tip or ride over a wall (``TIPPED``
+   only means "lifted off the floor"). Joint motors are disabled and damping is zero.
+2. **A well-defined floor contact**: the prism floats above the floor and its weight rests on one
+   small support sphere under the centroid (lateral friction ``mu``; spinning friction from the
+   part's friction radius), or with ``SimSettings(support_points=K)`` on K legs (distributed
+   point-contact Coulomb friction). A friction map sets the contact's coefficient to the tile
+   under it before every physics step.
+3. **Downhill along world +x**: each action has its own world, rotated so that downhill is +x
+   (Bullet's friction is anisotropic off the axes); poses are mapped in and out exactly.
+4. **A centimetre world** with inset hulls: Bullet's fixed 0.001-unit collision margin is 0.01 mm.
+5. **A 2 mm contact threshold, 100 solver iterations and a rest test on mean velocities**, so
+   parts neither creep along walls nor jitter in corners.
+6. **No memory between trials**: the part is moved away and collision detection run before every
+   trial, so an outcome does not depend on the trial before it.
 """
 from __future__ import annotations
 
@@ -95,12 +37,12 @@ import numpy as np
 
 from transition_builder import status as st_codes
 from transition_builder._bullet_world import BulletWorld
+from transition_builder.friction import parse_friction
 from transition_builder.scene import Scene
+from transition_builder.settings import SIMULATOR_VERSION
 
 __all__ = ["TraySimulator", "simulate", "SIMULATOR_VERSION", "valid_start"]
 
-#: bump when the simulator's model changes in a way that changes results (part of the scene hash).
-SIMULATOR_VERSION = "planar-chain-2"
 
 
 def valid_start(scene: Scene, poses) -> np.ndarray:
@@ -168,6 +110,29 @@ class TraySimulator:
             w = BulletWorld(self.scene, self.scene.downhill_angle(k))
             self._worlds[k] = w
         return w
+
+    def prepare(self, actions=None):
+        """Build the PyBullet worlds of ``actions`` (default: all) now rather than on first use,
+        e.g. to keep their set-up out of a timing."""
+        for a in (range(len(self.scene.actions)) if actions is None else actions):
+            self._world(a)
+
+    def fresh_start(self):
+        """Make the next trial independent of every trial this simulator ran before.
+
+        With uniform friction that is already so (contacts are cleared before every trial). On a
+        friction map some Bullet state survives that reset (results differed by up to 3e-4 mm
+        after other trials had run), so the worlds are rebuilt on next use. Direct simulation and
+        the builder call this at the start of every task, whose trials are fixed by the task
+        list alone, so a friction-map result is the same for any number of workers.
+        """
+        if self.friction_map:
+            self.close()
+
+    @property
+    def friction_map(self) -> bool:
+        """True when the scene's friction is a map (tile coefficients)."""
+        return parse_friction(self.scene.friction).kind == "map"
 
     def close(self):
         """Disconnect every PyBullet world."""

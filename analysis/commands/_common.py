@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import re
 
 import numpy as np
@@ -57,12 +58,13 @@ def add_model_source(parser: argparse.ArgumentParser) -> None:
 
 def load_model_source(args: argparse.Namespace, required: bool = True):
     """Load the :class:`~kruskal_markov.model.TransitionModel` named by ``--model`` or ``--automaton``."""
+    from kruskal_markov.automaton import model_from_automaton
     from kruskal_markov.model import TransitionModel
 
     if getattr(args, "model", None):
         return TransitionModel.load(args.model)
     if getattr(args, "automaton", None):
-        return TransitionModel.from_automaton_json(args.automaton)
+        return model_from_automaton(args.automaton)
     if required:
         raise InputError("one of --model PATH or --automaton FILE is required")
     return None
@@ -85,8 +87,6 @@ def check_writable_file(path: str | None, option: str) -> None:
     None means the option was not given; an empty string, a directory, or a path whose directory
     does not exist or is not writable is an :class:`InputError`.
     """
-    import os
-
     if path is None:
         return
     if not path.strip():
@@ -116,8 +116,6 @@ def positive_float(text: str) -> float:
 def check_writable_dir(path: str, option: str) -> None:
     """Fail before any work if ``path`` (the value of ``option``) cannot be used as an output directory:
     empty, an existing non-directory, or under a directory that is not writable."""
-    import os
-
     if not path.strip():
         raise InputError(f"{option} must name a directory")
     if os.path.exists(path) and not os.path.isdir(path):
@@ -127,3 +125,35 @@ def check_writable_dir(path: str, option: str) -> None:
         parent = os.path.dirname(parent)
     if not os.access(parent, os.W_OK):
         raise InputError(f"{option} {path!r}: {parent} is not writable")
+
+
+def scene_from_args(args):
+    """The scene of --scene (a scene file; --shape/--friction/--tilt-deg replace its parts) or of
+    --shape/--friction/--tilt-deg."""
+    from transition_builder.scene import Scene, scene_from_options
+
+    if args.scene:
+        from dataclasses import replace
+
+        from transition_builder.friction import parse_friction
+        from transition_builder.shapes import parse_shape
+
+        if not os.path.isfile(args.scene):
+            raise InputError(f"scene file {args.scene!r} does not exist")
+        scene = Scene.load(args.scene)
+        changes = {}
+        if args.shape is not None:
+            changes["shape"] = parse_shape(args.shape)
+        if args.friction is not None:
+            changes["friction"] = parse_friction(args.friction)
+        if args.tilt_deg is not None:
+            changes["tilt_deg"] = args.tilt_deg
+        return replace(scene, **changes) if changes else scene
+    kw = {}
+    if args.friction is not None:
+        kw["friction_spec"] = args.friction
+    if args.tilt_deg is not None:
+        kw["tilt_deg"] = args.tilt_deg
+    if args.shape is not None and not args.shape.strip():
+        raise InputError("--shape is empty; name a shape, e.g. allen-key (the default when --shape is not given)")
+    return scene_from_options(args.shape or "allen-key", **kw)

@@ -51,9 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def scene_for(args):
     """The scene named by --scene/--shape/--friction/--tilt-deg/--support-points."""
-    from analysis.commands.simulate import _scene
+    from analysis.commands._common import scene_from_args
 
-    scene = _scene(args)
+    scene = scene_from_args(args)
     if getattr(args, "support_points", None) is not None:
         scene = scene.with_settings(support_points=args.support_points)
     return scene

@@ -11,7 +11,8 @@ import argparse
 import sys
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, check_writable_file, parse_sequence, sequence_rng
+from analysis.commands._common import (add_seed, check_writable_file, parse_sequence, scene_from_args,
+                                       sequence_rng)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -48,37 +49,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="show a progress bar on standard error (default: only on a terminal)")
 
 
-def _scene(args):
-    from transition_builder.scene import Scene, scene_from_options
-
-    if args.scene:
-        import os
-        from dataclasses import replace
-
-        from transition_builder.friction import parse_friction
-        from transition_builder.shapes import parse_shape
-
-        if not os.path.isfile(args.scene):
-            raise InputError(f"scene file {args.scene!r} does not exist")
-        scene = Scene.load(args.scene)
-        changes = {}
-        if args.shape is not None:
-            changes["shape"] = parse_shape(args.shape)
-        if args.friction is not None:
-            changes["friction"] = parse_friction(args.friction)
-        if args.tilt_deg is not None:
-            changes["tilt_deg"] = args.tilt_deg
-        return replace(scene, **changes) if changes else scene
-    kw = {}
-    if args.friction is not None:
-        kw["friction_spec"] = args.friction
-    if args.tilt_deg is not None:
-        kw["tilt_deg"] = args.tilt_deg
-    if args.shape is not None and not args.shape.strip():
-        raise InputError("--shape is empty; name a shape, e.g. allen-key (the default when --shape is not given)")
-    return scene_from_options(args.shape or "allen-key", **kw)
-
-
 def run(args: argparse.Namespace) -> dict:
     from analysis.montecarlo import run_direct, write_poses_csv
     from transition_builder.noise import parse_noise
@@ -89,7 +59,7 @@ def run(args: argparse.Namespace) -> dict:
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     check_writable_file(args.poses, "--poses")
-    scene = _scene(args)
+    scene = scene_from_args(args)
     rng = sequence_rng(args.seed)
     sequence = parse_sequence(args.sequence, scene.actions, rng)
     progress = True if args.progress else None  # None: a bar only when stderr is a terminal

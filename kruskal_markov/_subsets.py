@@ -1,0 +1,91 @@
+"""Shared pieces of the subset searches in :mod:`kruskal_markov.sync` and
+:mod:`kruskal_markov.convergence`: start-set validation and the hashed bitset store."""
+from __future__ import annotations
+
+import numpy as np
+
+from kruskal_markov import _sync_kernels as _k
+
+__all__ = ["as_start", "SubsetStore", "pow2"]
+
+
+def as_start(aut, start) -> np.ndarray:
+    """The sorted start states of ``aut`` (all states when ``start`` is None), validated."""
+    if start is None:
+        return np.arange(aut.n)
+    s = np.unique(np.asarray(start, dtype=np.int64).ravel())
+    if s.size == 0:
+        raise ValueError("the start set is empty")
+    if s[0] < 0 or s[-1] >= aut.n:
+        raise ValueError(f"start states must lie in [0, {aut.n})")
+    return s
+
+
+def pow2(x):
+    """The hash table size for ``x`` entries: a power of two, at least 16."""
+    return 1 << max(4, int(x - 1).bit_length())
+
+
+class SubsetStore:
+    """A growable, hashed store of bitsets with parent pointers (one search direction)."""
+
+    def __init__(self, W, cap, max_rows):
+        self.W = W
+        self.max_rows = max_rows
+        cap = max(16, min(cap, max_rows))
+        self.rows = np.zeros((cap, W), dtype=np.uint64)
+        self.parent = np.full(cap, -1, dtype=np.int64)
+        self.letter = np.full(cap, -1, dtype=np.int32)
+        self.table = np.full(pow2(2 * cap), -1, dtype=np.int64)
+        self.count = 0
+        self.levels = []
+
+    def ensure(self, need):
+        need = min(need, self.max_rows)
+        cap = self.rows.shape[0]
+        if need <= cap:
+            return
+        new = min(self.max_rows, max(need, 2 * cap))
+        rows = np.zeros((new, self.W), dtype=np.uint64)
+        rows[:self.count] = self.rows[:self.count]
+        parent = np.full(new, -1, dtype=np.int64)
+        parent[:self.count] = self.parent[:self.count]
+        letter = np.full(new, -1, dtype=np.int32)
+        letter[:self.count] = self.letter[:self.count]
+        self.rows, self.parent, self.letter = rows, parent, letter
+        self.table = np.full(pow2(2 * new), -1, dtype=np.int64)
+        _k.rehash(self.rows, self.count, self.table)
+
+    def add_roots(self, bitsets):
+        self.ensure(self.count + len(bitsets))
+        lo = self.count
+        for b in bitsets:
+            self.rows[self.count] = b
+            self.count += 1
+        _k.rehash(self.rows, self.count, self.table)
+        self.levels.append((lo, self.count))
+
+    def expand(self, aut, forward):
+        lo, hi = self.levels[-1]
+        self.ensure(self.count + (hi - lo) * aut.k)
+        inv_ptr, inv_idx, supcount = aut.inverse
+        new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.sup, aut.deterministic,
+                              forward, self.table, self.parent, self.letter, self.rows.shape[0],
+                              inv_ptr, inv_idx, supcount)
+        if new < 0:
+            _k.rehash(self.rows, self.count, self.table)   # drop the partial level
+            return None
+        lo2 = self.count
+        self.count = new
+        self.levels.append((lo2, new))
+        return new - lo2
+
+    def path(self, i):
+        out = []
+        while self.parent[i] >= 0:
+            out.append(int(self.letter[i]))
+            i = self.parent[i]
+        return out, i
+
+    def nbytes(self):
+        return self.rows.nbytes + self.parent.nbytes + self.letter.nbytes + self.table.nbytes
