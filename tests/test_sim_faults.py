@@ -29,14 +29,22 @@ def _random_tilts(seed: int, n: int):
     return fault_counts(status), n
 
 
-def test_fault_rate_20000_random_tilts():
-    """Over 20,000 random tilts of the allen key from random poses, faults <= 1 in 10,000."""
+def test_no_faults_in_2000_random_tilts():
+    """The default suite's census: 2,000 random tilts of the allen key from random poses, no fault
+    (the 20,000-tilt census behind the README's figure runs with ``-m slow``)."""
+    counts, n = _random_tilts(303, 2_000)
+    assert n == 2_000 and sum(counts.values()) == 0, counts
+
+
+@pytest.mark.slow
+def test_no_faults_in_20000_random_tilts():
+    """The README's figure: 0 faults in 20,000 random tilts of the allen key from random poses."""
     with ProcessPoolExecutor(max_workers=2) as ex:
         results = list(ex.map(_random_tilts, [101, 202], [10_000, 10_000]))
     faults = sum(sum(c.values()) for c, _ in results)
     tilts = sum(n for _, n in results)
     assert tilts == 20_000
-    assert faults <= 2, [c for c, _ in results]
+    assert faults == 0, [c for c, _ in results]
 
 
 _CHILD = """

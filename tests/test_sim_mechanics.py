@@ -31,8 +31,9 @@ def block_sim():
 @pytest.mark.parametrize("action", ACTIONS)
 @pytest.mark.parametrize("yaw_deg", [0.0, 30.0, 45.0])
 def test_free_slide_acceleration_and_drift(block_sim, action, yaw_deg):
-    """Distance vs time over a free slide (no wall contact): fitted acceleration within 3% of
-    g (sin a - mu cos a), sideways drift under 2% of the distance, no spurious rotation."""
+    """Distance vs time over a free slide (no wall contact): fitted acceleration within 0.2% of
+    g (sin a - mu cos a) (measured: 0.022% at worst over the 24 cases), sideways drift under
+    0.01 mm, no rotation, no lift off the floor (measured: none within 1e-4 mm)."""
     sc = block_sim.scene
     phi = sc.downhill_angle(action)
     u = np.array([math.cos(phi), math.sin(phi)])
@@ -47,11 +48,11 @@ def test_free_slide_acceleration_and_drift(block_sim, action, yaw_deg):
     A = np.column_stack([np.ones_like(t), t, 0.5 * t * t])
     acc = np.linalg.lstsq(A, along, rcond=None)[0][2] / 1000.0
     expected = G * (math.sin(TILT) - sc.base_mu * math.cos(TILT))
-    assert abs(acc / expected - 1.0) < 0.03, (acc, expected)
+    assert abs(acc / expected - 1.0) < 0.002, (acc, expected)
     assert along[-1] > 50.0                                  # it really slid
-    assert np.max(np.abs(side)) < 0.02 * along[-1]
-    assert np.max(np.abs(poses[:, 2] - poses[0, 2])) < math.radians(0.5)
-    assert np.max(np.abs(z)) < 0.1                           # stays on the floor (mm)
+    assert np.max(np.abs(side)) < 0.01
+    assert np.max(np.abs(poses[:, 2] - poses[0, 2])) < math.radians(0.001)
+    assert np.max(np.abs(z)) < 0.001                         # stays on the floor (mm)
 
 
 @pytest.mark.parametrize("action", ACTIONS)
@@ -72,7 +73,8 @@ def test_no_slide_above_friction_angle(action, yaw_deg):
 @pytest.mark.parametrize("action", ["N", "E", "S", "W"])
 def test_rectangle_rests_flush_against_wall(action):
     """A slender rectangle (80 x 10 mm, mu = 0.1) tilted into a wall from several yaws rests with
-    an edge flush against that wall (within 2 degrees) and touching it (within 0.1 mm).
+    an edge flush against that wall (within 0.1 degree; measured 0.027) and touching it (within
+    0.08 mm; measured 0.040).
 
     Low friction on purpose: with Coulomb friction a part that meets a wall nearly end-on can
     rest on a corner (the gravity torque toward flush is smaller than the floor-friction torque),
@@ -86,13 +88,13 @@ def test_rectangle_rests_flush_against_wall(action):
         rest, status = sim.tilt(starts, action)
         assert np.all(status == OK)
         dev = (rest[:, 2] + math.pi / 4) % (math.pi / 2) - math.pi / 4
-        assert np.max(np.abs(np.degrees(dev))) < 2.0, np.degrees(dev)
+        assert np.max(np.abs(np.degrees(dev))) < 0.1, np.degrees(dev)
         phi = sc.downhill_angle(action)
         u = np.array([math.cos(phi), math.sin(phi)])
         wall = 200.0 if u.sum() > 0 else 0.0
         v = sc.shape.placed(rest)                              # (n, 4, 2)
         extreme = (v @ np.abs(u)).max(axis=1) if wall else (v @ np.abs(u)).min(axis=1)
-        assert np.all(np.abs(extreme - wall) < 0.1), extreme
+        assert np.all(np.abs(extreme - wall) < 0.08), extreme
     finally:
         sim.close()
 
@@ -142,7 +144,8 @@ def test_rest_poses_lie_inside_the_tray_and_against_walls():
 @pytest.mark.parametrize("action", ["NE", "W"])
 @pytest.mark.parametrize("yaw_deg", [0.0, 30.0])
 def test_distributed_support_mode_slides_right(action, yaw_deg):
-    """support_points=4 (four legs, distributed Coulomb friction) passes the same slide check."""
+    """support_points=4 (four legs, distributed Coulomb friction) passes the same slide check:
+    acceleration within 0.5% (measured 0.054% at worst), sideways drift under 0.05 mm (0.003)."""
     sc = scene_from_options("rectangle:40x40", 0.3, support_points=4, solver_iterations=20)
     with TraySimulator(sc) as sim:
         phi = sc.downhill_angle(action)
@@ -153,8 +156,8 @@ def test_distributed_support_mode_slides_right(action, yaw_deg):
         along, side = d @ u, d @ np.array([-u[1], u[0]])
         acc = np.linalg.lstsq(np.column_stack([np.ones_like(t), t, 0.5 * t * t]), along, rcond=None)[0][2]
         expected = G * (math.sin(TILT) - 0.3 * math.cos(TILT)) * 1000.0
-        assert abs(acc / expected - 1.0) < 0.03
-        assert np.max(np.abs(side)) < 0.02 * along[-1]
+        assert abs(acc / expected - 1.0) < 0.005
+        assert np.max(np.abs(side)) < 0.05
         rest, status = sim.tilt([[100.0, 100.0, math.radians(yaw_deg)]], action)
         assert status[0] == OK
 
