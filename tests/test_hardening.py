@@ -49,6 +49,9 @@ def files(tmp_path, monkeypatch):
     (["ensemble", "--automaton", "ok.json", "--count", "1000000000000", "--length", "5"], "smaller --count"),
     (["entropy", "--poses", "far_step.csv", "--shape", "allen-key"], "counts tilts from 0"),
     (["entropy", "--model", "fake.npz", "--sequence", "N"], "fake.npz"),
+    (["simulate", "--shape", "rectangle:0.5x0.5", "--sequence", "N"], "smallest square part is 2 x 2 mm"),
+    (["simulate", "--shape", "rectangle:0.01x0.01", "--sequence", "N"], "too small for the simulator"),
+    (["build", "--shape", "rectangle:1.9x1.9"], "0.95 mm inside its outline"),
 ])
 def test_refused_in_one_line_before_allocating(files, capsys, argv, needle):
     assert main(argv) == 2
@@ -56,3 +59,17 @@ def test_refused_in_one_line_before_allocating(files, capsys, argv, needle):
     assert out == ""
     assert err.count("\n") == 1 and needle in err, err
     assert "Traceback" not in err
+
+
+def test_smallest_supported_part_reaches_the_wall():
+    """A 2 x 2 mm square (the smallest the 1 mm support sphere allows) slides flush against the wall
+    it is tilted toward: the part's outline touches it, not the sphere."""
+    from transition_builder.scene import scene_from_options
+    from transition_builder.sim import TraySimulator
+
+    scene = scene_from_options("rectangle:2x2")
+    with TraySimulator(scene) as sim:
+        rest, status = sim.tilt([[100.0, 100.0, 0.0], [60.0, 120.0, 0.3]], "N")
+    assert list(status) == [0, 0]
+    top = scene.shape.placed(rest)[..., 1].max(axis=1)
+    np.testing.assert_allclose(top, scene.tray_y_mm, atol=0.08)

@@ -118,6 +118,7 @@ class Scene:
             raise ValueError(f"walls ({self.wall_height_mm:g} mm) must be taller than the part "
                              f"({self.shape.thickness_mm:g} mm)")
         check_fits(self.shape, self.tray_x_mm, self.tray_y_mm)
+        _check_support_inside(self.shape, self.settings.support_radius_mm)
 
     # ------------------------------------------------------------------ actions
     def action_index(self, action) -> int:
@@ -249,6 +250,24 @@ class Scene:
     def __repr__(self):
         return (f"Scene({self.shape.name!r}, tray {self.tray_x_mm:g}x{self.tray_y_mm:g} mm, "
                 f"friction {self.friction}, tilt {self.tilt_deg:g} deg, actions {','.join(self.actions)})")
+
+
+def _check_support_inside(shape: Shape, radius_mm: float) -> None:
+    """Refuse a part too small for the simulator's support sphere (one line).
+
+    The weight rests on a sphere of ``radius_mm`` under the centroid (docs/simulator.md). If the
+    sphere reaches closer than its radius to the edge of the part's convex hull, it touches a wall
+    before the part does, and the part stops short of the wall (a 0.5 mm square rested 0.7 mm
+    off it with status ok). The centroid must therefore lie at least ``radius_mm`` inside the hull.
+    """
+    from shapely.geometry import MultiPoint, Point
+
+    hull = MultiPoint([tuple(p) for p in shape.vertices]).convex_hull
+    clearance = hull.exterior.distance(Point(0.0, 0.0)) if hull.contains(Point(0.0, 0.0)) else 0.0
+    if clearance < radius_mm - 1e-9:
+        raise ValueError(f"shape {shape.name!r} is too small for the simulator: its centroid lies "
+                         f"{clearance:.2f} mm inside its outline, less than the {radius_mm:g} mm support "
+                         f"sphere (the smallest square part is {2 * radius_mm:g} x {2 * radius_mm:g} mm)")
 
 
 def scene_from_options(shape_spec, friction_spec=DEFAULT_MU, tilt_deg: float = DEFAULT_TILT_DEG,
