@@ -32,6 +32,7 @@ from scipy.sparse import csgraph
 
 from kruskal_markov import _convergence_kernels as _ck
 from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov.entropy import partition_entropy_bits
 from kruskal_markov.sync import SyncAutomaton, as_automaton
 
 if TYPE_CHECKING:
@@ -381,9 +382,7 @@ def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 5
     _ck.mc_entropy_steps(np.asarray(model.initial, dtype=np.float64), indptr, indices, data, part,
                          ncells, letters, epsilon, steps)
     # entropy already <= epsilon before any tilt
-    p0 = np.bincount(part, weights=np.asarray(model.initial, dtype=np.float64), minlength=ncells)
-    p0 = p0[p0 > 0] / p0.sum()
-    if -np.sum(p0 * np.log2(p0)) <= epsilon:
+    if partition_entropy_bits(np.asarray(model.initial, dtype=np.float64), part, ncells) <= epsilon:
         steps[:] = 0
     fin = steps[steps >= 0].astype(np.float64)
     censored = int((steps < 0).sum())

@@ -33,6 +33,7 @@ import scipy.sparse as sp
 
 from kruskal_markov import _sync_kernels as _k
 from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov.entropy import distribution_entropy_bits, partition_entropy_bits
 
 if TYPE_CHECKING:
     from kruskal_markov.model import TransitionModel
@@ -537,16 +538,10 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
 
 # ----------------------------------------------------------------------------- epsilon-synchronizing
 def _cell_entropy(p, partition, n_cells):
-    if partition is not None:
-        q = np.bincount(partition, weights=p, minlength=n_cells)
-    else:
-        q = p
-    q = q[q > 0]
-    s = q.sum()
-    if s <= 0:
-        return 0.0
-    q = q / s
-    return float(max(0.0, -np.sum(q * np.log2(q))))
+    """Entropy (bits) of ``p`` on the report cells (on the states without a partition)."""
+    if partition is None:
+        return distribution_entropy_bits(p)
+    return partition_entropy_bits(p, partition, n_cells)
 
 
 def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time_budget: float = 30.0,
