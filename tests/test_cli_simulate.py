@@ -90,6 +90,23 @@ def test_random_sequence_from_seed(capsys):
     assert a["grid"] == "2x2x2"
 
 
+def test_one_seed_one_sequence_in_every_command(capsys, tmp_path):
+    """--sequence random:N --seed S names the same actions in simulate, entropy and validate's
+    first sequence, so a model's prediction and a direct simulation of it really compare alike."""
+    from analysis.sequences import random_sequences_for
+
+    names = ["N", "NE", "E", "SE", "S", "SW", "W", "NW"]
+    code, out, _ = _run(capsys, "--sequence", "random:9", "--trials", "2", "--seed", "23", "--workers", "1",
+                        "--json")
+    assert code == 0
+    simulated = json.loads(out)["sequence"]
+    aut = tmp_path / "eight.json"
+    aut.write_text(json.dumps({"states": 2, "actions": {a: [1, 0] for a in names}}))
+    assert main(["entropy", "--automaton", str(aut), "--sequence", "random:9", "--seed", "23", "--json"]) == 0
+    predicted = json.loads(capsys.readouterr().out)["sequence"]
+    assert simulated == predicted == [names[a] for a in random_sequences_for(8, 3, 9, 23)[0]]
+
+
 def test_process_noise_option(capsys):
     argv = ["--sequence", "NE,S", "--trials", "16", "--seed", "4", "--workers", "1", "--json"]
     code, out, err = _run(capsys, *argv, "--noise", "pose:0.5,0.5")

@@ -28,8 +28,8 @@ def parse_sequence(text: str, action_names, rng: np.random.Generator | None = No
         from kruskal_markov.limits import check_memory
 
         check_memory(length * 8.0 * 4, f"--sequence {text}", "use a shorter sequence")
-        if rng is None:
-            rng = np.random.default_rng()
+        if rng is None:     # every random choice flows from --seed: the caller passes sequence_rng(seed)
+            raise ValueError("parse_sequence: random:N needs the generator of --seed (sequence_rng)")
         return rng.integers(0, len(names), size=length).astype(np.int64)
     if text == "":
         return np.zeros(0, dtype=np.int64)
