@@ -63,7 +63,8 @@ class SimSettings:
     escape_tolerance_mm : float
         A rest pose whose outline is outside the tray by more than this is ``ESCAPED``.
     lift_tolerance_mm : float
-        A rest pose lifted off the floor by more than this is ``ESCAPED`` (left the floor).
+        A part at rest more than this above the floor is ``TIPPED`` (lifted off it); one more than
+        this below the floor during a tilt is ``ESCAPED`` (fell through it).
     """
 
     time_step_s: float = 1.0 / 240.0
