@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -18,8 +19,14 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 def installed(tmp_path_factory):
     wheels = tmp_path_factory.mktemp("wheel")
     target = tmp_path_factory.mktemp("site")
+    # build from a copy of the tracked sources, so nothing is written into the working tree
+    source = tmp_path_factory.mktemp("source")
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, source / name)
+    for package in ("kruskal_markov", "transition_builder", "analysis"):
+        shutil.copytree(ROOT / package, source / package, ignore=shutil.ignore_patterns("__pycache__"))
     build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-                            "--quiet", "-w", str(wheels), str(ROOT)], capture_output=True, text=True)
+                            "--quiet", "-w", str(wheels), str(source)], capture_output=True, text=True)
     if build.returncode != 0:
         pytest.fail(f"pip wheel failed: {build.stderr[-2000:]}")
     wheel = next(wheels.glob("kruskal-*.whl"))
