@@ -66,15 +66,13 @@ POSES_CSV_COLUMNS = ("trial", "step", "x_mm", "y_mm", "theta_rad", "status")
 # ----------------------------------------------------------------------------------------------
 
 def _tray_size(scene) -> tuple[float, float]:
-    for ax, ay in (("tray_x_mm", "tray_y_mm"),):
-        if hasattr(scene, ax):
-            return float(getattr(scene, ax)), float(getattr(scene, ay))
-    tray = getattr(scene, "tray", None)
-    if tray is not None:
-        for ax, ay in (("x_mm", "y_mm"), ("inner_x_mm", "inner_y_mm"), ("size_x_mm", "size_y_mm")):
-            if hasattr(tray, ax):
-                return float(getattr(tray, ax)), float(getattr(tray, ay))
-    raise TypeError(f"cannot read the tray size from {type(scene).__name__}")
+    """The tray's inner size (mm) of a :class:`~transition_builder.scene.Scene` (or a stand-in
+    with ``tray_x_mm`` and ``tray_y_mm``)."""
+    try:
+        return float(scene.tray_x_mm), float(scene.tray_y_mm)
+    except AttributeError:
+        raise TypeError(f"cannot read the tray size from {type(scene).__name__}: it needs tray_x_mm "
+                        f"and tray_y_mm") from None
 
 
 def _action_names(scene) -> tuple[str, ...]:
