@@ -34,6 +34,7 @@ from kruskal_markov import _convergence_kernels as _ck
 from kruskal_markov._subsets import SubsetStore, as_start
 from kruskal_markov.entropy import partition_entropy_bits
 from kruskal_markov.sync import SyncAutomaton, as_automaton
+from kruskal_markov.validation import action_weights
 
 if TYPE_CHECKING:
     from kruskal_markov.model import TransitionModel
@@ -50,15 +51,9 @@ __all__ = [
 
 
 def letter_weights(k: int, weights=None) -> np.ndarray:
-    """Validated letter probabilities (uniform by default); weights are normalised to sum 1."""
-    if weights is None:
-        return np.full(k, 1.0 / k)
-    w = np.asarray(weights, dtype=np.float64).ravel()
-    if w.shape[0] != k:
-        raise ValueError(f"{w.shape[0]} weights given for {k} actions")
-    if not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
-        raise ValueError("weights must be finite, non-negative and not all zero")
-    return w / w.sum()
+    """Validated letter probabilities (uniform by default); weights are normalised to sum 1
+    (:func:`kruskal_markov.validation.action_weights`)."""
+    return action_weights(k, weights)
 
 
 def _finite_or_none(x):

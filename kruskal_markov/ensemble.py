@@ -14,24 +14,14 @@ import numpy as np
 from kruskal_markov.entropy import batch_entropy
 from kruskal_markov.limits import check_memory
 from kruskal_markov.model import ModelError, TransitionModel
+from kruskal_markov.validation import action_weights
 
 __all__ = ["random_sequences", "EnsembleResult", "run_ensemble", "convergence_steps", "best_sequence_index"]
 
 
 def _as_weights(n_actions: int, weights) -> np.ndarray | None:
-    if weights is None:
-        return None
-    try:
-        w = np.asarray(weights, dtype=np.float64).ravel()
-    except (TypeError, ValueError):
-        raise ModelError("action weights must be numbers") from None
-    if w.size != n_actions:
-        raise ModelError(f"{w.size} action weights given for {n_actions} actions")
-    if not np.all(np.isfinite(w)) or np.any(w < 0):
-        raise ModelError("action weights must be finite and non-negative")
-    if w.sum() <= 0:
-        raise ModelError("action weights must not all be zero")
-    return w / w.sum()
+    """None (uniform) or the validated probabilities (:func:`kruskal_markov.validation.action_weights`)."""
+    return None if weights is None else action_weights(n_actions, weights)
 
 
 def random_sequences(n_actions: int, count: int, length: int, seed=None, weights=None) -> np.ndarray:

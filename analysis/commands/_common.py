@@ -157,3 +157,32 @@ def scene_from_args(args):
     if args.shape is not None and not args.shape.strip():
         raise InputError("--shape is empty; name a shape, e.g. allen-key (the default when --shape is not given)")
     return scene_from_options(args.shape or "allen-key", **kw)
+
+
+def parse_weights(text: str | None, actions) -> list[float] | None:
+    """``--weights``: comma-separated numbers in action order, or ``NAME=W`` pairs (other actions 0).
+
+    None when the option was not given; :class:`InputError` naming the problem otherwise (the
+    values themselves are checked by :func:`kruskal_markov.validation.action_weights`).
+    """
+    if text is None:
+        return None
+    names = list(actions)
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    try:
+        if parts and all("=" in p for p in parts):
+            index = {a.upper(): i for i, a in enumerate(names)}
+            w = [0.0] * len(names)
+            for p in parts:
+                name, val = p.split("=", 1)
+                if name.strip().upper() not in index:
+                    raise InputError(f"unknown action {name.strip()!r} in --weights; known: {','.join(names)}")
+                w[index[name.strip().upper()]] = float(val)
+            return w
+        w = [float(p) for p in parts]
+    except ValueError:
+        raise InputError(f"bad --weights {text!r}: expected {len(names)} comma-separated numbers or NAME=W "
+                         f"pairs") from None
+    if len(w) != len(names):
+        raise InputError(f"--weights has {len(w)} values, the model has {len(names)} actions ({','.join(names)})")
+    return w

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_model_source, add_seed, load_model_source, positive_float
+from analysis.commands._common import add_model_source, add_seed, load_model_source, parse_weights, positive_float
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -42,28 +42,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
 
 
-def _parse_weights(text, actions):
-    if text is None:
-        return None
-    parts = [p.strip() for p in text.split(",") if p.strip()]
-    try:
-        if parts and all("=" in p for p in parts):
-            index = {a.upper(): i for i, a in enumerate(actions)}
-            w = [0.0] * len(actions)
-            for p in parts:
-                name, val = p.split("=", 1)
-                if name.strip().upper() not in index:
-                    raise InputError(f"unknown action {name.strip()!r} in --weights; known: {','.join(actions)}")
-                w[index[name.strip().upper()]] = float(val)
-            return w
-        w = [float(p) for p in parts]
-    except ValueError:
-        raise InputError(f"bad --weights {text!r}: expected numbers or NAME=W pairs") from None
-    if len(w) != len(actions):
-        raise InputError(f"--weights has {len(w)} values for {len(actions)} actions ({','.join(actions)})")
-    return w
-
-
 def run(args: argparse.Namespace) -> dict:
     from kruskal_markov.convergence import (
         expected_sync_length,
@@ -81,7 +59,7 @@ def run(args: argparse.Namespace) -> dict:
     if not 0.0 <= args.threshold <= 1.0:
         raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
     model = load_model_source(args)
-    weights = _parse_weights(args.weights, model.actions)
+    weights = parse_weights(args.weights, model.actions)
     w = letter_weights(model.n_actions, weights)
     aut = support_automaton(model, args.threshold)
     whole = {"auto": None, "all": True, "initial": False}[args.start]

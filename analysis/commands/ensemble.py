@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_model_source, add_seed, load_model_source
+from analysis.commands._common import add_model_source, add_seed, load_model_source, parse_weights
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -20,21 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--epsilon", type=float, default=1e-9,
                         help="convergence threshold in bits (default 1e-9)")
     parser.add_argument("--weights", default=None, metavar="w1,w2,...",
-                        help="action probabilities (up to a factor), one per action in model order; "
-                             "default uniform")
+                        help="action probabilities (up to a factor): comma-separated in action order or "
+                             "NAME=W pairs (default uniform)")
     parser.add_argument("--threads", type=int, default=None, help="Numba threads (default: all cores)")
-
-
-def _parse_weights(text, n_actions):
-    if text is None:
-        return None
-    try:
-        w = [float(t) for t in text.split(",")]
-    except ValueError:
-        raise InputError(f"bad --weights {text!r}: expected {n_actions} comma-separated numbers") from None
-    if len(w) != n_actions:
-        raise InputError(f"--weights has {len(w)} values, the model has {n_actions} actions")
-    return w
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -47,7 +35,7 @@ def run(args: argparse.Namespace) -> dict:
     if args.threads is not None and args.threads < 1:
         raise InputError(f"--threads must be at least 1, got {args.threads}")
     model = load_model_source(args)
-    weights = _parse_weights(args.weights, model.n_actions)
+    weights = parse_weights(args.weights, model.actions)
     res = run_ensemble(model, args.count, args.length, seed=args.seed, epsilon=args.epsilon,
                        weights=weights, threads=args.threads)
     steps = [None if s < 0 else int(s) for s in res.convergence_steps.tolist()]
