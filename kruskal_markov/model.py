@@ -162,6 +162,26 @@ def _as_csr(matrix, name: str) -> sp.csr_matrix:
     return m
 
 
+def _beyond(deviation: float, tol: float) -> str:
+    """``deviation`` signed, with as many digits as it takes to read as larger than ``tol``."""
+    for digits in range(6, 18):
+        text = f"{deviation:+.{digits}g}"
+        if f"{abs(deviation):.{digits}g}" != f"{tol:.{digits}g}":
+            return text
+    return f"{deviation:+.17g}"
+
+
+def _check_file_dtypes(path, what, **arrays):
+    """A model file's arrays must have the kinds the format says: probabilities real floating point,
+    indices and the partition integers (a complex or fractional entry is refused, never cast)."""
+    for name, arr in arrays.items():
+        integral = name in ("indices", "indptr", "partition")
+        ok = np.issubdtype(arr.dtype, np.integer) if integral else np.issubdtype(arr.dtype, np.floating)
+        if not ok:
+            kind = "integers" if integral else "real floating-point numbers"
+            raise ModelError(f"{path}: {name} of {what} must be {kind}, found dtype {arr.dtype}")
+
+
 class TransitionModel:
     """Per-action row-stochastic transition matrices over ``n`` states, validated.
 
@@ -253,8 +273,8 @@ class TransitionModel:
                 row = int(np.argmax(dev))
                 nbad = int(np.count_nonzero(dev > tol))
                 more = f" ({nbad} rows out of tolerance)" if nbad > 1 else ""
-                raise ModelError(f"{_fmt_action(name)}: row {row} sums to {sums[row]:.12g}, off by "
-                                 f"{sums[row] - 1.0:+.6g}, more than the tolerance {tol:g}{more}")
+                raise ModelError(f"{_fmt_action(name)}: row {row} sums to {float(sums[row])!r}, off by "
+                                 f"{_beyond(float(sums[row]) - 1.0, tol)}, more than the tolerance {tol:g}{more}")
             for arr in (m.data, m.indices, m.indptr):
                 arr.flags.writeable = False
             mats.append(m)
@@ -278,8 +298,8 @@ class TransitionModel:
                 raise ModelError(f"initial distribution has a negative entry {init[i]:.6g} at state {i}")
             total = init.sum()
             if abs(total - 1.0) > tol:
-                raise ModelError(f"initial distribution sums to {total:.12g}, off by {total - 1.0:+.6g}, "
-                                 f"more than the tolerance {tol:g}")
+                raise ModelError(f"initial distribution sums to {float(total)!r}, off by "
+                                 f"{_beyond(float(total) - 1.0, tol)}, more than the tolerance {tol:g}")
         init.flags.writeable = False
         self.initial: np.ndarray = init
 
@@ -465,6 +485,7 @@ class TransitionModel:
                     data = npz[f"data_{a}"]
                     indices = npz[f"indices_{a}"]
                     indptr = npz[f"indptr_{a}"]
+                    _check_file_dtypes(path, f"action {actions[a]!r}", data=data, indices=indices, indptr=indptr)
                     if indptr.shape != (n + 1,) or indptr[0] != 0 or indptr[-1] != data.size \
                             or indices.size != data.size or np.any(np.diff(indptr) < 0) \
                             or (indices.size and (indices.min() < 0 or indices.max() >= n)):
@@ -472,6 +493,8 @@ class TransitionModel:
                     mats.append(sp.csr_matrix((data, indices, indptr), shape=(n, n)))
                 initial = npz["initial"]
                 partition = npz["partition"] if "partition" in npz.files else None
+                _check_file_dtypes(path, "the model", initial=initial,
+                                   **({} if partition is None else {"partition": partition}))
                 extras = {f[len(_EXTRA_PREFIX):]: npz[f] for f in npz.files if f.startswith(_EXTRA_PREFIX)}
                 return cls(actions, mats, initial=initial, partition=partition,
                            n_cells=header.get("n_cells") if partition is not None else None,

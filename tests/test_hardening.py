@@ -31,6 +31,17 @@ def files(tmp_path, monkeypatch):
 
     with zipfile.ZipFile(tmp_path / "fake.npz", "a") as z:
         z.writestr("header.npy", b"this is not an npy file")
+    # model files whose arrays have the wrong kind: complex probabilities, fractional indices
+    import scipy.sparse as sp
+
+    from kruskal_markov.model import TransitionModel
+
+    TransitionModel(["N", "S"], [sp.csr_matrix(np.eye(2))] * 2).save(str(tmp_path / "ok.npz"))
+    for name, key, cast in (("complex.npz", "initial", lambda a: a.astype(complex)),
+                            ("fraction.npz", "indices_0", lambda a: a.astype(float) + 0.5)):
+        arrays = dict(np.load(tmp_path / "ok.npz"))
+        arrays[key] = cast(arrays[key])
+        np.savez(tmp_path / name, **arrays)
     monkeypatch.chdir(tmp_path)
     return tmp_path
 
@@ -49,6 +60,9 @@ def files(tmp_path, monkeypatch):
     (["ensemble", "--automaton", "ok.json", "--count", "1000000000000", "--length", "5"], "smaller --count"),
     (["entropy", "--poses", "far_step.csv", "--shape", "allen-key"], "counts tilts from 0"),
     (["entropy", "--model", "fake.npz", "--sequence", "N"], "fake.npz"),
+    (["entropy", "--model", "complex.npz", "--sequence", "N"], "initial of the model must be real floating-point"),
+    (["entropy", "--model", "fraction.npz", "--sequence", "N"], "indices of action 'N' must be integers"),
+    (["simulate", "--shape", "polygon:0,0;1e200,0;0,1e200", "--sequence", "N"], "does not fit in any tray"),
     (["simulate", "--shape", "rectangle:0.5x0.5", "--sequence", "N"], "smallest square part is 2 x 2 mm"),
     (["simulate", "--shape", "rectangle:0.01x0.01", "--sequence", "N"], "too small for the simulator"),
     (["build", "--shape", "rectangle:1.9x1.9"], "0.95 mm inside its outline"),

@@ -51,6 +51,7 @@ __all__ = [
 STEEL_DENSITY_KG_M3 = 7850.0
 #: default thickness (mm): a 5 mm hex key lying flat is 5 mm high.
 DEFAULT_THICKNESS_MM = 5.0
+_MAX_SPAN_MM = 1e5          # a part larger than 100 m fits no tray (and would overflow the area)
 #: the most convex parts a shape may be split into (PyBullet's compound-shape child limit).
 MAX_CONVEX_PARTS = 16
 
@@ -353,6 +354,10 @@ def _validate_polygon(vertices, name: str) -> np.ndarray:
         v = v[:-1]  # a closed ring given with its first vertex repeated
     if len(v) < 3:
         raise ValueError(f"shape {name!r}: a polygon needs at least 3 vertices, got {len(v)}")
+    span = float(np.max(np.ptp(v, axis=0)))
+    if span > _MAX_SPAN_MM:
+        raise ValueError(f"shape {name!r}: the vertices span {span:.3g} mm, so it does not fit in any tray "
+                         f"(coordinates are millimetres)")
     poly = Polygon(v)
     area = _signed_area(v)
     diam = float(np.max(np.ptp(v, axis=0)))
