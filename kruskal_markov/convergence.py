@@ -176,6 +176,10 @@ def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, we
 
 
 # ----------------------------------------------------------------------------- pair chain
+class _OverBudget(Exception):
+    """Raised inside an iterative solver's callback when the time budget has passed."""
+
+
 def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=None, max_iterations: int = 200_000,
                       time_budget: float = 45.0, tol: float = 1e-12, memory_budget_mb: float | None = None):
     """Lower and upper bounds on ``E[T]`` from the chain on pairs (deterministic automata).
@@ -238,9 +242,19 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
         if R <= 30_000:
             h = spla.spsolve(A.tocsc(), np.ones(R))
         else:
-            h, info = spla.bicgstab(A, np.ones(R), rtol=1e-12, maxiter=20_000)
-            if info != 0:
-                h, info = spla.gmres(A, np.ones(R), x0=h, rtol=1e-12, restart=50, maxiter=100)
+            def stop_at_budget(*_):
+                if time.perf_counter() - t0 > time_budget:
+                    raise _OverBudget
+
+            try:
+                h, info = spla.bicgstab(A, np.ones(R), rtol=1e-12, maxiter=20_000, callback=stop_at_budget)
+                if info != 0:
+                    h, info = spla.gmres(A, np.ones(R), x0=h, rtol=1e-12, restart=50, maxiter=100,
+                                         callback=stop_at_budget, callback_type="pr_norm")
+            except _OverBudget:
+                return {"lower": None, "upper": None, "pairs": int(R), "memory_mb": float(mem), "iterations": 0,
+                        "residual": None, "note": f"pair bounds stopped by the time budget ({time_budget:g} s) "
+                                                  f"while solving for the merging times of {R:,} pairs"}
         h = np.asarray(h, dtype=np.float64)
         tmp = np.empty(R)
         _ck.pair_value_step(img, w_use, h, tmp)

@@ -372,6 +372,8 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
     W = aut.n_words
     row_bytes = 8 * W + 8 + 4 + 16 * 2      # rows + parent + letter + hash table (load <= 1/2, x2 growth)
     max_rows = max(1024, int(memory_budget_mb * 2 ** 20 / row_bytes / 2))   # per direction
+    if aut.n >= max_rows:       # not even the n backward roots fit: no exact search in this budget
+        return None, "budget", 0, 1
     fwd = SubsetStore(W, 1024, max_rows)
     bwd = SubsetStore(W, max(1024, aut.n), max_rows)
     fwd.add_roots([aut.bits(start)])
@@ -383,12 +385,21 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
     bwd.add_roots(singletons)
     total = 0
     block = _BLOCK
-    rate_row = 2e-7            # seconds per generated row (updated from measurements)
-    rate_pair = 5e-11          # seconds per (forward set x backward set) pair in the meet test
+    # first guesses (updated from measurements); both grow with the bitset width W
+    rate_row = 2e-7 * max(1.0, W / 16)     # seconds per generated row
+    rate_pair = 5e-11 * max(1.0, W / 4)    # seconds per (forward set x backward set) pair in the meet test
     while True:
         (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
         tm = time.perf_counter()
-        f, b = _k.meet(fwd.rows, flo, fhi, bwd.rows, blo, bhi, aut.n, block)
+        # the meet test in slices of the forward level, so that the budget is checked between them
+        # (its cost depends on how the set sizes of the two levels overlap, which is hard to predict)
+        f = b = -1
+        for lo in range(flo, fhi, _MEET_SLICE):
+            if total and time.perf_counter() - t0 > time_budget:
+                return None, "budget", fwd.count + bwd.count, total + 1
+            f, b = _k.meet(fwd.rows, lo, min(fhi, lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
+            if f >= 0:
+                break
         pairs = (fhi - flo) * (bhi - blo)
         if pairs > 10_000_000:
             rate_pair = (time.perf_counter() - tm) / pairs
@@ -420,21 +431,33 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
         total += 1
 
 
-def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, node_budget: int = 200_000):
+def eppstein_memory_mb(n: int) -> float:
+    """Memory (MB) of Eppstein's greedy on ``n`` states: the pair table and the word buffer."""
+    return (n * (n - 1) / 2 * PAIR_CHECK_BYTES + 16.0 * n * n) / 2 ** 20
+
+
+def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, node_budget: int = 200_000,
+                              memory_budget_mb: float | None = None, deadline: float | None = None):
     """A synchronizing word, not necessarily shortest, or None if none was found.
 
     Deterministic automata: Eppstein's (1990) greedy pair merging (``O(k n^2)`` pair BFS plus
     ``O(n^3)`` merging), which always succeeds on a synchronizable start set whose reachable pairs
-    all merge. Set-valued automata: greedy descent, repeatedly running a breadth-first search of at
-    most ``node_budget`` subsets from the current set to the nearest strictly smaller image.
-    The returned word is verified.
+    all merge -- when its quadratic tables (:func:`eppstein_memory_mb`) fit in ``memory_budget_mb``.
+    Otherwise, and for set-valued automata: greedy descent, repeatedly running a breadth-first
+    search of at most ``node_budget`` subsets (fewer if ``memory_budget_mb`` says so) from the
+    current set to the nearest strictly smaller image, until ``deadline`` (a
+    ``time.perf_counter()`` value; None if it passes). The returned word is verified.
     """
     aut, start = as_automaton(aut, start)
     s = as_start(aut, start)
     if s.size == 1:
         return []
     word = None
-    if aut.deterministic:
+    if memory_budget_mb is not None:
+        row_bytes = 8 * aut.n_words + 8 + 4 + 32
+        node_budget = max(1024, min(node_budget, int(memory_budget_mb * 2 ** 20 / row_bytes)))
+    eppstein = aut.deterministic and (memory_budget_mb is None or eppstein_memory_mb(aut.n) <= memory_budget_mb)
+    if eppstein:
         dist, nxt = aut.pair_distances()
         out = np.empty(max(16, aut.n ** 3 // 6 + aut.n), dtype=np.int32) if aut.n <= 256 else \
             np.empty(4 * aut.n * aut.n, dtype=np.int32)
@@ -442,24 +465,42 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
         if length >= 0:
             word = [int(x) for x in out[:length]]
     if word is None:
-        word = _greedy_descent(aut, s, node_budget)
+        word = _greedy_descent(aut, s, node_budget, deadline)
     if word is not None and not is_synchronizing_word(aut, word, s):
         raise AssertionError("internal error: greedy word does not synchronize")
     return word
 
 
-def _greedy_descent(aut, s, node_budget):
+def _greedy_descent(aut, s, node_budget, deadline=None):
+    """Greedy descent: apply the letter whose image of the current set is smallest while one
+    shrinks it (deterministic automata), else search breadth-first for the nearest smaller image."""
     W = aut.n_words
-    cur = aut.bits(s)
     word = []
+    if aut.deterministic:
+        states = np.unique(np.asarray(s, dtype=np.int64))
+        while states.size > 1:
+            if deadline is not None and time.perf_counter() > deadline:
+                return None
+            images = [np.unique(aut.delta[a][states]) for a in range(aut.k)]
+            best = min(range(aut.k), key=lambda a: images[a].size)
+            if images[best].size >= states.size:
+                break
+            word.append(best)
+            states = images[best].astype(np.int64)
+        s = states
+    cur = aut.bits(s)
     while True:
         size = len(aut.states_of(cur))
         if size == 1:
             return word
+        if deadline is not None and time.perf_counter() > deadline:
+            return None
         st = SubsetStore(W, 1024, node_budget)
         st.add_roots([cur])
         found = None
         while found is None:
+            if deadline is not None and time.perf_counter() > deadline:
+                return None
             grown = st.expand(aut, True)
             if not grown:
                 return None
@@ -478,6 +519,10 @@ def _greedy_descent(aut, s, node_budget):
 
 #: bytes per state pair of the pair-graph synchronizability check (distance table and BFS work arrays).
 PAIR_CHECK_BYTES = 40
+#: share of ``time_budget`` the greedy word may use before the exact search starts.
+_GREEDY_SHARE = 0.4
+#: forward sets per call of the meet test (the time budget is checked between calls)
+_MEET_SLICE = 2048
 
 
 def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, time_budget: float = 60.0,
@@ -510,7 +555,13 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
         if check["synchronizing"] is False:
             return SyncResult(None, None, True, "pair-graph", witness=check["witness"],
                               seconds=time.perf_counter() - t0)
-    word, status, explored, lower = _exact_search(aut, s, time_budget, memory_budget_mb)
+    # a greedy word first (within a share of the time): it answers if the exact search stops, and
+    # it proves synchronizability; the exact search then has the rest of the time
+    eppstein = aut.deterministic and eppstein_memory_mb(aut.n) <= memory_budget_mb
+    greedy = greedy_synchronizing_word(aut, s, memory_budget_mb=memory_budget_mb,
+                                       deadline=t0 + _GREEDY_SHARE * time_budget)
+    remaining = max(time_budget - (time.perf_counter() - t0), 1e-3)
+    word, status, explored, lower = _exact_search(aut, s, remaining, memory_budget_mb)
     if status == "found":
         if not is_synchronizing_word(aut, word, s):
             raise AssertionError("internal error: exact search returned a non-synchronizing word")
@@ -522,12 +573,16 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                                    "reason": "exhaustive subset search: no image of the start set "
                                              "is a single state"},
                           seconds=time.perf_counter() - t0)
-    greedy = greedy_synchronizing_word(aut, s)
-    method = "greedy-eppstein" if aut.deterministic else "greedy-descent"
+    method = "greedy-eppstein" if eppstein else "greedy-descent"
     notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
     if skipped:
         notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
                      f"{pair_mb:,.0f} MB (over half the memory budget)")
+    if aut.deterministic and not eppstein:
+        notes.append(f"greedy by subset descent: Eppstein's pair merging would need about "
+                     f"{eppstein_memory_mb(aut.n):,.0f} MB (over the memory budget)")
+    if greedy is None:
+        notes.append(f"greedy word not found within {_GREEDY_SHARE:.0%} of the time budget")
     meets_bound = greedy is not None and len(greedy) <= lower   # the greedy word meets the proven lower bound
     return SyncResult(greedy, None if greedy is None else len(greedy), meets_bound,
                       method + "+lower-bound" if meets_bound else method,

@@ -138,3 +138,43 @@ def test_model_path_sync_and_convergence(capsys, tmp_path):
     rc, conv, _ = run_json(capsys, ["convergence", "--model", str(path), "--runs", "200", "--epsilon", "0.5",
                                     "--mc-time-budget", "20"])
     assert rc == 0 and "entropy_tilts" in conv and "expected_length" in conv
+
+
+def _budgeted_run(tmp_path, n, command, budget_args):
+    """Run ``kruskal COMMAND`` on a random binary automaton of ``n`` states in a child process:
+    (JSON result, wall seconds, peak resident MB of the child)."""
+    import resource
+    import subprocess
+    import sys
+    import time
+
+    rng = np.random.default_rng(1)
+    path = tmp_path / f"random{n}.json"
+    path.write_text(json.dumps({"states": n, "actions": {"a": rng.integers(0, n, n).tolist(),
+                                                         "b": rng.integers(0, n, n).tolist()}}))
+    t = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "analysis", command, "--automaton", str(path), "--json",
+                           *budget_args], capture_output=True, text=True, timeout=600)
+    wall = time.perf_counter() - t
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    return json.loads(proc.stdout), wall, peak_mb
+
+
+@pytest.mark.parametrize("n, budget", [(3000, 3.0), pytest.param(20000, 20.0, marks=pytest.mark.slow)])
+def test_large_random_automaton_answers_within_its_budgets(tmp_path, n, budget):
+    """sync and convergence on a large random automaton answer within twice the time budget (plus
+    the interpreter's start) and 4 GB, and say which phase stopped and why."""
+    res, wall, peak = _budgeted_run(tmp_path, n, "sync", ["--time-budget", str(budget)])
+    assert wall < 2 * budget + 10 and peak < 4096, (wall, peak)
+    assert res["exact"] is False and res["word"] is not None           # a greedy word, verified
+    assert any("exact search stopped by its budget" in note for note in res["notes"])
+    assert res["lower_bound"] >= 1 and res["length"] >= res["lower_bound"]
+    res, wall, peak = _budgeted_run(tmp_path, n, "convergence", ["--pair-time-budget", str(budget),
+                                                                  "--mc-time-budget", str(budget),
+                                                                  "--max-subsets", "20000"])
+    assert wall < 2 * budget + 10 and peak < 4096, (wall, peak)
+    assert res["subsets"] == ">20000"                                   # the exact chain was too large
+    assert res["expected_length"]["monte_carlo"] is not None
+    if n > 10_000:
+        assert "skipped" in res["pair_check"] and "pair bounds skipped" in res["pair_bounds"]
