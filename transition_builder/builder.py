@@ -82,16 +82,16 @@ _PHASES = ("explore", "refine", "topup", "done")
 _MAX_WEIGHT_ROUNDS = 200    # weighted exploration: at most this many weigh-and-expand rounds
 #: weighted exploration's design, in the cache key of weighted builds: an unexplored state borrows
 #: the row of the nearest explored state in its report cell and contact group (``_BORROW_RADIUS``)
-_WEIGHTED_DESIGN = "borrow-1"
+_WEIGHTED_DESIGN = "borrow-2"
 _BORROW_RADIUS = 8.0        # tolerance units (half the snapping index's group spacing)
 _TOPUP_ROUNDS = 4           # adaptive sampling: at most this many weigh-and-top-up rounds
 _WEIGHT_SEQUENCES = 200     # random sequences that weigh the rows of an adaptive build
 _WEIGHT_LENGTH = 30
 _WEIGHT_THRESHOLD = 1e-3
-_DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-4
+_DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-3
 #: default snapping tolerance (mm and degrees), chosen on the tuning sequences (benchmarks/BUILDER_RESULTS.md)
 _DEFAULT_TOL_DETERMINISTIC = 0.25
-_DEFAULT_TOL_NOISY = 0.5
+_DEFAULT_TOL_NOISY = 1.0
 _RECENTER_RADIUS = 0.05     # tolerance units: members this close count as one resting point
 _GROUP_GAP = 1e6
 _WEIGHT_STREAM = 12
@@ -105,7 +105,8 @@ class BuildSettings:
     ----------
     tol_mm, tol_deg : float or None
         Snapping tolerance (mm in x and y, degrees in theta); None: 0.25 / 0.25 without noise,
-        0.5 / 0.5 with noise.
+        1 / 1 with noise (the cheapest noisy setting within the 30-minute build target; 0.5 / 0.5 is
+        more accurate at twice the cost, ``docs/builder.md``).
     start_samples : int
         Uniform start poses for the first tilt (the initial distribution).
     samples : int or None
@@ -146,14 +147,15 @@ class BuildSettings:
         where parts really come to rest, e.g. an exact corner-wedge pose that many landings hit)
         and is tilted again from there; exploration then continues from what it reaches.
     explore_weight : float or None
-        None: 0 without noise, 1e-4 with noise. 0: explore everything the actions reach (closure).
+        None: 0 without noise, 1e-3 with noise. 0: explore everything the actions reach (closure).
         w > 0: weighted exploration — expand only representatives that hold probability >= w at
         some step of one of 200 random 30-tilt sequences through the model built so far (weighed
-        again after every expansion); the rest stay ``unexplored``: each borrows the row of the
-        nearest explored state in its report cell and contact group (within 8 tolerance units;
-        ``rows_borrowed`` in the statistics, ``extras["borrowed_from"]`` in the model), or stays
-        put if there is none (``rows_without_samples``). For noisy scenes, whose closure is an
-        order of magnitude larger than the deterministic one.
+        again after every expansion), and every state the first tilt reaches (the uniform starts
+        spread their mass thinly over many of those); the rest stay ``unexplored``: each borrows
+        the row of the nearest explored state in its report cell and contact group (within 8
+        tolerance units), else of the nearest explored pose anywhere (``rows_borrowed`` and
+        ``rows_borrowed_from_afar`` in the statistics, ``extras["borrowed_from"]`` in the model).
+        For noisy scenes, whose closure is an order of magnitude larger than the deterministic one.
     """
 
     tol_mm: float | None = None
@@ -454,10 +456,11 @@ def _orbit_jobs(scene, ex, orbits, k_lo, k_hi, key_tag):
             for b in range(len(scene.actions))]
 
 
-def _orbit_weights(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarray:
+def _orbit_weights(scene, settings, sym, grid, index, ex, reps, key) -> tuple[np.ndarray, np.ndarray]:
     """Weight of every orbit: the largest probability any of its states holds at some step of one of
     ``_WEIGHT_SEQUENCES`` random sequences through the model built so far (an unexplored orbit
-    passes its mass on through the row it borrows, or keeps it if it borrows none)."""
+    passes its mass on through the row it borrows); and which orbits the first tilt reaches (the
+    uniform starts spread their mass thinly over many of those, so no single one weighs much)."""
     model, _ = _assemble(scene, settings, sym, grid, index, ex, reps, key, {})
     n_start = int(np.sum(model.extras["state_kind"] == STATE_START))
     rng = np.random.default_rng([settings.seed, _WEIGHT_STREAM])
@@ -472,12 +475,16 @@ def _orbit_weights(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarr
             if len(cols):
                 dist[:, cols] = transposed[a] @ dist[:, cols]
         np.maximum(weight, dist.max(axis=1), out=weight)
-    return weight[n_start:].reshape(-1, sym.order).max(axis=1)
+    first = np.zeros(model.n_states, dtype=bool)
+    for P in model.matrices:
+        first[P[:n_start].indices] = True
+    G = sym.order
+    return weight[n_start:].reshape(-1, G).max(axis=1), first[n_start:].reshape(-1, G).any(axis=1)
 
 
 def _heavy_orbits(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarray:
     """Explored orbits whose weight (:func:`_orbit_weights`) is at least 1e-3 (sorted ids)."""
-    w = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
+    w, _ = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
     return np.flatnonzero((w >= _WEIGHT_THRESHOLD) & ex.explored[:ex.n_orbits])
 
 
@@ -677,10 +684,10 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             # weighted exploration: expand only what carries mass (module docstring); one
             # checkpoint per round, so a resumed build makes exactly the same decisions
             while ex.phase[1] < _MAX_WEIGHT_ROUNDS:
-                w = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
+                w, first = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
                 n = ex.n_orbits
                 expl = ex.explored[:n]
-                todo = np.flatnonzero(~expl & (w >= settings.explore_weight))
+                todo = np.flatnonzero(~expl & ((w >= settings.explore_weight) | first))
                 top = np.flatnonzero(expl & (w >= _WEIGHT_THRESHOLD) & (ex.status[:n, 0, K - 1] == NOT_DRAWN)) \
                     if K0 < K else np.zeros(0, dtype=np.int64)
                 if len(todo) == 0 and len(top) == 0:
@@ -855,9 +862,14 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
     kind[(n_start + done[:, None] * G + np.arange(G)[None, :]).ravel()] = STATE_REST
     # weighted builds: an unexplored state borrows the row of the nearest explored one nearby
     borrowed_from = np.full(n, -1, dtype=np.int64)
+    borrowed_far = 0
     if settings.explore_weight > 0 and E < n_orbits:
         unexplored = np.flatnonzero(kind[n_start:] == STATE_UNEXPLORED)
-        src = index.nearest_among(unexplored, np.flatnonzero(kind[n_start:] == STATE_REST), _BORROW_RADIUS)
+        lenders = np.flatnonzero(kind[n_start:] == STATE_REST)
+        src = index.nearest_among(unexplored, lenders, _BORROW_RADIUS)
+        far = src < 0               # nothing near in the cell and contact group: the nearest pose anywhere
+        src[far] = index.nearest_among(unexplored[far], lenders, None)
+        borrowed_far = int(np.sum(far & (src >= 0)))
         hit = src >= 0
         borrowed_from[n_start + unexplored[hit]] = n_start + src[hit]
     borrowers = np.flatnonzero(borrowed_from >= 0)
@@ -932,7 +944,7 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
         "faults_per_action": fault_by_action, "sampled_transitions": total,
         "tilts_saved_by_symmetry": int(total * (G - 1) // G),
         "start_rows_imputed": imputed, "rows_without_samples": self_loops,
-        "rows_borrowed": int(len(borrowers)),
+        "rows_borrowed": int(len(borrowers)), "rows_borrowed_from_afar": borrowed_far,
         "noise": settings.noise, **run_stats,
     }
     metadata = {

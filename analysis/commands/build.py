@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--noise", default="none", help="process noise: none | pose:SIGMA_MM,SIGMA_DEG")
     parser.add_argument("--resolution", default=None, metavar="MM,DEG",
                         help="snapping tolerance of representative rest poses, mm and degrees "
-                             "(default 0.25,0.25 without noise, 0.5,0.5 with noise)")
+                             "(default 0.25,0.25 without noise, 1,1 with noise)")
     parser.add_argument("--samples", type=int, default=None, metavar="K",
                         help="samples per state and action (default 1 without noise, 8 with noise)")
     parser.add_argument("--start-samples", type=int, default=5000,
@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="recentring rounds of a deterministic build (default: the builder's)")
     parser.add_argument("--explore-weight", type=float, default=None, metavar="W",
                         help="expand only states that hold probability >= W on some random sequence "
-                             "(default 0 = everything without noise, 1e-4 with noise)")
+                             "(default 0 = everything without noise, 1e-3 with noise)")
     parser.add_argument("--no-symmetry", action="store_true", help="do not use the tray's rotation symmetry")
     parser.add_argument("--support-points", type=int, default=None,
                         help="simulator floor contact: 1 sphere (default) or K legs")
