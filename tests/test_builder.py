@@ -369,10 +369,12 @@ def test_weighted_exploration_borrows_rows_of_nearby_explored_states():
     borrowers = np.flatnonzero(lender >= 0)
     assert len(borrowers) == st["rows_borrowed"]
     assert np.all(kind[borrowers] == STATE_UNEXPLORED) and np.all(kind[lender[borrowers]] == STATE_REST)
-    assert np.array_equal(m.partition[borrowers], m.partition[lender[borrowers]])       # same report cell
+    # a lender lies in the borrower's report cell within 8 tolerance units, except the few
+    # borrowers with nothing there, which are counted as borrowing from afar
     poses = m.extras["state_poses"]
     d = np.abs(poses[borrowers, :2] - poses[lender[borrowers], :2]).max(axis=1)
-    assert np.all(d <= 8 * s.tol_mm + 1e-9)
+    near = (m.partition[borrowers] == m.partition[lender[borrowers]]) & (d <= 8 * s.tol_mm + 1e-9)
+    assert np.sum(~near) <= st["rows_borrowed_from_afar"] < len(borrowers)
     for a, P in enumerate(m.matrices):
         for b in borrowers[:50]:
             row, src = P.getrow(b), P.getrow(lender[b])
@@ -383,6 +385,8 @@ def test_weighted_exploration_borrows_rows_of_nearby_explored_states():
         per_row = np.bincount(rows, weights=counts, minlength=m.n_states)
         np.testing.assert_array_equal(per_row + m.extras["faults"][a], m.extras["samples"][a])
         np.testing.assert_allclose(np.asarray(P.sum(axis=1)).ravel(), 1.0)
-    # unexplored states with nothing to borrow stay put, and are counted
-    stay = np.flatnonzero((kind == STATE_UNEXPLORED) & (lender < 0))
-    assert st["rows_without_samples"] >= len(stay)
+    # no unexplored state is left without a row (one would hold its mass for ever)
+    assert not np.any((kind == STATE_UNEXPLORED) & (lender < 0))
+    # the states the first tilt reaches are all explored
+    first = np.unique(np.concatenate([P[:int(np.sum(kind == STATE_START))].indices for P in m.matrices]))
+    assert np.all(kind[first] == STATE_REST)

@@ -157,17 +157,22 @@ class PoseIndex:
             dist[better] = dj[better]
         return best, dist
 
-    def nearest_among(self, queries, candidates, radius: float) -> np.ndarray:
-        """For representatives ``queries``, the nearest of the representatives ``candidates`` in the
-        same report cell and contact group within ``radius`` tolerance units (at most half the group
-        spacing, so a match never crosses a group), -1 where there is none."""
-        if not 0 < radius <= _GROUP_SPACING / 2:
-            raise ValueError(f"radius must be in (0, {_GROUP_SPACING / 2}], got {radius!r}")
+    def nearest_among(self, queries, candidates, radius: float | None) -> np.ndarray:
+        """For representatives ``queries``, the nearest of the representatives ``candidates``: in
+        the same report cell and contact group within ``radius`` tolerance units (at most half the
+        group spacing, so a match never crosses a group), or with ``radius=None`` the nearest pose
+        in any cell and group. -1 where there is none."""
+        if radius is not None and not 0 < radius <= _GROUP_SPACING / 2:
+            raise ValueError(f"radius must be in (0, {_GROUP_SPACING / 2}] or None, got {radius!r}")
         queries = np.asarray(queries, dtype=np.int64)
         candidates = np.asarray(candidates, dtype=np.int64)
         out = np.full(len(queries), -1, dtype=np.int64)
         if len(queries) == 0 or len(candidates) == 0:
             return out
+        if radius is None:
+            tree = cKDTree(self._points[candidates, :3], boxsize=self.box[:3])
+            _, i = tree.query(self._points[queries, :3], k=1)
+            return candidates[i]
         tree = cKDTree(self._points[candidates], boxsize=self.box)
         d, i = tree.query(self._points[queries], k=1, distance_upper_bound=radius)
         hit = np.isfinite(d)
