@@ -1,6 +1,6 @@
 """Pure mathematics of the tray model: transition models, entropy, ensembles, synchronization.
 
-Imports numpy, scipy, numba and networkx only -- never pybullet, ``transition_builder`` or ``analysis``.
+Imports numpy, scipy and numba only -- never pybullet, ``transition_builder`` or ``analysis``.
 """
 from kruskal_markov.lazy import lazy_exports
 
