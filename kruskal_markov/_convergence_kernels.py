@@ -106,6 +106,7 @@ def mc_sync_steps(cur, letters, delta, sup, det, steps, done):
 
 @njit(cache=True, inline="always")
 def _pair_index(p, q, n):
+    # twin of kruskal_markov._subsets.pair_index (a kernel-local copy, inlined by Numba)
     if p > q:
         p, q = q, p
     return p * n - (p * (p + 1)) // 2 + (q - p - 1)

@@ -6,7 +6,7 @@ import numpy as np
 
 from kruskal_markov import _sync_kernels as _k
 
-__all__ = ["as_start", "SubsetStore", "pow2"]
+__all__ = ["as_start", "SubsetStore", "pow2", "pair_index", "pair_offsets"]
 
 
 def as_start(aut, start) -> np.ndarray:
@@ -19,6 +19,20 @@ def as_start(aut, start) -> np.ndarray:
     if s[0] < 0 or s[-1] >= aut.n:
         raise ValueError(f"start states must lie in [0, {aut.n})")
     return s
+
+
+def pair_index(p, q, n: int):
+    """Index of the state pair ``{p, q}`` (``p != q``; arrays or ints) among the ``n (n - 1) / 2``
+    pairs, in row order ``(0, 1), (0, 2), ..., (1, 2), ...``. The Numba kernels keep their own copies
+    (``_sync_kernels.pair_index``, ``_convergence_kernels._pair_index``): the same formula."""
+    p, q = np.minimum(p, q), np.maximum(p, q)
+    return p * n - (p * (p + 1)) // 2 + (q - p - 1)
+
+
+def pair_offsets(n: int) -> np.ndarray:
+    """``first[p]``: the index of the first pair ``(p, q > p)`` in :func:`pair_index` order, p = 0..n."""
+    p = np.arange(n + 1, dtype=np.int64)
+    return p * n - (p * (p + 1)) // 2
 
 
 def pow2(x):

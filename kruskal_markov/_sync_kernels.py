@@ -312,6 +312,7 @@ def apply_word(bits, word, delta, sup, det):
 # ----------------------------------------------------------------------------- pair graph
 @njit(cache=True, inline="always")
 def pair_index(p, q, n):
+    # twin of kruskal_markov._subsets.pair_index (a kernel-local copy, inlined by Numba)
     if p > q:
         p, q = q, p
     return p * n - (p * (p + 1)) // 2 + (q - p - 1)

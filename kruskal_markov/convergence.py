@@ -31,7 +31,7 @@ import scipy.sparse.linalg as spla
 from scipy.sparse import csgraph
 
 from kruskal_markov import _convergence_kernels as _ck
-from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov._subsets import SubsetStore, as_start, pair_index, pair_offsets
 from kruskal_markov.entropy import partition_entropy_bits
 from kruskal_markov.sync import SyncAutomaton, as_automaton
 from kruskal_markov.validation import action_weights
@@ -209,7 +209,7 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
     delta = aut.delta
     p, q = np.triu_indices(s.size, 1)
     p, q = s[p].astype(np.int64), s[q].astype(np.int64)
-    start_pairs = p * n - (p * (p + 1)) // 2 + (q - p - 1)
+    start_pairs = pair_index(p, q, n)
     del p, q
     # letters of zero weight do not move the chain
     use = np.flatnonzero(w > 0)
@@ -294,7 +294,7 @@ def pair_chain_memory_mb(n: int, k: int, n_start: int) -> float:
 
 def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
     k = d_use.shape[0]
-    first = np.array([p * n - (p * (p + 1)) // 2 for p in range(n + 1)], dtype=np.int64)
+    first = pair_offsets(n)
     p = np.searchsorted(first, start_pairs, side="right") - 1
     q = start_pairs - first[p] + p + 1
     ok = np.zeros(start_pairs.size, dtype=bool)
@@ -302,7 +302,7 @@ def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
         pp, qq = d_use[a, p], d_use[a, q]
         merged = pp == qq
         lo, hi = np.minimum(pp, qq).astype(np.int64), np.maximum(pp, qq).astype(np.int64)
-        idx = np.where(merged, 0, lo * n - (lo * (lo + 1)) // 2 + (hi - lo - 1))
+        idx = np.where(merged, 0, pair_index(lo, np.where(merged, lo + 1, hi), n))
         loc = np.where(merged, -1, local[idx])
         ok |= merged | can[np.where(loc >= 0, loc, 0)] & (loc >= 0)
     return bool(np.all(ok))

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from kruskal_markov import _sync_kernels as _k
-from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov._subsets import SubsetStore, as_start, pair_index
 from kruskal_markov.entropy import distribution_entropy_bits, partition_entropy_bits
 
 if TYPE_CHECKING:
@@ -281,7 +281,7 @@ def synchronizability(aut: SyncAutomaton | TransitionModel, start=None) -> dict:
     p, q = np.meshgrid(s, s, indexing="ij")
     mask = p < q
     p, q = p[mask], q[mask]
-    idx = p * n - (p * (p + 1)) // 2 + (q - p - 1)
+    idx = pair_index(p, q, n)
     bad = np.flatnonzero(dist[idx] < 0)
     if bad.size:
         i = bad[0]
@@ -298,7 +298,7 @@ def synchronizability(aut: SyncAutomaton | TransitionModel, start=None) -> dict:
     p, q = np.meshgrid(reach, reach, indexing="ij")
     mask = p < q
     p, q = p[mask], q[mask]
-    idx = p * n - (p * (p + 1)) // 2 + (q - p - 1)
+    idx = pair_index(p, q, n)
     if np.all(dist[idx] >= 0):
         return {"synchronizing": True, "witness": None}
     return {"synchronizing": None, "witness": None}
