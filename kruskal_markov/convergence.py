@@ -33,7 +33,7 @@ from scipy.sparse import csgraph
 from kruskal_markov import _convergence_kernels as _ck
 from kruskal_markov._subsets import SubsetStore, as_start, pair_index, pair_offsets
 from kruskal_markov.entropy import partition_entropy_bits
-from kruskal_markov.sync import SyncAutomaton, as_automaton
+from kruskal_markov.sync import SyncAutomaton, as_automaton, pair_check_memory_mb, synchronizability
 from kruskal_markov.validation import action_weights
 
 if TYPE_CHECKING:
@@ -302,7 +302,7 @@ def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
         pp, qq = d_use[a, p], d_use[a, q]
         merged = pp == qq
         lo, hi = np.minimum(pp, qq).astype(np.int64), np.maximum(pp, qq).astype(np.int64)
-        idx = np.where(merged, 0, pair_index(lo, np.where(merged, lo + 1, hi), n))
+        idx = np.where(merged, 0, pair_index(lo, hi, n))
         loc = np.where(merged, -1, local[idx])
         ok |= merged | can[np.where(loc >= 0, loc, 0)] & (loc >= 0)
     return bool(np.all(ok))
@@ -323,10 +323,8 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
     run only within ``memory_budget_mb`` (``pair_bounds`` says why they are missing).
     """
     aut, start = as_automaton(aut, start)
-    from kruskal_markov.sync import PAIR_CHECK_BYTES, synchronizability
-
     out = {}
-    pair_mb = aut.n * (aut.n - 1) / 2 * PAIR_CHECK_BYTES / 2 ** 20
+    pair_mb = pair_check_memory_mb(aut.n)
     if pair_mb > 0.5 * memory_budget_mb:
         out["pair_check"] = f"skipped: it needs {pair_mb:,.0f} MB, over half the memory budget"
         check = {"synchronizing": None, "witness": None}

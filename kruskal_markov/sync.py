@@ -45,6 +45,7 @@ __all__ = [
     "epsilon_synchronizing_word",
     "greedy_synchronizing_word",
     "is_synchronizing_word",
+    "pair_check_memory_mb",
     "shortest_synchronizing_word",
     "start_set",
     "support_automaton",
@@ -431,9 +432,19 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
         total += 1
 
 
+def pair_check_memory_mb(n: int) -> float:
+    """Memory (MB) of the pair table on ``n`` states (the pair-graph check and Eppstein's greedy)."""
+    return n * (n - 1) / 2 * PAIR_CHECK_BYTES / 2 ** 20
+
+
 def eppstein_memory_mb(n: int) -> float:
     """Memory (MB) of Eppstein's greedy on ``n`` states: the pair table and the word buffer."""
-    return (n * (n - 1) / 2 * PAIR_CHECK_BYTES + 16.0 * n * n) / 2 ** 20
+    return pair_check_memory_mb(n) + 16.0 * n * n / 2 ** 20
+
+
+def _eppstein_fits(aut: SyncAutomaton, memory_budget_mb: float | None) -> bool:
+    """Whether the greedy word is Eppstein's: a deterministic automaton whose tables fit the budget."""
+    return aut.deterministic and (memory_budget_mb is None or eppstein_memory_mb(aut.n) <= memory_budget_mb)
 
 
 def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, node_budget: int = 200_000,
@@ -456,8 +467,7 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
     if memory_budget_mb is not None:
         row_bytes = 8 * aut.n_words + 8 + 4 + 32
         node_budget = max(1024, min(node_budget, int(memory_budget_mb * 2 ** 20 / row_bytes)))
-    eppstein = aut.deterministic and (memory_budget_mb is None or eppstein_memory_mb(aut.n) <= memory_budget_mb)
-    if eppstein:
+    if _eppstein_fits(aut, memory_budget_mb):
         dist, nxt = aut.pair_distances()
         out = np.empty(max(16, aut.n ** 3 // 6 + aut.n), dtype=np.int32) if aut.n <= 256 else \
             np.empty(4 * aut.n * aut.n, dtype=np.int32)
@@ -548,7 +558,7 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     s = as_start(aut, start)
     if s.size == 1:
         return SyncResult([], 0, True, "trivial", seconds=time.perf_counter() - t0)
-    pair_mb = aut.n * (aut.n - 1) / 2 * PAIR_CHECK_BYTES / 2 ** 20
+    pair_mb = pair_check_memory_mb(aut.n)
     skipped = pair_mb > 0.5 * memory_budget_mb
     if not skipped:
         check = synchronizability(aut, s)
@@ -557,7 +567,7 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                               seconds=time.perf_counter() - t0)
     # a greedy word first (within a share of the time): it answers if the exact search stops, and
     # it proves synchronizability; the exact search then has the rest of the time
-    eppstein = aut.deterministic and eppstein_memory_mb(aut.n) <= memory_budget_mb
+    eppstein = _eppstein_fits(aut, memory_budget_mb)
     greedy = greedy_synchronizing_word(aut, s, memory_budget_mb=memory_budget_mb,
                                        deadline=t0 + _GREEDY_SHARE * time_budget)
     remaining = max(time_budget - (time.perf_counter() - t0), 1e-3)

@@ -354,13 +354,12 @@ def _validate_polygon(vertices, name: str) -> np.ndarray:
         v = v[:-1]  # a closed ring given with its first vertex repeated
     if len(v) < 3:
         raise ValueError(f"shape {name!r}: a polygon needs at least 3 vertices, got {len(v)}")
-    span = float(np.max(np.ptp(v, axis=0)))
-    if span > _MAX_SPAN_MM:
-        raise ValueError(f"shape {name!r}: the vertices span {span:.3g} mm, so it does not fit in any tray "
+    diam = float(np.max(np.ptp(v, axis=0)))
+    if diam > _MAX_SPAN_MM:
+        raise ValueError(f"shape {name!r}: the vertices span {diam:.3g} mm, so it does not fit in any tray "
                          f"(coordinates are millimetres)")
     poly = Polygon(v)
     area = _signed_area(v)
-    diam = float(np.max(np.ptp(v, axis=0)))
     centred = v - v.mean(axis=0)
     flat = diam <= 0 or np.linalg.svd(centred, compute_uv=False)[-1] <= 1e-9 * diam
     if flat:  # all vertices on one line (or one point)
