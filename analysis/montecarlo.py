@@ -31,6 +31,7 @@ import numpy as np
 
 from kruskal_markov.entropy import histogram_entropy_bits
 from kruskal_markov.limits import check_memory
+from kruskal_markov.validation import action_position
 from transition_builder.executors import (
     Executor,
     SerialExecutor,
@@ -95,15 +96,12 @@ def report_grid_for(scene, grid="4x4x4", theta_offset: float | None = None) -> R
 def resolve_sequence(sequence, action_names) -> np.ndarray:
     """Action indices (int64) of ``sequence``: names (``"NE"``), indices, or a ``"NE,S,W"`` string."""
     names = [str(n) for n in action_names]
-    upper = {n.upper(): i for i, n in enumerate(names)}
     if isinstance(sequence, str):
         sequence = [t for t in (s.strip() for s in sequence.split(",")) if t]
     out = []
     for a in sequence:
         if isinstance(a, (str, np.str_)):
-            if a.upper() not in upper:
-                raise ValueError(f"unknown action {a!r} in sequence; known actions: {','.join(names)}")
-            out.append(upper[a.upper()])
+            out.append(action_position(names, str(a), " in sequence"))
         elif isinstance(a, (int, np.integer)) and not isinstance(a, bool):
             if not 0 <= int(a) < len(names):
                 raise ValueError(f"action index {int(a)} out of range [0, {len(names)})")
@@ -249,7 +247,7 @@ def _worker_chunk(scene, factory, starts, sequence_names, noise=None, noise_seed
     sim = simulator_for(scene, factory)
     fresh = getattr(sim, "fresh_start", None)
     if fresh is not None:
-        fresh()              # a chunk's result depends on its own trials only (friction maps)
+        fresh()              # a chunk's result depends on its own trials only
     return _run_chunk(sim, starts, sequence_names, scene, noise, noise_seed, first_trial)
 
 

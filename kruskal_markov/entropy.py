@@ -26,6 +26,7 @@ import numpy as np
 
 from kruskal_markov import _entropy_kernels as _k
 from kruskal_markov.model import ModelError, TransitionModel
+from kruskal_markov.validation import distribution
 
 
 def histogram_entropy_bits(counts) -> float:
@@ -147,15 +148,7 @@ def _initial_support(model: TransitionModel, initial):
     if initial is None:
         p = model.initial
     else:
-        p = np.asarray(initial, dtype=np.float64).ravel()
-        if p.shape != (model.n_states,):
-            raise ModelError(f"initial distribution has {p.size} entries, the model has "
-                             f"{model.n_states} states")
-        if not np.all(np.isfinite(p)) or np.any(p < 0):
-            raise ModelError("initial distribution must be finite and non-negative")
-        if abs(p.sum() - 1.0) > model.tol:
-            raise ModelError(f"initial distribution sums to {p.sum():.12g}, off by {p.sum() - 1:+.3g} "
-                             f"(tolerance {model.tol:g})")
+        p = distribution(initial, model.n_states, model.tol)
     idx = np.flatnonzero(p > 0).astype(np.int32)
     return idx, np.ascontiguousarray(p[idx]), float(p[idx].sum())
 

@@ -21,6 +21,9 @@ import zipfile
 import numpy as np
 import scipy.sparse as sp
 
+from kruskal_markov.errors import ModelError
+from kruskal_markov.validation import action_position, beyond, distribution
+
 __all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION", "atomic_savez", "atomic_write_text"]
 
 #: Marker stored in every saved model; a ``.npz`` without it is rejected as foreign.
@@ -76,10 +79,6 @@ def _file_tolerance(header: dict) -> float:
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) or tol < 0:
         raise ModelError(f"header tolerance must be a finite number >= 0, got {tol!r}")
     return min(float(tol), MAX_FILE_TOL)
-
-
-class ModelError(ValueError):
-    """An invalid transition model, automaton or model file; the message says what and where."""
 
 
 def _json_default(value):
@@ -160,15 +159,6 @@ def _as_csr(matrix, name: str) -> sp.csr_matrix:
     m.eliminate_zeros()
     m.sort_indices()
     return m
-
-
-def _beyond(deviation: float, tol: float) -> str:
-    """``deviation`` signed, with as many digits as it takes to read as larger than ``tol``."""
-    for digits in range(6, 18):
-        text = f"{deviation:+.{digits}g}"
-        if f"{abs(deviation):.{digits}g}" != f"{tol:.{digits}g}":
-            return text
-    return f"{deviation:+.17g}"
 
 
 def _check_file_dtypes(path, what, **arrays):
@@ -274,7 +264,7 @@ class TransitionModel:
                 nbad = int(np.count_nonzero(dev > tol))
                 more = f" ({nbad} rows out of tolerance)" if nbad > 1 else ""
                 raise ModelError(f"{_fmt_action(name)}: row {row} sums to {float(sums[row])!r}, off by "
-                                 f"{_beyond(float(sums[row]) - 1.0, tol)}, more than the tolerance {tol:g}{more}")
+                                 f"{beyond(float(sums[row]) - 1.0, tol)}, more than the tolerance {tol:g}{more}")
             for arr in (m.data, m.indices, m.indptr):
                 arr.flags.writeable = False
             mats.append(m)
@@ -284,22 +274,7 @@ class TransitionModel:
         if initial is None:
             init = np.full(n, 1.0 / n)
         else:
-            try:
-                init = np.array(initial, dtype=np.float64).ravel()
-            except (TypeError, ValueError):
-                raise ModelError("initial distribution must be a numeric vector") from None
-            if init.shape != (n,):
-                raise ModelError(f"initial distribution has {init.size} entries, the model has {n} states")
-            if not np.all(np.isfinite(init)):
-                raise ModelError(f"initial distribution has a non-finite entry at state "
-                                 f"{int(np.flatnonzero(~np.isfinite(init))[0])}")
-            if np.any(init < 0):
-                i = int(np.argmin(init))
-                raise ModelError(f"initial distribution has a negative entry {init[i]:.6g} at state {i}")
-            total = init.sum()
-            if abs(total - 1.0) > tol:
-                raise ModelError(f"initial distribution sums to {float(total)!r}, off by "
-                                 f"{_beyond(float(total) - 1.0, tol)}, more than the tolerance {tol:g}")
+            init = distribution(initial, n, tol)
         init.flags.writeable = False
         self.initial: np.ndarray = init
 
@@ -362,13 +337,7 @@ class TransitionModel:
 
     def action_index(self, name: str) -> int:
         """Index of action ``name`` (case-insensitive); :class:`ModelError` if unknown."""
-        for i, a in enumerate(self.actions):
-            if a == name:
-                return i
-        for i, a in enumerate(self.actions):
-            if a.upper() == str(name).upper():
-                return i
-        raise ModelError(f"unknown action {name!r}; known actions: {','.join(self.actions)}")
+        return action_position(self.actions, name)
 
     def memo(self, key, compute):
         """Data derived from this (immutable) model, computed once: the value kept under ``key``,

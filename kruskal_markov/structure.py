@@ -22,6 +22,7 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from kruskal_markov.model import TransitionModel
+from kruskal_markov.validation import distribution
 
 __all__ = ["StructureReport", "support_graph", "closed_classes", "analyze_structure"]
 
@@ -135,9 +136,7 @@ def analyze_structure(model: TransitionModel, initial=None) -> StructureReport:
     initial : array_like, optional
         Start distribution (default ``model.initial``).
     """
-    p = model.initial if initial is None else np.asarray(initial, dtype=np.float64).ravel()
-    if p.shape != (model.n_states,):
-        raise ValueError(f"initial distribution has {p.size} entries, the model has {model.n_states} states")
+    p = model.initial if initial is None else distribution(initial, model.n_states, model.tol)
     graph = support_graph(model)
     classes = closed_classes(graph)
     support = np.flatnonzero(p > 0)

@@ -348,8 +348,10 @@ def test_bad_initial_and_threads(model3):
         entropy_trajectory(model3, [0], initial=[1, 0, 0])
     with pytest.raises(ModelError, match="sums to"):
         batch_entropy(model3, [[0]], initial=[0.5, 0, 0, 0])
-    with pytest.raises(ModelError, match="non-negative"):
+    with pytest.raises(ModelError, match="negative entry -0.5 at state 1"):
         batch_entropy(model3, [[0]], initial=[1.5, -0.5, 0, 0])
+    with pytest.raises(ModelError, match="non-finite entry at state 2"):
+        batch_entropy(model3, [[0]], initial=[0.5, 0.5, np.nan, 0])
     with pytest.raises(ValueError, match="threads"):
         batch_entropy(model3, [[0]], threads=0)
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from kruskal_markov.validation import action_position
 from transition_builder.friction import DEFAULT_MU, FrictionSpec, parse_friction
 from transition_builder.settings import SIMULATOR_VERSION, SimSettings
 from transition_builder.shapes import Shape, check_fits, make_shape, parse_shape
@@ -106,9 +107,9 @@ class Scene:
             acts = [a for a in acts.split(",") if a.strip()]
         names = []
         for a in acts:
-            if not isinstance(a, str) or a.strip().upper() not in ACTIONS:
+            if not isinstance(a, str):
                 raise ValueError(f"unknown action {a!r}; known actions: {','.join(ACTIONS)}")
-            names.append(a.strip().upper())
+            names.append(ACTIONS[action_position(ACTIONS, a)])
         if not names:
             raise ValueError("the action set is empty")
         if len(set(names)) != len(names):
@@ -128,9 +129,9 @@ class Scene:
                 raise ValueError(f"action index {action} out of range 0..{len(self.actions) - 1} "
                                  f"(actions {','.join(self.actions)})")
             return int(action)
-        if isinstance(action, str) and action.strip().upper() in self.actions:
-            return self.actions.index(action.strip().upper())
-        raise ValueError(f"unknown action {action!r}; known actions: {','.join(self.actions)}")
+        if not isinstance(action, str):
+            raise ValueError(f"unknown action {action!r}; known actions: {','.join(self.actions)}")
+        return action_position(self.actions, action)
 
     def action_name(self, action) -> str:
         return self.actions[self.action_index(action)]

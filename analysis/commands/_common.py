@@ -9,6 +9,7 @@ import numpy as np
 
 from analysis.commands import InputError
 from analysis.sequences import sequence_rng  # noqa: F401 - re-exported for the commands
+from kruskal_markov.validation import action_position
 
 
 def parse_sequence(text: str, action_names, rng: np.random.Generator | None = None) -> np.ndarray:
@@ -33,14 +34,11 @@ def parse_sequence(text: str, action_names, rng: np.random.Generator | None = No
         return rng.integers(0, len(names), size=length).astype(np.int64)
     if text == "":
         return np.zeros(0, dtype=np.int64)
-    index = {name.upper(): i for i, name in enumerate(names)}
-    out = []
-    for token in text.split(","):
-        token = token.strip()
-        if token.upper() not in index:
-            raise InputError(f"unknown action {token!r} in sequence; known actions: {','.join(names)}")
-        out.append(index[token.upper()])
-    return np.asarray(out, dtype=np.int64)
+    try:
+        return np.asarray([action_position(names, token.strip(), " in sequence")
+                           for token in text.split(",")], dtype=np.int64)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
 
 
 def add_seed(parser: argparse.ArgumentParser, default: int = 0) -> None:
@@ -169,16 +167,17 @@ def parse_weights(text: str | None, actions) -> list[float] | None:
         return None
     names = list(actions)
     parts = [p.strip() for p in text.split(",") if p.strip()]
+    if parts and all("=" in p for p in parts):
+        w = [0.0] * len(names)
+        for p in parts:
+            name, val = p.split("=", 1)
+            try:
+                w[action_position(names, name.strip(), " in --weights")] = float(val)
+            except ValueError as exc:
+                msg = str(exc) if str(exc).startswith("unknown action") else f"bad --weights entry {p!r}: {exc}"
+                raise InputError(msg) from None
+        return w
     try:
-        if parts and all("=" in p for p in parts):
-            index = {a.upper(): i for i, a in enumerate(names)}
-            w = [0.0] * len(names)
-            for p in parts:
-                name, val = p.split("=", 1)
-                if name.strip().upper() not in index:
-                    raise InputError(f"unknown action {name.strip()!r} in --weights; known: {','.join(names)}")
-                w[index[name.strip().upper()]] = float(val)
-            return w
         w = [float(p) for p in parts]
     except ValueError:
         raise InputError(f"bad --weights {text!r}: expected {len(names)} comma-separated numbers or NAME=W "
