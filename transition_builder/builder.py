@@ -56,7 +56,6 @@ import scipy.sparse as sp
 
 from kruskal_markov.model import TransitionModel, atomic_savez
 from transition_builder.executors import make_executor, simulator_for
-from transition_builder.friction import parse_friction
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_pose
 from transition_builder.sampling import sample_start_poses
@@ -267,8 +266,6 @@ def build_key(scene: Scene, settings: BuildSettings) -> str:
                "package": _package_version()}
     if settings.explore_weight > 0:
         payload["weighted"] = _WEIGHTED_DESIGN
-    if parse_friction(scene.friction).kind == "map":
-        payload["friction_map_tasks"] = "fresh-worlds"     # TraySimulator.fresh_start per task
     text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
@@ -299,7 +296,7 @@ def tilt_chunk(scene: Scene, action: str, poses: np.ndarray, noise_text: str, se
         for i in range(len(p)):
             p[i], _ = perturb_pose(scene, p[i], noise, noise_rng(seed, *(int(k) for k in keys[i])))
     sim = simulator_for(scene)
-    sim.fresh_start()        # a task's result depends on its own tilts only (friction maps)
+    sim.fresh_start()        # a task's result depends on its own tilts only
     rest, status = sim.tilt(p, action)
     return np.asarray(rest, dtype=np.float64), np.asarray(status, dtype=np.int8)
 
@@ -586,8 +583,13 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
     progress : bool or None
         A tqdm bar on standard error (tilts, states, rate); None: only on a terminal.
     batch_tilts : int
-        Tilts per exploration batch (landings are offered in orbit order whatever the batch, so
-        it only changes where ``max_states`` cuts off and how often a checkpoint can be taken).
+        Tilts per exploration batch. Landings are offered in orbit order whatever the batch, but
+        the batch decides how tilts are grouped into executor tasks of 48, and the tilts of one
+        task share the simulator's worlds, which carry a little state from trial to trial (rare
+        landings move by up to 1e-3 rad; docs/simulator.md). So a build is reproduced exactly
+        (by any executor, or resumed from a checkpoint) with the same batch; cached builds use the
+        default. The batch also decides where ``max_states`` cuts off and how often a checkpoint
+        can be taken.
 
     Returns
     -------

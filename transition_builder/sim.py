@@ -38,6 +38,7 @@ import numpy as np
 from transition_builder import status as st_codes
 from transition_builder._bullet_world import BulletWorld
 from transition_builder.friction import parse_friction
+from transition_builder.sampling import is_collision_free
 from transition_builder.scene import Scene
 from transition_builder.settings import SIMULATOR_VERSION
 
@@ -51,16 +52,8 @@ def valid_start(scene: Scene, poses) -> np.ndarray:
     An outline may poke ``settings.escape_tolerance_mm`` into a wall: rest poses sit in contact
     (a few hundredths of a millimetre of penetration) and must be valid starts of the next tilt.
     """
-    p = np.asarray(poses, dtype=np.float64)
-    fin = np.all(np.isfinite(p), axis=1)
-    ok = np.zeros(len(p), dtype=bool)
-    if fin.any():
-        v = scene.shape.placed(p[fin])
-        tol = scene.settings.escape_tolerance_mm
-        inside = ((v[..., 0] >= -tol) & (v[..., 0] <= scene.tray_x_mm + tol)
-                  & (v[..., 1] >= -tol) & (v[..., 1] <= scene.tray_y_mm + tol)).all(axis=1)
-        ok[fin] = inside
-    return ok
+    return is_collision_free(scene.shape, poses, scene.tray_x_mm, scene.tray_y_mm,
+                             margin_mm=-scene.settings.escape_tolerance_mm)
 
 
 def _check_poses(poses) -> np.ndarray:
@@ -120,14 +113,17 @@ class TraySimulator:
     def fresh_start(self):
         """Make the next trial independent of every trial this simulator ran before.
 
-        With uniform friction that is already so (contacts are cleared before every trial). On a
-        friction map some Bullet state survives that reset (results differed by up to 3e-4 mm
-        after other trials had run), so the worlds are rebuilt on next use. Direct simulation and
-        the builder call this at the start of every task, whose trials are fixed by the task
-        list alone, so a friction-map result is the same for any number of workers.
+        Some Bullet state survives the per-trial reset of :meth:`BulletWorld.set_pose` (which
+        drops every contact): after certain runs of earlier trials a landing differed by up to
+        1e-3 rad (measured on a uniform-friction scene, 2 of 126 builder tasks; up to 3e-4 mm on a
+        friction map), and neither restoring a saved state nor re-applying the engine parameters
+        removed it; resetting the physics server does. So every world is reset and built again
+        (:meth:`BulletWorld.rebuild`, a few milliseconds). Direct simulation and the builder call
+        this at the start of every task, whose trials are fixed by the task list alone, so every
+        result is the same for any number of workers and any executor.
         """
-        if self.friction_map:
-            self.close()
+        for w in self._worlds.values():
+            w.rebuild()
 
     @property
     def friction_map(self) -> bool:
@@ -211,16 +207,12 @@ class TraySimulator:
         out = np.full((n, 3), np.nan)
         status = np.full(n, st_codes.INVALID, dtype=np.int8)
         valid = valid_start(self.scene, p)
-        sc = self.scene
-        tol = sc.settings.escape_tolerance_mm
         for i in range(n):
             if not valid[i]:
                 continue
             pose, code = self._run(w, p[i])
             if code == st_codes.OK:
-                v = sc.shape.placed(pose)
-                if (v[:, 0].min() < -tol or v[:, 1].min() < -tol or v[:, 0].max() > sc.tray_x_mm + tol
-                        or v[:, 1].max() > sc.tray_y_mm + tol):
+                if not valid_start(self.scene, np.asarray(pose)[None, :])[0]:   # a landing must be a valid start
                     code = st_codes.ESCAPED
                 else:
                     out[i] = pose
