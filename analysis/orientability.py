@@ -39,7 +39,9 @@ class PartMetrics:
     ``random_tilts`` is the Monte Carlo mean of random tilts until entropy <= epsilon with its 95%
     interval ``random_tilts_ci95`` and ``random_tilts_censored`` runs that never got there within
     ``max_tilts``; ``random_sync_length`` the same for merging every start state of the support
-    automaton (None when it could not be estimated, e.g. runs censored).
+    automaton. A mean over the finished runs alone would be biased low, so with any censored run
+    the mean is None and ``random_tilts_lower`` / ``random_sync_lower`` (each censored run counted
+    at the tilts it ran: a lower bound) is what is known; without censoring they equal the means.
     """
 
     states: int
@@ -54,6 +56,8 @@ class PartMetrics:
     random_sync_length: float | None
     random_sync_ci95: tuple
     random_sync_censored: int
+    random_tilts_lower: float | None
+    random_sync_lower: float | None
     mean_entropy_10: float
     mean_entropy_50: float
     converging_share_50: float
@@ -97,10 +101,17 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     --start initial`` question: it orients a part placed anywhere. Searches: Kisielewicz, Kowalski
     and Szykula (2015) bidirectional BFS, Eppstein (1990) greedy fallback (``kruskal_markov.sync``).
     """
-    from kruskal_markov.convergence import monte_carlo_entropy_tilts, monte_carlo_sync_length
+    from kruskal_markov.convergence import (
+        monte_carlo_entropy_tilts,
+        monte_carlo_sync_length,
+    )
     from kruskal_markov.ensemble import run_ensemble
     from kruskal_markov.entropy import entropy_trajectory
-    from kruskal_markov.sync import shortest_synchronizing_word, start_set, support_automaton
+    from kruskal_markov.sync import (
+        shortest_synchronizing_word,
+        start_set,
+        support_automaton,
+    )
 
     t0 = time.perf_counter()
     ens = run_ensemble(model, count, 50, seed=seed, epsilon=epsilon, threads=threads)
@@ -119,6 +130,7 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
         random_tilts_censored=int(tilts["censored"]),
         random_sync_length=_num(rsync["mean"]), random_sync_ci95=tuple(_num(x) for x in rsync["ci95"]),
         random_sync_censored=int(rsync["censored"]),
+        random_tilts_lower=_num(tilts["lower"]), random_sync_lower=_num(rsync["lower"]),
         mean_entropy_10=float(ens.mean[10]), mean_entropy_50=float(ens.mean[50]),
         converging_share_50=ens.converged / count, initial_entropy=h0, epsilon=float(epsilon),
         seconds=time.perf_counter() - t0)
@@ -128,10 +140,24 @@ def _num(x):
     return None if x is None or not np.isfinite(x) else float(x)
 
 
+def random_tilts_text(metrics: dict) -> str:
+    """The expected random tilts of a part's metrics: the mean, ``>= lower`` when runs were
+    censored (the mean of the finished runs alone would be biased low), ``-`` when unknown."""
+    if metrics.get("random_tilts") is not None:
+        return f"{metrics['random_tilts']:.1f}"
+    if metrics.get("random_tilts_lower") is not None:
+        return f">= {metrics['random_tilts_lower']:.1f}"
+    return "-"
+
+
+def _first_number(*values):
+    return next(v for v in values if v is not None)
+
+
 def _sort_key(m: PartMetrics):
     inf = float("inf")
     return (inf if m.sync_length is None else m.sync_length,
-            (m.random_tilts_censored, inf if m.random_tilts is None else m.random_tilts),
+            (m.random_tilts_censored, _first_number(m.random_tilts, m.random_tilts_lower, inf)),
             -m.converging_share_50, m.mean_entropy_50, m.mean_entropy_10)
 
 
@@ -142,7 +168,8 @@ RANK_ORDER = ("sync_length", "random_tilts", "converging_share_50 (higher is bet
 
 def rank_parts(metrics: dict[str, PartMetrics]) -> list[dict]:
     """Rank parts: shortest optimal plan first, then the fewest expected random tilts (first the
-    fewest censored runs, i.e. random sequences that never converged), then the
+    fewest censored runs, i.e. random sequences that never converged, then the mean, or its lower
+    bound when runs were censored), then the
     larger converging share, then the lower mean entropy after 50 and 10 tilts.
 
     Returns one dictionary per part, best first, with ``shape``, ``rank`` (1 = most orientable), the
@@ -150,7 +177,7 @@ def rank_parts(metrics: dict[str, PartMetrics]) -> list[dict]:
     one in the ranking (None for the last).
 
     >>> a = PartMetrics(10, ["N"], 1, True, 1, "exact", 3.0, (2.0, 4.0), 0, 3.0, (2.0, 4.0), 0,
-    ...                 0.1, 0.0, 1.0, 4.0, 1e-3, 0.0)
+    ...                 3.0, 3.0, 0.1, 0.0, 1.0, 4.0, 1e-3, 0.0)
     >>> b = dataclasses.replace(a, sync_length=2, sync_word=["N", "E"])
     >>> [(r["shape"], r["rank"], r["decided_by"]) for r in rank_parts({"b": b, "a": a})]
     [('a', 1, 'sync_length'), ('b', 2, None)]

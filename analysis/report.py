@@ -11,6 +11,7 @@ import os
 
 import numpy as np
 
+from analysis.orientability import random_tilts_text
 from kruskal_markov.model import atomic_write_text
 
 __all__ = ["write_report"]
@@ -138,6 +139,16 @@ def _shapes_figure(parts, out_dir, figures):
     _save(fig, out_dir, "fig_b_shapes.png", figures)
 
 
+def _expected(metrics: dict, key: str, ci_key: str) -> str:
+    """A Monte Carlo mean with its 95% interval, or "at least" its lower bound when runs were
+    censored (older results without the bound: the mean as recorded)."""
+    lower = metrics.get(key.replace("_length", "") + "_lower")
+    if metrics.get(key) is None and lower is not None:
+        return f"at least {lower:.1f} (censored runs counted at 1,000: no mean)"
+    ci = metrics.get(ci_key) or [None, None]
+    return f"{_fmt(metrics.get(key), '.1f')} (95% interval {_fmt(ci[0], '.1f')}-{_fmt(ci[1], '.1f')})"
+
+
 def _contact_decision(cm: dict, keys: list, s: dict) -> list:
     """The paragraph that states which contact model is the default and why (analysis issue, item 3)."""
     other = cm[keys[1]]
@@ -263,12 +274,11 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         "",
         "![A at scale](fig_a_million.png)",
         "",
-        f"**Expected length of a random sequence**: {_fmt(km['random_tilts'], '.1f')} random tilts until the predicted "
-        f"entropy is <= {eps:g} bits (95% interval {_fmt(km['random_tilts_ci95'][0], '.1f')}-"
-        f"{_fmt(km['random_tilts_ci95'][1], '.1f')}; {km['random_tilts_censored']} of {s['metrics_runs']} runs not "
-        "converged within 1,000 tilts and left out of the mean); "
-        f"{_fmt(km['random_sync_length'], '.1f')} tilts until every start state of the support automaton is merged "
-        f"({km['random_sync_censored']} runs censored).",
+        f"**Expected length of a random sequence**: {_expected(km, 'random_tilts', 'random_tilts_ci95')} random "
+        f"tilts until the predicted entropy is <= {eps:g} bits ({km['random_tilts_censored']} of "
+        f"{s['metrics_runs']} runs not converged within 1,000 tilts); "
+        f"{_expected(km, 'random_sync_length', 'random_sync_ci95')} tilts until every start state of the support "
+        f"automaton is merged ({km['random_sync_censored']} runs censored).",
         "",
     ]
     if "sync_replay" in r:
@@ -350,7 +360,7 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
             m = q["metrics"]
             lines.append(f"| {spec} | {q['model']['states']:,} | {_fmt(q['converged_at'], 'd', 'no')} / "
                          f"{_fmt(q['direct_zero_at'], 'd', 'no')} | {_fmt(m['sync_length'], 'd', 'none')}"
-                         f"{'' if m['sync_exact'] else ' (greedy)'} | {_fmt(m['random_tilts'], '.1f')} | "
+                         f"{'' if m['sync_exact'] else ' (greedy)'} | {random_tilts_text(m)} | "
                          f"{m['mean_entropy_10']:.2f} / {m['mean_entropy_50']:.2f} | {100 * m['converging_share_50']:.0f}% |")
         lines += ["", "![B](fig_b_parts.png)", "", "![B shapes](fig_b_shapes.png)", ""]
         if rc:

@@ -33,7 +33,12 @@ from scipy.sparse import csgraph
 from kruskal_markov import _convergence_kernels as _ck
 from kruskal_markov._subsets import SubsetStore, as_start, pair_index, pair_offsets
 from kruskal_markov.entropy import partition_entropy_bits
-from kruskal_markov.sync import SyncAutomaton, as_automaton, pair_check_memory_mb, synchronizability
+from kruskal_markov.sync import (
+    SyncAutomaton,
+    as_automaton,
+    pair_check_memory_mb,
+    synchronizability,
+)
 from kruskal_markov.validation import action_weights
 
 if TYPE_CHECKING:
@@ -133,11 +138,13 @@ def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, we
                             max_steps: int = 100_000, chunk: int = 64, time_budget: float | None = None):
     """Monte Carlo estimate of ``E[T]`` over ``runs`` random words (seeded).
 
-    Returns ``dict(mean, ci95, runs, censored, std)``; runs that are not synchronized after
+    Returns ``dict(mean, ci95, runs, censored, std, lower)``; runs that are not synchronized after
     ``max_steps`` letters (or still running after ``time_budget`` seconds, when one is given) are
-    censored (the mean then only counts finished runs and ``censored`` says how many were left out).
-    Without a time budget the result depends only on the inputs and ``seed``; with one, censoring
-    (and so the result) can depend on the machine's speed.
+    censored. A mean over the finished runs alone would be biased low, so with any censored run
+    ``mean``, ``ci95`` and ``std`` are None and only ``lower`` is given: the mean of ``min(T,
+    letters run)`` over all runs, an estimate of a lower bound of ``E[T]`` (equal to ``mean``
+    when nothing is censored). Without a time budget the result depends only on the inputs and
+    ``seed``; with one, censoring (and so the result) can depend on the machine's speed.
     """
     aut, start = as_automaton(aut, start)
     t0 = time.perf_counter()
@@ -164,15 +171,7 @@ def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, we
         steps[active] = sub_steps
         done[active] = sub_done
         chunk = min(4 * chunk, 4096)
-    fin = steps[done].astype(np.float64)
-    censored = int(runs - done.sum())
-    if fin.size == 0:
-        return {"mean": None, "ci95": [None, None], "runs": runs, "censored": censored, "std": None}
-    mean = float(fin.mean())
-    sd = float(fin.std(ddof=1)) if fin.size > 1 else 0.0
-    half = 1.96 * sd / math.sqrt(fin.size)
-    return {"mean": mean, "ci95": [mean - half, mean + half], "runs": runs, "censored": censored,
-            "std": sd}
+    return _censored_mean(steps.astype(np.float64), done)
 
 
 # ----------------------------------------------------------------------------- pair chain
@@ -313,9 +312,10 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
                          max_subsets: int = 200_000, max_steps: int = 100_000,
                          pair_time_budget: float = 45.0, mc_time_budget: float | None = None,
                          memory_budget_mb: float = 2048.0) -> dict:
-    """``E[T]`` by every method: keys ``exact``, ``monte_carlo``, ``ci95``, ``pair_lower``,
-    ``pair_upper`` (None where unavailable or infinite; ``infinite`` True when ``E[T] = inf``)
-    plus diagnostics.
+    """``E[T]`` by every method: keys ``exact``, ``monte_carlo``, ``ci95``, ``monte_carlo_lower``,
+    ``pair_lower``, ``pair_upper`` (None where unavailable or infinite; ``infinite`` True when
+    ``E[T] = inf``) plus diagnostics. With censored Monte Carlo runs (``mc_censored``) only
+    ``monte_carlo_lower`` is given (:func:`monte_carlo_sync_length`).
 
     The pair-graph synchronizability check (quadratic in the states) runs first only when its
     arrays fit in half of ``memory_budget_mb``; otherwise it is skipped (``pair_check`` says so) and
@@ -333,7 +333,8 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
         check = synchronizability(aut, as_start(aut, start))
     if check["synchronizing"] is False:
         # some start pair never merges: T is infinite on every word
-        return {"exact": None, "monte_carlo": None, "ci95": [None, None], "pair_lower": None,
+        return {"exact": None, "monte_carlo": None, "ci95": [None, None], "monte_carlo_lower": None,
+                "pair_lower": None,
                 "pair_upper": None, "subsets": None, "mc_runs": 0, "mc_censored": 0, "pair_states": None,
                 "pair_memory_mb": None, "pair_residual": None, "infinite": True,
                 "witness": check["witness"], "pair_check": out["pair_check"]}
@@ -342,12 +343,13 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
     out["exact"] = _finite_or_none(exact)
     out["subsets"] = info["subsets"]
     if infinite:
-        mc = {"mean": None, "ci95": [None, None], "runs": 0, "censored": 0}
+        mc = {"mean": None, "ci95": [None, None], "runs": 0, "censored": 0, "lower": None}
     else:
         mc = monte_carlo_sync_length(aut, start, weights, runs=runs, seed=seed, max_steps=max_steps,
                                      time_budget=mc_time_budget)
     out["monte_carlo"] = mc["mean"]
     out["ci95"] = mc["ci95"]
+    out["monte_carlo_lower"] = mc.get("lower")
     out["mc_runs"] = mc["runs"]
     out["mc_censored"] = mc["censored"]
     pb = pair_chain_bounds(aut, start, weights, time_budget=pair_time_budget, memory_budget_mb=memory_budget_mb)
@@ -369,8 +371,9 @@ def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 5
     """Monte Carlo: expected number of random tilts until the predicted entropy from
     ``model.initial`` is ``<= epsilon`` (partition cells, or states without a partition).
 
-    Returns ``dict(mean, ci95, runs, censored)``; censored runs (not reached within ``max_steps``)
-    are excluded from the mean and counted.
+    Returns ``dict(mean, ci95, runs, censored, std, lower)`` as :func:`monte_carlo_sync_length`
+    does: with any run censored (not reached within ``max_steps``) only ``lower``, the mean of
+    ``min(tilts, max_steps)``, is given.
     """
     epsilon = float(epsilon)
     if not epsilon >= 0:
@@ -391,10 +394,20 @@ def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 5
     # entropy already <= epsilon before any tilt
     if partition_entropy_bits(np.asarray(model.initial, dtype=np.float64), part, ncells) <= epsilon:
         steps[:] = 0
-    fin = steps[steps >= 0].astype(np.float64)
-    censored = int((steps < 0).sum())
-    if fin.size == 0:
-        return {"mean": None, "ci95": [None, None], "runs": runs, "censored": censored}
-    mean = float(fin.mean())
-    half = 1.96 * float(fin.std(ddof=1)) / math.sqrt(fin.size) if fin.size > 1 else 0.0
-    return {"mean": mean, "ci95": [mean - half, mean + half], "runs": runs, "censored": censored}
+    done = steps >= 0
+    return _censored_mean(np.where(done, steps, max_steps).astype(np.float64), done)
+
+
+def _censored_mean(steps: np.ndarray, done: np.ndarray) -> dict:
+    """Mean and 95% interval of ``steps`` when every run is ``done``; else only ``lower``, the mean
+    of the steps run (each censored run counts the steps it ran: a lower bound of its length)."""
+    runs = int(steps.size)
+    censored = int(runs - done.sum())
+    lower = float(steps.mean()) if runs else None
+    if censored or runs == 0:
+        return {"mean": None, "ci95": [None, None], "runs": runs, "censored": censored, "std": None,
+                "lower": lower}
+    sd = float(steps.std(ddof=1)) if runs > 1 else 0.0
+    half = 1.96 * sd / math.sqrt(runs)
+    return {"mean": lower, "ci95": [lower - half, lower + half], "runs": runs, "censored": 0, "std": sd,
+            "lower": lower}

@@ -191,3 +191,24 @@ def test_weights_validation():
     assert letter_weights(2, [1, 3]).tolist() == [0.25, 0.75]
     with pytest.raises(ValueError):
         monte_carlo_sync_length(SyncAutomaton.from_table([[0, 0]]), runs=1)
+
+
+def test_censored_runs_give_only_a_lower_bound():
+    """Runs cut off before they synchronize: the mean of the finished ones alone would be biased low,
+    so only the restricted mean (each censored run counted at the letters it ran) is reported."""
+    table = np.array([[1, 2, 3, 0], [0, 1, 2, 0]])          # Cerny n = 4: no word shorter than 9 works
+    aut = SyncAutomaton.from_table(table)
+    cut = monte_carlo_sync_length(aut, runs=300, seed=2, max_steps=5)
+    assert cut["censored"] == 300 and cut["mean"] is None and cut["ci95"] == [None, None]
+    assert cut["lower"] == 5.0
+    brute = brute_expectation(det_step(table), 4, 2, [0.5, 0.5], range(4))
+    part = monte_carlo_sync_length(aut, runs=2000, seed=2, max_steps=15)
+    full = monte_carlo_sync_length(aut, runs=2000, seed=2)
+    assert 0 < part["censored"] < 2000 and part["mean"] is None
+    assert full["censored"] == 0 and full["lower"] == full["mean"]
+    assert 9 <= part["lower"] < full["mean"] and part["lower"] < brute
+    res = expected_sync_length(aut, seed=2, runs=300, max_steps=5)
+    assert res["monte_carlo"] is None and res["monte_carlo_lower"] == 5.0 and res["mc_censored"] == 300
+    mats = [sp.csr_matrix((np.ones(4), (np.arange(4), t)), shape=(4, 4)) for t in table]
+    tilts = monte_carlo_entropy_tilts(TransitionModel(["a", "b"], mats), 0.0, runs=200, seed=1, max_steps=5)
+    assert tilts["censored"] == 200 and tilts["mean"] is None and tilts["lower"] == 5.0

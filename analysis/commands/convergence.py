@@ -11,7 +11,13 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_model_source, add_seed, load_model_source, parse_weights, positive_float
+from analysis.commands._common import (
+    add_model_source,
+    add_seed,
+    load_model_source,
+    parse_weights,
+    positive_float,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,7 +76,7 @@ def run(args: argparse.Namespace) -> dict:
                                max_subsets=args.max_subsets, max_steps=args.max_steps,
                                pair_time_budget=args.pair_time_budget, mc_time_budget=args.mc_time_budget,
                                memory_budget_mb=args.memory_budget_mb)
-    keys = ("exact", "monte_carlo", "ci95", "pair_lower", "pair_upper")
+    keys = ("exact", "monte_carlo", "ci95", "monte_carlo_lower", "pair_lower", "pair_upper")
     out = {"expected_length": {k: res[k] for k in keys}}
     out.update({k: v for k, v in res.items() if k not in keys})
     out.update({"states": model.n_states, "start_states": len(start),
@@ -96,8 +102,9 @@ def format_text(result: dict) -> str:
     if result.get("infinite"):
         lines.append("expected length: infinite (some start states are never merged)")
     lines += [f"exact:       {f(e['exact'])}",
-              f"monte carlo: {f(e['monte_carlo'])}  95% CI [{f(e['ci95'][0])}, {f(e['ci95'][1])}]"
-              + (f"  ({result['mc_censored']} runs censored)" if result.get("mc_censored") else ""),
+              (f"monte carlo: at least {f(e['monte_carlo_lower'])}  ({result['mc_censored']} of "
+               f"{result['mc_runs']} runs censored, so no mean)" if result.get("mc_censored") else
+               f"monte carlo: {f(e['monte_carlo'])}  95% CI [{f(e['ci95'][0])}, {f(e['ci95'][1])}]"),
               f"pair bounds: [{f(e['pair_lower'])}, {f(e['pair_upper'])}]"
               + (f"  ({result['pair_bounds']})" if result.get("pair_bounds") else "")]
     if "entropy_tilts" in result:

@@ -11,7 +11,13 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, check_writable_file, parse_resolution, positive_float
+from analysis.commands._common import (
+    add_seed,
+    check_writable_file,
+    parse_resolution,
+    positive_float,
+)
+from analysis.orientability import random_tilts_text
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -110,13 +116,14 @@ def markdown_table(result: dict, shapes: str = "") -> str:
              f"`kruskal rank --shapes {shapes}` (models at {mm:g} mm / {deg:g} degrees, seed {result['seed']}). "
              "Metrics from each part's model (docs/commands.md): the shortest synchronizing word (* = greedy, "
              "not proven shortest), the expected number of random tilts until the predicted entropy is "
-             "<= 1e-3 bits (censored: random runs that never got there in 1,000 tilts), the mean entropy "
+             "<= 1e-3 bits (censored: random runs that never got there in 1,000 tilts; with any, only a lower "
+             "bound is known, shown as >= x), the mean entropy "
              "after 10 and 50 random tilts, and the share of random 50-tilt sequences that converge.", "",
              "| rank | part | states | shortest word | expected random tilts (censored) | H after 10 / 50 | "
              "converging | decided by |", "|---|---|---|---|---|---|---|---|"]
     for r in result["ranking"]:
         word = "none" if r["sync_length"] is None else f"{r['sync_length']}{'' if r['sync_exact'] else '*'}"
-        lines.append(f"| {r['rank']} | {r['shape']} | {r['states']:,} | {word} | {f(r['random_tilts'], '.1f')} "
+        lines.append(f"| {r['rank']} | {r['shape']} | {r['states']:,} | {word} | {random_tilts_text(r)} "
                      f"({r['random_tilts_censored']}) | {r['mean_entropy_10']:.2f} / {r['mean_entropy_50']:.2f} | "
                      f"{100 * r['converging_share_50']:.0f}% | {r['decided_by'] or '-'} |")
     c = result.get("check")
@@ -132,7 +139,7 @@ def format_text(result: dict) -> str:
     """One line per shape, best first."""
     lines = ["rank  shape                      sync  random tilts  H10    H50    converging  decided by"]
     for r in result["ranking"]:
-        rt = "-" if r["random_tilts"] is None else f"{r['random_tilts']:.1f}"
+        rt = random_tilts_text(r)
         sl = "-" if r["sync_length"] is None else f"{r['sync_length']}{'' if r['sync_exact'] else '*'}"
         lines.append(f"{r['rank']:4d}  {r['shape']:<26} {sl:>5} {rt:>13}  {r['mean_entropy_10']:.2f}   "
                      f"{r['mean_entropy_50']:.2f}   {100 * r['converging_share_50']:5.1f}%     {r['decided_by'] or '-'}")
