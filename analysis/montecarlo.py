@@ -313,7 +313,6 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
         check_memory(float(trials) * (seq.size + 1) * 26 * 2, f"{trials:,} trials of {seq.size:,} tilts",
                      "use fewer --trials or a shorter sequence")
     rgrid = report_grid_for(scene, grid, theta_offset)
-    a, b = _tray_size(scene)
     noise = parse_noise(noise)
     noise_seed = 0 if seed is None else seed
     if not noise.is_zero and (isinstance(noise_seed, bool) or not isinstance(noise_seed, (int, np.integer))
@@ -321,20 +320,8 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
         raise ValueError(f"process noise needs a non-negative integer seed, got {seed!r}")
     if executor is not None and not isinstance(executor, Executor):
         raise ValueError(f"executor must be a transition_builder.executors.Executor, got {type(executor).__name__}")
-    if start_poses is not None:
-        starts = np.array(start_poses, dtype=np.float64)
-        if starts.ndim != 2 or starts.shape[1] != 3:
-            raise ValueError(f"start poses must be an (M, 3) array, got shape {starts.shape}")
-        if trials is not None and int(trials) != len(starts):
-            raise ValueError(f"trials = {trials} but {len(starts)} start poses were given")
-        if not np.all(np.isfinite(starts)):
-            raise ValueError("start poses must be finite")
-        trials = len(starts)
-    else:
-        if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials < 1:
-            raise ValueError(f"trials must be a positive integer, got {trials!r}")
-        starts = sample_start_poses(scene.shape, a, b, int(trials), np.random.default_rng(seed))
-    trials = int(trials)
+    starts = _trial_starts(scene, trials, start_poses, seed)
+    trials = len(starts)
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, (int, np.integer))
                                 or workers < 1):
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
@@ -346,6 +333,35 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
     status = np.zeros((trials, len(seq) + 1), dtype=np.int8)
     poses[:, 0] = starts
     chunk_noise = None if noise.is_zero else noise  # a zero noise takes no perturbation path at all
+    if len(seq):
+        tasks = [(scene, simulator_factory, starts[lo:hi], seq_names, chunk_noise, int(noise_seed), lo)
+                 for lo, hi in bounds]
+        _run_chunks(tasks, bounds, poses, status, executor, scheduler, workers, progress)
+    return summarise_trials(seq, names, poses, status, rgrid, seed, noise)
+
+
+def _trial_starts(scene, trials, start_poses, seed) -> np.ndarray:
+    """The (M, 3) start poses: ``start_poses`` checked (M must equal ``trials`` unless that is
+    None), or ``trials`` poses drawn uniformly from the free configuration space with ``seed``."""
+    if start_poses is not None:
+        starts = np.array(start_poses, dtype=np.float64)
+        if starts.ndim != 2 or starts.shape[1] != 3:
+            raise ValueError(f"start poses must be an (M, 3) array, got shape {starts.shape}")
+        if trials is not None and int(trials) != len(starts):
+            raise ValueError(f"trials = {trials} but {len(starts)} start poses were given")
+        if not np.all(np.isfinite(starts)):
+            raise ValueError("start poses must be finite")
+        return starts
+    if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials < 1:
+        raise ValueError(f"trials must be a positive integer, got {trials!r}")
+    a, b = _tray_size(scene)
+    return sample_start_poses(scene.shape, a, b, int(trials), np.random.default_rng(seed))
+
+
+def _run_chunks(tasks, bounds, poses, status, executor, scheduler, workers, progress) -> None:
+    """Run the chunk ``tasks`` (rows ``bounds``) on ``executor`` (default: a Dask client for
+    ``scheduler``, this process for one chunk or one worker, else the kept local pool) and fill
+    ``poses`` and ``status`` in place, with a progress bar when asked (None: on a terminal)."""
     owned = None
     if executor is None:
         if scheduler is not None:
@@ -358,24 +374,20 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
         progress = sys.stderr.isatty()
     bar = None
     try:
-        if len(seq):
-            if progress:
-                from tqdm import tqdm
+        if progress:
+            from tqdm import tqdm
 
-                bar = tqdm(total=trials, unit="trial", desc="simulate", file=sys.stderr, leave=False)
-            tasks = [(scene, simulator_factory, starts[lo:hi], seq_names, chunk_noise, int(noise_seed), lo)
-                     for lo, hi in bounds]
-            for i, (p, s) in executor.map(_worker_chunk, tasks):
-                lo, hi = bounds[i]
-                poses[lo:hi], status[lo:hi] = p, s
-                if bar is not None:
-                    bar.update(hi - lo)
+            bar = tqdm(total=int(bounds[-1][1]), unit="trial", desc="simulate", file=sys.stderr, leave=False)
+        for i, (p, s) in executor.map(_worker_chunk, tasks):
+            lo, hi = bounds[i]
+            poses[lo:hi], status[lo:hi] = p, s
+            if bar is not None:
+                bar.update(hi - lo)
     finally:
         if bar is not None:
             bar.close()
         if owned is not None:
             owned.close()
-    return summarise_trials(seq, names, poses, status, rgrid, seed, noise)
 
 
 def summarise_trials(seq, names, poses, status, rgrid: ReportGrid, seed, noise: NoiseSpec) -> DirectResult:

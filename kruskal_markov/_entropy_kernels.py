@@ -420,7 +420,10 @@ def _run_task(indptr, indices, data, img_ptr, img_idx, use_blocks, blk_rp_off, b
 
     The step and the entropies are written out here rather than called: Numba does not inline
     :func:`_step` / :func:`_entropies` cheaply, and a call costs more than a whole step on the
-    tiny supports of an oriented part (same arithmetic as those functions)."""
+    tiny supports of an oriented part (same arithmetic as those functions). Measured: the node's
+    entropies, the bucketing and the step as separate ``@njit(inline="always")`` functions gave
+    bit-identical results but took 0.33 s instead of 0.20-0.25 s on the benchmark's contracting
+    tray-grid model (50,000 sequences x 50 steps), 3-5% more on the random one."""
     n = indptr.shape[1] - 1
     k_actions = indptr.shape[0]
     n_steps = seqs.shape[1]

@@ -161,6 +161,110 @@ def _as_csr(matrix, name: str) -> sp.csr_matrix:
     return m
 
 
+def _checked_tol(tol) -> float:
+    try:
+        tol = float(tol)
+    except (TypeError, ValueError):
+        raise ModelError(f"tol must be a number, got {tol!r}") from None
+    if not (np.isfinite(tol) and tol >= 0):
+        raise ModelError(f"tol must be finite and >= 0, got {tol!r}")
+    return tol
+
+
+def _checked_action_names(actions) -> tuple[str, ...]:
+    """Non-empty, comma-free names, distinct even ignoring case (command-line sequences are not
+    case-sensitive)."""
+    if isinstance(actions, str):
+        raise ModelError("actions must be a sequence of names, not a single string")
+    actions = tuple(actions)
+    if not actions:
+        raise ModelError("a model needs at least one action")
+    for a in actions:
+        if not isinstance(a, str) or not a.strip():
+            raise ModelError(f"action names must be non-empty strings, got {a!r}")
+        if "," in a:
+            raise ModelError(f"action name {a!r} must not contain a comma")
+    seen = set()
+    for a in actions:
+        if a in seen:
+            raise ModelError(f"action name {a!r} is used twice")
+        seen.add(a)
+    lowered = [a.upper() for a in actions]
+    if len(set(lowered)) != len(lowered):
+        raise ModelError(f"action names must differ ignoring case (command-line sequences are "
+                         f"case-insensitive): {list(actions)}")
+    return actions
+
+
+def _checked_matrices(actions, matrices, tol: float) -> tuple[sp.csr_matrix, ...]:
+    """One read-only, row-stochastic (within ``tol``) CSR matrix per action, all of one size."""
+    if sp.issparse(matrices) or (isinstance(matrices, np.ndarray) and matrices.ndim == 2):
+        raise ModelError("matrices must be a sequence of one matrix per action")
+    matrices = list(matrices)
+    if len(matrices) != len(actions):
+        raise ModelError(f"{len(actions)} actions but {len(matrices)} matrices")
+    mats = []
+    n = first = None
+    for name, mat in zip(actions, matrices):
+        m = _as_csr(mat, name)
+        if n is None:
+            n, first = m.shape[0], name
+            if n == 0:
+                raise ModelError(f"{_fmt_action(name)}: matrix has no states (0 x 0)")
+        elif m.shape[0] != n:
+            raise ModelError(f"{_fmt_action(name)}: matrix is {m.shape[0]} x {m.shape[1]} but "
+                             f"{_fmt_action(first)} has {n} states")
+        sums = np.asarray(m.sum(axis=1)).ravel()
+        dev = np.abs(sums - 1.0)
+        if dev.size and dev.max() > tol:
+            row = int(np.argmax(dev))
+            nbad = int(np.count_nonzero(dev > tol))
+            more = f" ({nbad} rows out of tolerance)" if nbad > 1 else ""
+            raise ModelError(f"{_fmt_action(name)}: row {row} sums to {float(sums[row])!r}, off by "
+                             f"{beyond(float(sums[row]) - 1.0, tol)}, more than the tolerance {tol:g}{more}")
+        for arr in (m.data, m.indices, m.indptr):
+            arr.flags.writeable = False
+        mats.append(m)
+    return tuple(mats)
+
+
+def _checked_partition(partition, n_cells, n: int) -> tuple[np.ndarray | None, int | None]:
+    """The partition as a read-only int64 vector of cells in ``[0, n_cells)``, and ``n_cells``."""
+    if partition is None:
+        if n_cells is not None:
+            raise ModelError("n_cells given without a partition")
+        return None, None
+    try:
+        part = np.array(partition).ravel()
+    except (TypeError, ValueError):
+        raise ModelError("partition must be an integer vector") from None
+    if part.shape != (n,):
+        raise ModelError(f"partition has {part.size} entries, the model has {n} states")
+    if part.dtype.kind == "f":
+        if not np.all(np.isfinite(part)) or np.any(part != np.round(part)):
+            raise ModelError("partition entries must be integers")
+    elif part.dtype.kind not in "iu":
+        raise ModelError(f"partition entries must be integers, got dtype {part.dtype}")
+    part = part.astype(np.int64)
+    if np.any(part < 0):
+        i = int(np.argmin(part))
+        raise ModelError(f"partition maps state {i} to cell {int(part[i])} < 0")
+    if n_cells is None:
+        n_cells = int(part.max()) + 1
+    try:
+        n_cells_int = int(n_cells)
+    except (TypeError, ValueError):
+        raise ModelError(f"n_cells must be an integer, got {n_cells!r}") from None
+    if n_cells_int != n_cells or n_cells_int < 1:
+        raise ModelError(f"n_cells must be a positive integer, got {n_cells!r}")
+    if part.max() >= n_cells_int:
+        i = int(np.argmax(part))
+        raise ModelError(f"partition maps state {i} to cell {int(part[i])}, out of range "
+                         f"[0, {n_cells_int})")
+    part.flags.writeable = False
+    return part, n_cells_int
+
+
 def _check_file_dtypes(path, what, **arrays):
     """A model file's arrays must have the kinds the format says: probabilities real floating point,
     indices and the partition integers (a complex or fractional entry is refused, never cast)."""
@@ -214,106 +318,14 @@ class TransitionModel:
 
     def __init__(self, actions, matrices, initial=None, partition=None, n_cells=None, metadata=None,
                  tol: float = 1e-9, extras=None):
-        try:
-            tol = float(tol)
-        except (TypeError, ValueError):
-            raise ModelError(f"tol must be a number, got {tol!r}") from None
-        if not (np.isfinite(tol) and tol >= 0):
-            raise ModelError(f"tol must be finite and >= 0, got {tol!r}")
-        self.tol = tol
-        if isinstance(actions, str):
-            raise ModelError("actions must be a sequence of names, not a single string")
-        actions = tuple(actions)
-        if not actions:
-            raise ModelError("a model needs at least one action")
-        for a in actions:
-            if not isinstance(a, str) or not a.strip():
-                raise ModelError(f"action names must be non-empty strings, got {a!r}")
-            if "," in a:
-                raise ModelError(f"action name {a!r} must not contain a comma")
-        seen = set()
-        for a in actions:
-            if a in seen:
-                raise ModelError(f"action name {a!r} is used twice")
-            seen.add(a)
-        lowered = [a.upper() for a in actions]
-        if len(set(lowered)) != len(lowered):
-            raise ModelError(f"action names must differ ignoring case (command-line sequences are "
-                             f"case-insensitive): {list(actions)}")
-        if sp.issparse(matrices) or (isinstance(matrices, np.ndarray) and matrices.ndim == 2):
-            raise ModelError("matrices must be a sequence of one matrix per action")
-        matrices = list(matrices)
-        if len(matrices) != len(actions):
-            raise ModelError(f"{len(actions)} actions but {len(matrices)} matrices")
-        mats = []
-        n = None
-        for name, mat in zip(actions, matrices):
-            m = _as_csr(mat, name)
-            if n is None:
-                n = m.shape[0]
-                if n == 0:
-                    raise ModelError(f"{_fmt_action(name)}: matrix has no states (0 x 0)")
-                first = name
-            elif m.shape[0] != n:
-                raise ModelError(f"{_fmt_action(name)}: matrix is {m.shape[0]} x {m.shape[1]} but "
-                                 f"{_fmt_action(first)} has {n} states")
-            sums = np.asarray(m.sum(axis=1)).ravel()
-            dev = np.abs(sums - 1.0)
-            if dev.size and dev.max() > tol:
-                row = int(np.argmax(dev))
-                nbad = int(np.count_nonzero(dev > tol))
-                more = f" ({nbad} rows out of tolerance)" if nbad > 1 else ""
-                raise ModelError(f"{_fmt_action(name)}: row {row} sums to {float(sums[row])!r}, off by "
-                                 f"{beyond(float(sums[row]) - 1.0, tol)}, more than the tolerance {tol:g}{more}")
-            for arr in (m.data, m.indices, m.indptr):
-                arr.flags.writeable = False
-            mats.append(m)
-        self.actions: tuple[str, ...] = actions
-        self.matrices: tuple[sp.csr_matrix, ...] = tuple(mats)
-
-        if initial is None:
-            init = np.full(n, 1.0 / n)
-        else:
-            init = distribution(initial, n, tol)
+        self.tol = tol = _checked_tol(tol)
+        self.actions: tuple[str, ...] = _checked_action_names(actions)
+        self.matrices: tuple[sp.csr_matrix, ...] = _checked_matrices(self.actions, matrices, tol)
+        n = self.matrices[0].shape[0]
+        init = np.full(n, 1.0 / n) if initial is None else distribution(initial, n, tol)
         init.flags.writeable = False
         self.initial: np.ndarray = init
-
-        if partition is None:
-            if n_cells is not None:
-                raise ModelError("n_cells given without a partition")
-            self.partition = None
-            self.n_cells = None
-        else:
-            try:
-                part = np.array(partition).ravel()
-            except (TypeError, ValueError):
-                raise ModelError("partition must be an integer vector") from None
-            if part.shape != (n,):
-                raise ModelError(f"partition has {part.size} entries, the model has {n} states")
-            if part.dtype.kind == "f":
-                if not np.all(np.isfinite(part)) or np.any(part != np.round(part)):
-                    raise ModelError("partition entries must be integers")
-            elif part.dtype.kind not in "iu":
-                raise ModelError(f"partition entries must be integers, got dtype {part.dtype}")
-            part = part.astype(np.int64)
-            if np.any(part < 0):
-                i = int(np.argmin(part))
-                raise ModelError(f"partition maps state {i} to cell {int(part[i])} < 0")
-            if n_cells is None:
-                n_cells = int(part.max()) + 1
-            try:
-                n_cells_int = int(n_cells)
-            except (TypeError, ValueError):
-                raise ModelError(f"n_cells must be an integer, got {n_cells!r}") from None
-            if n_cells_int != n_cells or n_cells_int < 1:
-                raise ModelError(f"n_cells must be a positive integer, got {n_cells!r}")
-            if part.max() >= n_cells_int:
-                i = int(np.argmax(part))
-                raise ModelError(f"partition maps state {i} to cell {int(part[i])}, out of range "
-                                 f"[0, {n_cells_int})")
-            part.flags.writeable = False
-            self.partition = part
-            self.n_cells = n_cells_int
+        self.partition, self.n_cells = _checked_partition(partition, n_cells, n)
         self.metadata: dict = _normalise_metadata(metadata)
         self.extras: dict = _normalise_extras(extras)
         self._cache: dict = {}

@@ -147,6 +147,15 @@ class BulletWorld:
         return pb.getQuaternionFromEuler([0.0, 0.0, yaw])
 
     def _build(self, scene, st, cid):
+        """Reset the physics server and build everything (the same PyBullet calls in the same
+        order every time: results depend on it)."""
+        self._configure_engine(scene, st, cid)
+        mu = self._build_tray(scene, cid)
+        leg_xy = self._build_part(scene, st, cid)
+        self._set_supports(scene.shape, mu, leg_xy)
+
+    def _configure_engine(self, scene, st, cid):
+        """Time step, solver, contact threshold and the tilted gravity of this world."""
         a = math.radians(scene.tilt_deg)
         pb.resetSimulation(physicsClientId=cid)
         # with a friction map the support's coefficient is updated before every step, so Python
@@ -160,6 +169,9 @@ class BulletWorld:
             contactBreakingThreshold=st.contact_threshold_mm * self.mm, physicsClientId=cid)
         g = G * st.world_units_per_m
         pb.setGravity(g * math.sin(a), 0.0, -g * math.cos(a), physicsClientId=cid)
+
+    def _build_tray(self, scene, cid) -> np.ndarray:
+        """The floor slab and the four walls, in the downhill frame; returns the friction grid."""
         yaw_tray = -self.phi
         q_tray = self._quat(yaw_tray)
         W, H = scene.tray_x_mm, scene.tray_y_mm
@@ -196,7 +208,11 @@ class BulletWorld:
                                    physicsClientId=cid)
             pb.changeDynamics(b, -1, lateralFriction=wall_mu, restitution=0.0, physicsClientId=cid)
             self.walls.append(b)
+        return mu
 
+    def _build_part(self, scene, st, cid) -> np.ndarray:
+        """The part as a planar joint chain; returns the support legs' offsets (world units; empty
+        for the single support sphere)."""
         # the part: x, y, z slides, yaw hinge (mass), prism parts, support sphere
         shape = scene.shape
         m = shape.mass_kg
@@ -260,6 +276,11 @@ class BulletWorld:
             raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
                                f"expected {BULLET_HULL_MARGIN_UNITS}")
         pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
+        return leg_xy
+
+    def _set_supports(self, shape, mu, leg_xy):
+        """Friction of the support contact(s) and the frame conversions the map lookup uses."""
+        legs = self.legs
         # a single contact under the centroid: its spinning friction gives the friction torque of
         # uniform pressure for spinning in place (Bullet combines spinning friction as
         # spin_A * lateral_B + spin_B * lateral_A; the floor's spinning friction stays 0)
