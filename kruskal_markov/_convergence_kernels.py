@@ -8,6 +8,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+# The bit helpers below are twins of those in _sync_kernels.py (_popcount, _ctz, the FNV-style
+# hash of _hash_row): Numba's cache keys on this file alone, so an imported kernel changed in the
+# other file would leave a stale compiled copy here. Change both together.
 _ONE = np.uint64(1)
 _ZERO = np.uint64(0)
 _MUL = np.uint64(0x9E3779B97F4A7C15)
