@@ -38,6 +38,7 @@ _EXPORTS = {
     "expected_sync_length": "convergence",
     "exact_expected_length": "convergence",
     "monte_carlo_sync_length": "convergence",
+    "default_mc_steps": "convergence",
     "pair_chain_bounds": "convergence",
     "monte_carlo_entropy_tilts": "convergence",
     "resample_model": "posterior",

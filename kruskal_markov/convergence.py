@@ -45,6 +45,7 @@ if TYPE_CHECKING:
     from kruskal_markov.model import TransitionModel
 
 __all__ = [
+    "default_mc_steps",
     "exact_expected_length",
     "expected_sync_length",
     "letter_weights",
@@ -308,8 +309,25 @@ def _start_pairs_can_merge(d_use, start_pairs, local, can, n):
 
 
 # ----------------------------------------------------------------------------- all together
+#: Monte Carlo work bound of :func:`default_mc_steps`: runs x letters x 64-state words (about 20 s
+#: at the 1e9 word operations per second measured on a 100,000-state random automaton).
+MC_WORD_OPERATIONS = 2e10
+
+
+def default_mc_steps(n_states: int, runs: int) -> int:
+    """Letters per Monte Carlo run before it is censored: 100,000, or fewer (at least 1,000) so
+    that ``runs x letters x ceil(n_states / 64) <= MC_WORD_OPERATIONS``. A bound on the work, not
+    on the clock, so the answer depends on the inputs and the seed alone.
+
+    >>> default_mc_steps(2_000, 2_000), default_mc_steps(100_000, 2_000)
+    (100000, 6397)
+    """
+    words = -(-int(n_states) // 64)
+    return int(min(100_000, max(1_000, MC_WORD_OPERATIONS // (max(1, int(runs)) * words))))
+
+
 def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weights=None, seed=0, runs: int = 2000,
-                         max_subsets: int = 200_000, max_steps: int = 100_000,
+                         max_subsets: int = 200_000, max_steps: int | None = None,
                          pair_time_budget: float = 45.0, mc_time_budget: float | None = None,
                          memory_budget_mb: float = 2048.0) -> dict:
     """``E[T]`` by every method: keys ``exact``, ``monte_carlo``, ``ci95``, ``monte_carlo_lower``,
@@ -321,6 +339,10 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
     arrays fit in half of ``memory_budget_mb``; otherwise it is skipped (``pair_check`` says so) and
     a never-merging start set shows as censored Monte Carlo runs instead. The pair-chain bounds
     run only within ``memory_budget_mb`` (``pair_bounds`` says why they are missing).
+
+    Monte Carlo runs are censored after ``max_steps`` letters; None means
+    :func:`default_mc_steps` (100,000, fewer on big automata, so that the phase's work is bounded
+    without a clock and the seed alone fixes the answer). ``mc_max_steps`` says what was used.
     """
     aut, start = as_automaton(aut, start)
     out = {}
@@ -334,10 +356,13 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
     if check["synchronizing"] is False:
         # some start pair never merges: T is infinite on every word
         return {"exact": None, "monte_carlo": None, "ci95": [None, None], "monte_carlo_lower": None,
+                "mc_max_steps": None,
                 "pair_lower": None,
                 "pair_upper": None, "subsets": None, "mc_runs": 0, "mc_censored": 0, "pair_states": None,
                 "pair_memory_mb": None, "pair_residual": None, "infinite": True,
                 "witness": check["witness"], "pair_check": out["pair_check"]}
+    mc_steps = default_mc_steps(aut.n, runs) if max_steps is None else int(max_steps)
+    out["mc_max_steps"] = mc_steps
     exact, info = exact_expected_length(aut, start, weights, max_subsets)
     infinite = exact is not None and math.isinf(exact)
     out["exact"] = _finite_or_none(exact)
@@ -345,7 +370,7 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
     if infinite:
         mc = {"mean": None, "ci95": [None, None], "runs": 0, "censored": 0, "lower": None}
     else:
-        mc = monte_carlo_sync_length(aut, start, weights, runs=runs, seed=seed, max_steps=max_steps,
+        mc = monte_carlo_sync_length(aut, start, weights, runs=runs, seed=seed, max_steps=mc_steps,
                                      time_budget=mc_time_budget)
     out["monte_carlo"] = mc["mean"]
     out["ci95"] = mc["ci95"]

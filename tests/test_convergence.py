@@ -193,6 +193,17 @@ def test_weights_validation():
         monte_carlo_sync_length(SyncAutomaton.from_table([[0, 0]]), runs=1)
 
 
+def test_default_monte_carlo_steps_bound_the_work():
+    from kruskal_markov.convergence import MC_WORD_OPERATIONS, default_mc_steps
+
+    assert default_mc_steps(6_400, 2_000) == 100_000                 # small automata: the plain cap
+    for n, runs in ((20_000, 2_000), (100_000, 2_000), (100_000, 500)):
+        steps = default_mc_steps(n, runs)
+        assert steps < 100_000 and runs * steps * -(-n // 64) <= MC_WORD_OPERATIONS
+        assert runs * (steps + 1) * -(-n // 64) > MC_WORD_OPERATIONS  # the largest that fits
+    assert default_mc_steps(10**9, 2_000) == 1_000                   # never below 1,000 letters
+
+
 def test_censored_runs_give_only_a_lower_bound():
     """Runs cut off before they synchronize: the mean of the finished ones alone would be biased low,
     so only the restricted mean (each censored run counted at the letters it ran) is reported."""
@@ -209,6 +220,7 @@ def test_censored_runs_give_only_a_lower_bound():
     assert 9 <= part["lower"] < full["mean"] and part["lower"] < brute
     res = expected_sync_length(aut, seed=2, runs=300, max_steps=5)
     assert res["monte_carlo"] is None and res["monte_carlo_lower"] == 5.0 and res["mc_censored"] == 300
+    assert res["mc_max_steps"] == 5 and expected_sync_length(aut, seed=2, runs=300)["mc_max_steps"] == 100_000
     mats = [sp.csr_matrix((np.ones(4), (np.arange(4), t)), shape=(4, 4)) for t in table]
     tilts = monte_carlo_entropy_tilts(TransitionModel(["a", "b"], mats), 0.0, runs=200, seed=1, max_steps=5)
     assert tilts["censored"] == 200 and tilts["mean"] is None and tilts["lower"] == 5.0
