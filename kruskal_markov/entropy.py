@@ -399,48 +399,12 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         n_threads = numba.get_num_threads()
         k = model.n_actions
         if method == "images":
-            p0 = np.zeros(model.n_states)
-            p0[init_idx] = init_p
-            sizes = np.diff(img_ptr)
-            first = np.zeros((k, int(sizes.max())))
-            for a in range(k):
-                d1 = entropy_trajectory(model, [a], p0, return_distributions=True,
-                                        conservative=conservative).distributions[1]
-                first[a, :sizes[a]] = d1[img_idx[img_ptr[a]:img_ptr[a + 1]]]
-            start = entropy_trajectory(model, [], p0)
-            cell_ptr, cell_loc, n_cells_img = _images_layout(model)
-            chunk = int(min(chunk, max(1, -(-s_count // n_threads))))
-            with numba.parallel_chunksize(1):
-                _k.batch_images(img_ptr, img_idx, *_image_blocks(model, conservative), first, cell_ptr,
-                                cell_loc, n_cells_img, float(start.entropy_bits[0]),
-                                float(start.entropy_bits_states[0]), m0, seqs, chunk, has, hc, hs, drift)
+            _run_images(model, conservative, init_idx, init_p, m0, seqs, chunk, has, hc, hs, drift, n_threads)
             return BatchEntropy(hc, hs, drift)
         if method == "trie":
-            depth = 0
-            while k ** depth < 16 * n_threads and depth < n_steps and k ** depth < s_count and k > 1:
-                depth += 1
-            if depth == 0:
-                order = np.arange(s_count, dtype=np.int64)
-                task_lo = np.zeros(1, dtype=np.int64)
-                task_hi = np.full(1, s_count, dtype=np.int64)
-            else:
-                key = np.zeros(s_count, dtype=np.int64)
-                for t in range(depth):
-                    key *= k
-                    key += seqs[:, t]
-                order = np.argsort(key, kind="stable").astype(np.int64)
-                counts = np.bincount(key, minlength=k ** depth)
-                ends = np.cumsum(counts)
-                starts = ends - counts
-                keep = counts > 0
-                task_lo, task_hi = starts[keep].astype(np.int64), ends[keep].astype(np.int64)
-            block_ptr = np.arange(task_lo.size + 1, dtype=np.int64)
+            order, task_lo, task_hi, block_ptr = _trie_tasks(seqs, k, n_threads)
         else:
-            order = np.arange(s_count, dtype=np.int64)
-            task_lo = order.copy()
-            task_hi = order + 1
-            n_blocks = min(s_count, 8 * n_threads)
-            block_ptr = np.linspace(0, s_count, n_blocks + 1).astype(np.int64)
+            order, task_lo, task_hi, block_ptr = _independent_tasks(s_count, n_threads)
         blocks = _image_blocks(model, conservative) if image_blocks is not False else None
         with numba.parallel_chunksize(1):
             _k.batch(indptr, indices, data, img_ptr, img_idx, blocks is not None,
@@ -451,3 +415,59 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         if threads is not None:
             numba.set_num_threads(prev_threads)
     return BatchEntropy(hc, hs, drift)
+
+
+def _run_images(model, conservative, init_idx, init_p, m0, seqs, chunk, has, hc, hs, drift, n_threads):
+    """The image engine (:func:`_entropy_kernels.batch_images`): the distribution after every
+    first action, then chunks of sequences advanced level by level; fills ``hc``, ``hs``, ``drift``."""
+    _, _, _, img_ptr, img_idx, _, _, _ = _kernel_arrays(model)
+    k = model.n_actions
+    p0 = np.zeros(model.n_states)
+    p0[init_idx] = init_p
+    sizes = np.diff(img_ptr)
+    first = np.zeros((k, int(sizes.max())))
+    for a in range(k):
+        d1 = entropy_trajectory(model, [a], p0, return_distributions=True,
+                                conservative=conservative).distributions[1]
+        first[a, :sizes[a]] = d1[img_idx[img_ptr[a]:img_ptr[a + 1]]]
+    start = entropy_trajectory(model, [], p0)
+    cell_ptr, cell_loc, n_cells_img = _images_layout(model)
+    s_count = seqs.shape[0]
+    chunk = int(min(chunk, max(1, -(-s_count // n_threads))))
+    with numba.parallel_chunksize(1):
+        _k.batch_images(img_ptr, img_idx, *_image_blocks(model, conservative), first, cell_ptr,
+                        cell_loc, n_cells_img, float(start.entropy_bits[0]),
+                        float(start.entropy_bits_states[0]), m0, seqs, chunk, has, hc, hs, drift)
+
+
+def _trie_tasks(seqs, k: int, n_threads: int):
+    """Parallel tasks of the prefix-trie engine: the groups of sequences sharing their first ``L``
+    actions (``k**L >= 16 * threads``). Returns ``order`` (sequences grouped), the groups'
+    ``task_lo`` / ``task_hi`` in it, and ``block_ptr`` (one group per block)."""
+    s_count, n_steps = seqs.shape
+    depth = 0
+    while k ** depth < 16 * n_threads and depth < n_steps and k ** depth < s_count and k > 1:
+        depth += 1
+    if depth == 0:
+        order = np.arange(s_count, dtype=np.int64)
+        task_lo = np.zeros(1, dtype=np.int64)
+        task_hi = np.full(1, s_count, dtype=np.int64)
+    else:
+        key = np.zeros(s_count, dtype=np.int64)
+        for t in range(depth):
+            key *= k
+            key += seqs[:, t]
+        order = np.argsort(key, kind="stable").astype(np.int64)
+        counts = np.bincount(key, minlength=k ** depth)
+        ends = np.cumsum(counts)
+        starts = ends - counts
+        keep = counts > 0
+        task_lo, task_hi = starts[keep].astype(np.int64), ends[keep].astype(np.int64)
+    return order, task_lo, task_hi, np.arange(task_lo.size + 1, dtype=np.int64)
+
+
+def _independent_tasks(s_count: int, n_threads: int):
+    """Every sequence its own task, in ``8 * threads`` blocks (no prefix sharing)."""
+    order = np.arange(s_count, dtype=np.int64)
+    n_blocks = min(s_count, 8 * n_threads)
+    return order, order.copy(), order + 1, np.linspace(0, s_count, n_blocks + 1).astype(np.int64)
