@@ -140,6 +140,10 @@ def test_rank_cli_uses_cached_models_and_orders_by_sync_length(report, cache_dir
     assert rows["rectangle:30x30"]["sync_word"] == report[0]["key_metrics"]["sync_word"]
     table = (tmp_path / "rank.md").read_text()
     assert "| 1 | rectangle:30x30 |" in table and "| 2 | rectangle:20x30 |" in table
+    assert "--resolution 0.25,0.25" in table and "--recenter-rounds 3" in table   # the command that made it
+    # the 20 x 30 rectangle never converges: every random run censored, so a bound and no mean
+    assert rows["rectangle:20x30"]["random_tilts"] is None and rows["rectangle:20x30"]["random_tilts_censored"] == 30
+    assert "| >= 1000.0 (30) |" in table
 
 
 @pytest.mark.parametrize("argv, needle", [

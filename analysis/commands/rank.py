@@ -101,19 +101,33 @@ def run(args: argparse.Namespace) -> dict:
     if args.markdown:
         from kruskal_markov.model import atomic_write_text
 
-        atomic_write_text(args.markdown, markdown_table(out, " ".join(args.shapes)))
+        atomic_write_text(args.markdown, markdown_table(out, _command_line(args)))
         out["markdown"] = args.markdown
     return out
 
 
-def markdown_table(result: dict, shapes: str = "") -> str:
-    """The ranking as a Markdown table (best first) with the check, if any."""
+def _command_line(args) -> str:
+    """The ``kruskal rank`` command that reproduces ``args`` (every option that changes results)."""
+    import shlex
+
+    parts = ["kruskal rank --shapes", " ".join(shlex.quote(s) for s in args.shapes)]
+    for opt in ("friction", "tilt_deg", "scene", "support_points", "resolution", "recenter_rounds",
+                "start_samples", "count", "runs", "sync_time_budget", "check_trials", "seed"):
+        value = getattr(args, opt, None)
+        if value is not None:
+            parts.append(f"--{opt.replace('_', '-')} {shlex.quote(str(value))}")
+    return " ".join(parts)
+
+
+def markdown_table(result: dict, command: str = "kruskal rank") -> str:
+    """The ranking as a Markdown table (best first) with the check, if any; ``command`` is the
+    command line that made it."""
     def f(x, spec):
         return "-" if x is None else format(x, spec)
 
     mm, deg = result["resolution"]
     lines = ["# Orientability ranking", "",
-             f"`kruskal rank --shapes {shapes}` (models at {mm:g} mm / {deg:g} degrees, seed {result['seed']}). "
+             f"`{command}` (models at {mm:g} mm / {deg:g} degrees). "
              "Metrics from each part's model (docs/commands.md): the shortest synchronizing word (* = greedy, "
              "not proven shortest), the expected number of random tilts until the predicted entropy is "
              "<= 1e-3 bits (censored: random runs that never got there in 1,000 tilts; with any, only a lower "
