@@ -475,10 +475,102 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
         if length >= 0:
             word = [int(x) for x in out[:length]]
     if word is None:
+        max_pairs = None if memory_budget_mb is None else max(1 << 16, int(memory_budget_mb * 2 ** 20 / 64))
+        word = _pair_merging_greedy(aut, s, deadline, max_pairs)
+    if word is None:
         word = _greedy_descent(aut, s, node_budget, deadline)
     if word is not None and not is_synchronizing_word(aut, word, s):
         raise AssertionError("internal error: greedy word does not synchronize")
     return word
+
+
+def _set_image(aut, states, a):
+    """Image of the state set ``states`` (int64, sorted) under letter ``a`` (every successor)."""
+    lo, hi = aut.indptr[a][states], aut.indptr[a][states + 1]
+    lengths = hi - lo
+    idx = np.repeat(lo - np.concatenate(([0], np.cumsum(lengths)[:-1])), lengths) + np.arange(lengths.sum())
+    return np.unique(aut.indices[idx].astype(np.int64))
+
+
+def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None):
+    """Greedy pair merging without Eppstein's tables: while the current set has two or more
+    states, search breadth-first in the pair graph from two of its states for the shortest word
+    that merges them, and apply it to the whole set. The search follows single-valued rows only (a
+    set-valued row -- e.g. the uniform start states' first tilt -- is left out of it); while the set
+    holds a state with a set-valued row, the letter with the smallest image is applied first. Each
+    search visits only the pairs reachable from its start pair (at most ``max_pairs``). None if a
+    search exhausts its pairs without merging, exceeds ``max_pairs``, or ``deadline`` passes."""
+    n, k = aut.n, aut.k
+    single = []
+    for a in range(k):
+        ptr = aut.indptr[a]
+        one = np.diff(ptr) == 1
+        single.append(np.where(one, aut.indices[np.minimum(ptr[:-1], aut.indices.size - 1)], -1).astype(np.int64))
+    multi = np.zeros(n, dtype=bool)
+    for a in range(k):
+        multi |= single[a] < 0
+    states = np.unique(np.asarray(s, dtype=np.int64))
+    word = []
+    while states.size > 1:
+        if deadline is not None and time.perf_counter() > deadline:
+            return None
+        if multi[states].any():
+            images = [_set_image(aut, states, a) for a in range(k)]
+            best = min(range(k), key=lambda a: images[a].size)
+            word.append(best)
+            states = images[best]
+            if len(word) > 4 * n:
+                return None
+            continue
+        u = _merging_word(single, n, int(states[0]), int(states[1]), deadline, max_pairs)
+        if u is None:
+            return None
+        word += u
+        for a in u:
+            states = _set_image(aut, states, a)
+    return word
+
+
+def _merging_word(single, n, p, q, deadline, max_pairs):
+    """Shortest word merging states ``p`` and ``q`` along single-valued rows (breadth-first in the
+    pair graph, level by level in numpy); None if there is none within the limits."""
+    level_keys = [np.array([min(p, q) * n + max(p, q)], dtype=np.int64)]
+    parents, letters = [np.array([-1])], [np.array([-1])]
+    seen = level_keys[0]
+    while True:
+        if deadline is not None and time.perf_counter() > deadline:
+            return None
+        keys = level_keys[-1]
+        if keys.size == 0:
+            return None                                   # the pair never merges
+        lo, hi = keys // n, keys % n
+        nk, npar, nlet = [], [], []
+        for a, nxt in enumerate(single):
+            x, y = nxt[lo], nxt[hi]
+            ok = (x >= 0) & (y >= 0)
+            hit = np.flatnonzero(ok & (x == y))
+            if hit.size:
+                u = [a]
+                depth, idx = len(level_keys) - 1, int(hit[0])
+                while depth > 0:
+                    u.append(int(letters[depth][idx]))
+                    idx = int(parents[depth][idx])
+                    depth -= 1
+                return u[::-1]
+            keep = np.flatnonzero(ok)
+            nk.append(np.minimum(x[keep], y[keep]) * n + np.maximum(x[keep], y[keep]))
+            npar.append(keep)
+            nlet.append(np.full(keep.size, a))
+        k_all = np.concatenate(nk)
+        k_new, first = np.unique(k_all, return_index=True)
+        fresh = ~np.isin(k_new, seen, assume_unique=True)
+        k_new, first = k_new[fresh], first[fresh]
+        seen = np.union1d(seen, k_new)
+        if max_pairs is not None and seen.size > max_pairs:
+            return None
+        level_keys.append(k_new)
+        parents.append(np.concatenate(npar)[first])
+        letters.append(np.concatenate(nlet)[first])
 
 
 def _greedy_descent(aut, s, node_budget, deadline=None):
@@ -583,14 +675,14 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                                    "reason": "exhaustive subset search: no image of the start set "
                                              "is a single state"},
                           seconds=time.perf_counter() - t0)
-    method = "greedy-eppstein" if eppstein else "greedy-descent"
+    method = "greedy-eppstein" if eppstein else "greedy"
     notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
     if skipped:
         notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
                      f"{pair_mb:,.0f} MB (over half the memory budget)")
     if aut.deterministic and not eppstein:
-        notes.append(f"greedy by subset descent: Eppstein's pair merging would need about "
-                     f"{eppstein_memory_mb(aut.n):,.0f} MB (over the memory budget)")
+        notes.append(f"greedy by merging one pair at a time (pair graph searched from each pair): Eppstein's "
+                     f"tables would need about {eppstein_memory_mb(aut.n):,.0f} MB (over the memory budget)")
     if greedy is None:
         notes.append(f"greedy word not found within {_GREEDY_SHARE:.0%} of the time budget")
     meets_bound = greedy is not None and len(greedy) <= lower   # the greedy word meets the proven lower bound

@@ -471,3 +471,28 @@ def test_functions_take_a_model_or_its_support_automaton_alike():
     assert pair_chain_bounds(model) == pair_chain_bounds(aut, start)
     with pytest.raises(TypeError, match="SyncAutomaton or a TransitionModel"):
         shortest_synchronizing_word([[0, 1], [1, 1]])
+
+
+def test_pair_by_pair_greedy_when_eppstein_does_not_fit():
+    """Without room for Eppstein's tables the greedy word comes from merging one pair at a time,
+    also through set-valued start rows (a model's uniform first tilt): the word must synchronize."""
+    from kruskal_markov.sync import _pair_merging_greedy
+
+    rng = np.random.default_rng(4)
+    n = 60
+    table = np.array([[min(q + 1, n - 1) for q in range(n)],            # slide right, stop at the wall
+                      [max(q - 1, 0) for q in range(n)],
+                      list(rng.integers(0, n, size=n))])
+    aut = SyncAutomaton.from_table(table)
+    word = _pair_merging_greedy(aut, np.arange(n))
+    assert word is not None and is_synchronizing_word(aut, word, np.arange(n))
+    assert greedy_synchronizing_word(aut, memory_budget_mb=1e-6) is not None
+    # a start state n with set-valued rows (to every state) in front of the deterministic part
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), t)), shape=(n + 1, n + 1)) for t in table]
+    mats = [m + sp.csr_matrix((np.full(n, 1.0 / n), (np.full(n, n), np.arange(n))), shape=(n + 1, n + 1))
+            for m in mats]
+    model = TransitionModel(["a", "b", "c"], mats, initial=np.eye(n + 1)[n])
+    set_valued = support_automaton(model, 0.0)
+    assert not set_valued.deterministic
+    word = _pair_merging_greedy(set_valued, np.array([n]))
+    assert word is not None and is_synchronizing_word(set_valued, word, np.array([n]))
