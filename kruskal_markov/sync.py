@@ -454,7 +454,9 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
     Deterministic automata: Eppstein's (1990) greedy pair merging (``O(k n^2)`` pair BFS plus
     ``O(n^3)`` merging), which always succeeds on a synchronizable start set whose reachable pairs
     all merge -- when its quadratic tables (:func:`eppstein_memory_mb`) fit in ``memory_budget_mb``.
-    Otherwise, and for set-valued automata: greedy descent, repeatedly running a breadth-first
+    Otherwise, and for set-valued automata, one pair at a time (:func:`_pair_merging_greedy`:
+    breadth-first in the pair graph from each pair, no tables); if that fails, greedy descent,
+    repeatedly running a breadth-first
     search of at most ``node_budget`` subsets (fewer if ``memory_budget_mb`` says so) from the
     current set to the nearest strictly smaller image, until ``deadline`` (a
     ``time.perf_counter()`` value; None if it passes). The returned word is verified.
@@ -635,8 +637,9 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     the start set and inverse images of singletons, breadth-first, hashed bitsets, meeting when a
     forward set lies inside a backward one; totals ``i + j`` are checked in increasing order, so
     the first meeting is a shortest word. If a direction is exhausted without meeting, no word
-    exists. Past ``time_budget`` seconds or ``memory_budget_mb`` the result is Eppstein's greedy
-    word with ``exact=False`` and a proven ``lower_bound``.
+    exists. Past ``time_budget`` seconds or ``memory_budget_mb`` the result is the greedy word
+    (:func:`greedy_synchronizing_word`, found first within 40% of the time) with ``exact=False``
+    and a proven ``lower_bound``.
 
     >>> a = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])   # Cerny C_3
     >>> r = shortest_synchronizing_word(a)
