@@ -653,18 +653,19 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     s = as_start(aut, start)
     if s.size == 1:
         return SyncResult([], 0, True, "trivial", seconds=time.perf_counter() - t0)
+    # a greedy word first (within a share of the time): it answers if the exact search stops, and
+    # it proves synchronizability, so the quadratic pair-graph check runs only without one (to
+    # find a witness that no word exists); the exact search then has the rest of the time
+    eppstein = _eppstein_fits(aut, memory_budget_mb)
+    greedy = greedy_synchronizing_word(aut, s, memory_budget_mb=memory_budget_mb,
+                                       deadline=t0 + _GREEDY_SHARE * time_budget)
     pair_mb = pair_check_memory_mb(aut.n)
-    skipped = pair_mb > 0.5 * memory_budget_mb
-    if not skipped:
+    skipped = greedy is None and pair_mb > 0.5 * memory_budget_mb
+    if greedy is None and not skipped:
         check = synchronizability(aut, s)
         if check["synchronizing"] is False:
             return SyncResult(None, None, True, "pair-graph", witness=check["witness"],
                               seconds=time.perf_counter() - t0)
-    # a greedy word first (within a share of the time): it answers if the exact search stops, and
-    # it proves synchronizability; the exact search then has the rest of the time
-    eppstein = _eppstein_fits(aut, memory_budget_mb)
-    greedy = greedy_synchronizing_word(aut, s, memory_budget_mb=memory_budget_mb,
-                                       deadline=t0 + _GREEDY_SHARE * time_budget)
     remaining = max(time_budget - (time.perf_counter() - t0), 1e-3)
     word, status, explored, lower = _exact_search(aut, s, remaining, memory_budget_mb)
     if status == "found":
