@@ -139,10 +139,10 @@ def _shapes_figure(parts, out_dir, figures):
     _save(fig, out_dir, "fig_b_shapes.png", figures)
 
 
-def _expected(metrics: dict, key: str, ci_key: str) -> str:
+def _expected(metrics: dict, key: str, ci_key: str, lower_key: str) -> str:
     """A Monte Carlo mean with its 95% interval, or "at least" its lower bound when runs were
     censored (older results without the bound: the mean as recorded)."""
-    lower = metrics.get(key.replace("_length", "") + "_lower")
+    lower = metrics.get(lower_key)
     if metrics.get(key) is None and lower is not None:
         return f"at least {lower:.1f} (censored runs counted at 1,000: no mean)"
     ci = metrics.get(ci_key) or [None, None]
@@ -274,10 +274,10 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         "",
         "![A at scale](fig_a_million.png)",
         "",
-        f"**Expected length of a random sequence**: {_expected(km, 'random_tilts', 'random_tilts_ci95')} random "
+        f"**Expected length of a random sequence**: {_expected(km, 'random_tilts', 'random_tilts_ci95', 'random_tilts_lower')} random "
         f"tilts until the predicted entropy is <= {eps:g} bits ({km['random_tilts_censored']} of "
         f"{s['metrics_runs']} runs not converged within 1,000 tilts); "
-        f"{_expected(km, 'random_sync_length', 'random_sync_ci95')} tilts until every start state of the support "
+        f"{_expected(km, 'random_sync_length', 'random_sync_ci95', 'random_sync_lower')} tilts until every start state of the support "
         f"automaton is merged ({km['random_sync_censored']} runs censored).",
         "",
     ]

@@ -212,11 +212,13 @@ class TraySimulator:
                 continue
             pose, code = self._run(w, p[i])
             if code == st_codes.OK:
-                if not valid_start(self.scene, np.asarray(pose)[None, :])[0]:   # a landing must be a valid start
-                    code = st_codes.ESCAPED
-                else:
-                    out[i] = pose
+                out[i] = pose
             status[i] = code
+        # a landing must be a valid start of the next tilt; one outside the tray escaped
+        landed = status == st_codes.OK
+        escaped = landed & ~valid_start(self.scene, np.where(landed[:, None], out, 0.0))
+        status[escaped] = st_codes.ESCAPED
+        out[escaped] = np.nan
         return out, status
 
     def trajectory(self, pose, action, duration_s: float):
