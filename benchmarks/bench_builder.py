@@ -34,7 +34,10 @@ SEED = int(os.environ.get("KRUSKAL_BENCH_BUILDER_SEED", str(HELD_OUT_SEED)))
 SEQUENCES, LENGTH = 6, 30
 TRIALS = int(os.environ.get("KRUSKAL_BENCH_BUILDER_TRIALS", "2000"))
 
-#: name -> (build settings changes, description)
+#: the simulator at half the time step (the rest test keeps its interval), as ``validate --spread``
+HALF_TIME_STEP = {"time_step_s": 1.0 / 480.0, "substeps": 8}
+#: name -> (build settings changes, description); the key "scene" changes the simulator settings of
+#: the build only (the references stay at the defaults)
 VARIANTS = {
     "det": ({}, "deterministic, defaults: 0.25 mm / 0.25 deg, 3 recentring rounds"),
     "det-0.5": ({"tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 0}, "deterministic, 0.5 / 0.5, no recentring"),
@@ -51,6 +54,9 @@ VARIANTS = {
                           "deterministic, 0.25 / 0.25, 3 recentring rounds"),
     "det-0.25": ({"tol_mm": 0.25, "tol_deg": 0.25, "recenter_rounds": 0}, "deterministic, 0.25 / 0.25"),
     "det-0.1": ({"tol_mm": 0.1, "tol_deg": 0.1, "recenter_rounds": 0}, "deterministic, 0.1 / 0.1"),
+    "det-1mm-half-step": ({"tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 0, "scene": HALF_TIME_STEP},
+                          "deterministic, 1 mm / 1 deg, built at half the time step (1/480 s, 8 sub-steps), "
+                          "judged at the default"),
     "noise": ({"noise": "pose:0.5,0.5"},
               "noise pose:0.5,0.5, defaults: 1 / 1, K = 2 / 8, weighted exploration 1e-3, borrowed rows"),
     "noise-k8": ({"noise": "pose:0.5,0.5", "adaptive": False},
@@ -62,6 +68,9 @@ VARIANTS = {
                     "borrowed rows, 0.5 / 0.5"),
     "noise-1mm-w1e-3": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0, "explore_weight": 1e-3},
                         "noise pose:0.5,0.5, K = 2 / 8, weighted exploration 1e-3 (first-tilt states always), borrowed rows, 1 / 1"),
+    "noise-comp": ({"noise": "pose:0.5,0.5", "snap_compensation": True},
+                   "noise pose:0.5,0.5, the defaults (1 / 1), representatives perturbed by the noise less the "
+                   "snapping offset (snap_compensation)"),
     "noise-closed-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0, "explore_weight": 0.0},
                          "noise pose:0.5,0.5, K = 2 / 8, full closure, 1 / 1"),
 }
@@ -101,9 +110,12 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
     from analysis.validate import model_grid, validate_model
     from transition_builder.builder import BuildSettings, build_model
     from transition_builder.scene import scene_from_options
+    from transition_builder.settings import SIMULATOR_VERSION
 
     changes, description = VARIANTS[name]
-    scene = scene_from_options("allen-key")
+    changes = dict(changes)
+    judge_scene = scene_from_options("allen-key")
+    scene = judge_scene.with_settings(**changes.pop("scene", {}))
     settings = BuildSettings(**changes)
     t0 = time.perf_counter()
     cpu0 = time.process_time()
@@ -123,7 +135,13 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
         build_s = time.perf_counter() - t0
         model, st = result.model, result.stats
     model.save(str(RESULTS / f"model-{name}.npz"))
-    simulate, _ = reference_cache(scene, trials, model_grid(model), workers)
+    simulate_judge, _ = reference_cache(judge_scene, trials, model_grid(model), workers)
+
+    def simulate(sc, seq, m, seed, noise):
+        # the judge is the default simulator, whatever simulator settings the model was built with
+        # (``validate --spread`` asks for the half-step scene itself)
+        return simulate_judge(judge_scene if sc == scene and scene != judge_scene else sc, seq, m, seed, noise)
+
     t1 = time.perf_counter()
     val = validate_model(model, SEQUENCES, trials, SEED, LENGTH, spread=spread and settings.noise == "none",
                          bands=40, simulate=simulate)
@@ -141,7 +159,9 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
         "per_sequence_max": [s["max_abs_error_bits"] for s in val["per_sequence"]],
         "per_sequence_mean": [s["mean_abs_error_bits"] for s in val["per_sequence"]],
         "validate_seconds": time.perf_counter() - t1, "trials": trials, "fault_rate": st["fault_rate"],
-        "load_average": os.getloadavg()[0],
+        "load_average": os.getloadavg()[0], "simulator": SIMULATOR_VERSION,
+        "snap_spread_mm": st.get("snap_spread_mm"), "snap_spread_deg": st.get("snap_spread_deg"),
+        "representative_noise": st.get("representative_noise"),
     }
     if "simulation_spread_bits" in val:
         row["simulation_spread_bits"] = val["simulation_spread_bits"]
@@ -151,12 +171,13 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
 
 
 def _table(rows: list[dict]) -> str:
-    head = ("| variant | build s (2 cores) | states | tilts | splits | mean / max error (bits) | "
-            "steps > 0.25 | final TV | reference noise | band coverage |\n|---|---|---|---|---|---|---|---|---|---|\n")
+    head = ("| variant | simulator | build s (2 cores) | states | tilts | splits | mean / max error (bits) | "
+            "steps > 0.25 | final TV | reference noise | band coverage |\n|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in rows:
         cov = "-" if r["band_coverage"] is None else f"{100 * r['band_coverage']:.0f}%"
-        lines.append(f"| {r['description']} | {r['build_seconds']:.0f} | {r['states']:,} | {r['tilts']:,} | "
+        sim = r.get("simulator", "planar-chain-2")      # rows from before the version was recorded
+        lines.append(f"| {r['description']} | {sim.rsplit('-', 1)[-1]} | {r['build_seconds']:.0f} | {r['states']:,} | {r['tilts']:,} | "
                      f"{r['splits']} | {r['mean_abs_error_bits']:.3f} / {r['max_abs_error_bits']:.2f} | "
                      f"{100 * r['share_steps_above_0_25']:.1f}% | {r['final_tv_distance']:.3f} | "
                      f"{r['reference_noise_bits']:.3f} | {cov} |")
@@ -183,7 +204,7 @@ def main() -> None:
     for name in names:
         row = run_variant(name, spread=(name == "det"))
         done = json.loads(out_json.read_text()) if out_json.exists() else {}   # another run may have written
-        done[f"{name}@{TRIALS}@{SEED}"] = row
+        done[f"{name}@{row['simulator']}@{TRIALS}@{SEED}"] = row
         out_json.write_text(json.dumps(done, indent=1))
         print(f"{name}: build {row['build_seconds']:.0f} s, {row['states']} states, {row['tilts']} tilts; "
               f"error mean {row['mean_abs_error_bits']:.3f} max {row['max_abs_error_bits']:.3f} "

@@ -61,6 +61,30 @@ def _subsample_errors(refs, names, grid, seqs) -> dict:
     return out
 
 
+def _sim_label(row: dict) -> str:
+    """``simulator vN`` of a builder row (rows from before the version was recorded: v2)."""
+    return "simulator v" + row.get("simulator", "planar-chain-2").rsplit("-", 1)[-1]
+
+
+def _time_step_lines(held: dict, trials: int) -> list[str]:
+    """The model built at half the time step beside the same design at the default, both judged by
+    default-time-step references of the same simulator version."""
+    from benchmarks.bench_builder import HELD_OUT_SEED
+    from transition_builder.settings import SIMULATOR_VERSION
+
+    half = held.get(f"det-1mm-half-step@{SIMULATOR_VERSION}@{trials}@{HELD_OUT_SEED}")
+    same = held.get(f"det-1mm@{SIMULATOR_VERSION}@{trials}@{HELD_OUT_SEED}")
+    if not (half and same):
+        return []
+    per = ", ".join(f"{a:.2f} / {b:.2f}" for a, b in zip(same["per_sequence_max"], half["per_sequence_max"]))
+    return ["", f"The simulator's time step, on the model side: the 1 mm design built at half the time step "
+                f"(1/480 s) scores {half['mean_abs_error_bits']:.3f} / {half['max_abs_error_bits']:.2f} bits "
+                f"(mean / max) against the default-step references, where the same design built at the default "
+                f"step scores {same['mean_abs_error_bits']:.3f} / {same['max_abs_error_bits']:.2f} "
+                f"({same['build_seconds']:.0f} s against {half['build_seconds']:.0f} s to build; per-sequence "
+                f"max, default / half: {per})."]
+
+
 def main() -> None:
     from analysis.validate import model_grid, reference_seed
     from analysis.sequences import random_sequences_for
@@ -91,7 +115,7 @@ def main() -> None:
              "|---|---|---|---|---|"]
     points = []
     for k, v in sorted(held.items(), key=lambda kv: kv[1]["build_seconds"]):
-        lines.append(f"| model: {v['description']} | {v['build_seconds']:.0f} (build, once) | "
+        lines.append(f"| model ({_sim_label(v)}): {v['description']} | {v['build_seconds']:.0f} (build, once) | "
                      f"{v['mean_abs_error_bits']:.3f} | {v['max_abs_error_bits']:.2f} | < 1 s |")
         points.append(("model", v["build_seconds"], v["mean_abs_error_bits"], v["max_abs_error_bits"], v["variant"]))
     for m, e in mc.items():
@@ -134,6 +158,7 @@ def main() -> None:
                           f"{det['mean_abs_error_bits']:.3f} / {det['max_abs_error_bits']:.2f}.{tuned} The two "
                           "judge sets disagree, so the difference between the two designs is within the spread "
                           "between sets of six sequences; the cheaper one is `kruskal build --resolution 0.5,0.5`."]
+    lines += _time_step_lines(held, trials)
     spread = next((v["simulation_spread_bits"] for v in held.values() if "simulation_spread_bits" in v), None)
     if spread:
         lines += ["", f"The simulator's own spread on the same sequences (default against half time step): mean "

@@ -397,3 +397,31 @@ def test_weighted_exploration_borrows_rows_of_nearby_explored_states():
     # the states the first tilt reaches are all explored
     first = np.unique(np.concatenate([P[:int(np.sum(kind == STATE_START))].indices for P in m.matrices]))
     assert np.all(kind[first] == STATE_REST)
+
+
+def test_snap_compensation_subtracts_the_snapping_offset_from_the_noise():
+    """With ``snap_compensation`` a representative is perturbed by sqrt(sigma^2 - spread^2) per
+    coordinate, where spread is the root-mean-square offset of the snapped landings from their
+    representatives (between 0 and the tolerance)."""
+    from dataclasses import replace
+
+    from transition_builder.builder import compensated_noise
+    from transition_builder.noise import NoiseSpec
+
+    c = compensated_noise(NoiseSpec("pose", 0.5, 0.5), 0.3, 0.6)
+    assert math.isclose(c.sigma_mm, 0.4) and c.sigma_deg == 0.0
+    assert compensated_noise(NoiseSpec("none"), 0.3, 0.3).is_zero
+    scene = _square_scene()
+    s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5,
+                      snap_compensation=True)
+    assert build_key(scene, s) != build_key(scene, replace(s, snap_compensation=False))
+    a = build_model(scene, s, executor=SerialExecutor())
+    b = build_model(scene, s, executor=SerialExecutor())
+    assert _same_model(a.model, b.model)
+    plain = build_model(scene, replace(s, snap_compensation=False), executor=SerialExecutor())
+    assert not _same_model(a.model, plain.model)
+    st = a.stats
+    assert 0 < st["snap_spread_mm"] < s.tol_mm and 0 < st["snap_spread_deg"] < s.tol_deg
+    added = compensated_noise(NoiseSpec("pose", 0.5, 0.5), st["snap_spread_mm"], st["snap_spread_deg"])
+    assert st["representative_noise"] == str(added)
+    assert plain.stats["representative_noise"] == "pose:0.5,0.5"

@@ -155,6 +155,11 @@ class BuildSettings:
         tolerance units), else of the nearest explored pose anywhere (``rows_borrowed`` and
         ``rows_borrowed_from_afar`` in the statistics, ``extras["borrowed_from"]`` in the model).
         For noisy scenes, whose closure is an order of magnitude larger than the deterministic one.
+    snap_compensation : bool
+        Noisy builds: perturb a representative by less than the process noise, so that the
+        noise plus the snapping offset it stands for (a landing moved onto its representative,
+        root mean square over all landings so far) has the variance of the process noise
+        (:func:`compensated_noise`; the offset is measured again before every batch of samples).
     """
 
     tol_mm: float | None = None
@@ -175,6 +180,7 @@ class BuildSettings:
     samples_first: int = 2
     explore_weight: float | None = None
     recenter_rounds: int = 3
+    snap_compensation: bool = False
 
     def __post_init__(self):
         deterministic = parse_noise(self.noise).is_zero
@@ -196,6 +202,7 @@ class BuildSettings:
             raise ValueError(f"build setting samples_first must be a positive integer, got {f!r}")
         object.__setattr__(self, "samples_first", int(f))
         object.__setattr__(self, "adaptive", bool(self.adaptive))
+        object.__setattr__(self, "snap_compensation", bool(self.snap_compensation))
         rc = self.recenter_rounds
         if isinstance(rc, bool) or not isinstance(rc, (int, np.integer)) or not 0 <= rc <= 20:
             raise ValueError(f"build setting recenter_rounds must be an integer in 0..20, got {rc!r}")
@@ -262,7 +269,10 @@ def build_key(scene: Scene, settings: BuildSettings) -> str:
     """Content hash (hex) of everything that changes a built model: the scene's own content hash
     (shape, tray, friction, tilt, actions, every solver setting, simulator and PyBullet versions),
     the build settings (noise and seed included), the builder and package versions."""
-    payload = {"scene": scene.content_hash(), "settings": settings.to_dict(), "builder": BUILDER_VERSION,
+    design = settings.to_dict()
+    if not design["snap_compensation"]:
+        del design["snap_compensation"]      # off: the models of the builder before the option
+    payload = {"scene": scene.content_hash(), "settings": design, "builder": BUILDER_VERSION,
                "package": _package_version()}
     if settings.explore_weight > 0:
         payload["weighted"] = _WEIGHTED_DESIGN
@@ -485,6 +495,52 @@ def _heavy_orbits(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarra
     return np.flatnonzero((w >= _WEIGHT_THRESHOLD) & ex.explored[:ex.n_orbits])
 
 
+def _members(ex: _Exploration, index: PoseIndex, sym: TraySymmetry):
+    """Every landing so far (start and explored, every rotation) that lies within tolerance of a
+    representative: ``(landing, orbit, member, distance)``, where ``member`` is the landing turned
+    back into its orbit's frame and ``distance`` its distance to the state in tolerance units."""
+    G = sym.order
+    pools = [sym.rotate_poses(ex.start_land[b], j) for b in range(len(ex.start_land)) for j in range(G)]
+    done = np.flatnonzero(ex.explored[:ex.n_orbits])
+    flat = ex.land[done].reshape(-1, 3)
+    pools += [sym.rotate_poses(flat, j) for j in range(G)]
+    land = np.concatenate(pools)
+    land = land[np.all(np.isfinite(land), axis=1)]
+    q, _ = index.embed(land)
+    tgt, dist = index.nearest_embedded(q)
+    keep = tgt >= 0
+    land, tgt, dist = land[keep], tgt[keep], dist[keep]
+    orbit, rot = tgt // G, tgt % G
+    members = np.empty_like(land)
+    for j in range(G):
+        sel = rot == j
+        members[sel] = sym.rotate_poses(land[sel], -j)
+    return land, orbit, members, dist
+
+
+def _snap_spread(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> tuple[float, float]:
+    """Root-mean-square offset of the snapped landings from their representatives, per coordinate:
+    ``(mm in x and y, degrees in theta)`` (theta modulo the shape's symmetry)."""
+    _, orbit, members, _ = _members(ex, index, sym)
+    if len(orbit) == 0:
+        return 0.0, 0.0
+    d = members - ex.orbit_poses[orbit]
+    period = index.period
+    dth = np.mod(d[:, 2] + 0.5 * period, period) - 0.5 * period
+    return (float(np.sqrt(np.mean(0.5 * (d[:, 0] ** 2 + d[:, 1] ** 2)))),
+            float(np.degrees(np.sqrt(np.mean(dth ** 2)))))
+
+
+def compensated_noise(noise: NoiseSpec, spread_mm: float, spread_deg: float) -> NoiseSpec:
+    """The noise to add to a representative so that, with the snapping offset it stands for, the
+    total perturbation has the variance of ``noise``: ``sigma' = sqrt(max(0, sigma^2 - spread^2))``
+    per coordinate (variances of independent offsets add)."""
+    if noise.is_zero:
+        return noise
+    return NoiseSpec("pose", math.sqrt(max(0.0, noise.sigma_mm ** 2 - spread_mm ** 2)),
+                     math.sqrt(max(0.0, noise.sigma_deg ** 2 - spread_deg ** 2)))
+
+
 def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     """Move every representative to the densest point of its members; returns how many moved.
 
@@ -496,21 +552,7 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     representative within tolerance found new orbits (so every landing stays covered).
     """
     G = sym.order
-    pools = [sym.rotate_poses(ex.start_land[b], j) for b in range(len(ex.start_land)) for j in range(G)]
-    done = np.flatnonzero(ex.explored[:ex.n_orbits])
-    flat = ex.land[done].reshape(-1, 3)
-    pools += [sym.rotate_poses(flat, j) for j in range(G)]
-    land = np.concatenate(pools)
-    land = land[np.all(np.isfinite(land), axis=1)]
-    q, _ = index.embed(land)
-    tgt, _ = index.nearest_embedded(q)
-    keep = tgt >= 0
-    land, tgt = land[keep], tgt[keep]
-    orbit, rot = tgt // G, tgt % G
-    members = np.empty_like(land)
-    for j in range(G):
-        sel = rot == j
-        members[sel] = sym.rotate_poses(land[sel], -j)
+    land, orbit, members, _ = _members(ex, index, sym)
     mq, _ = index.embed(members)
     mq[:, 3] = orbit * _GROUP_GAP                         # neighbours only within one orbit
     from scipy.spatial import cKDTree
@@ -543,26 +585,14 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
 def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry, min_dist: float) -> np.ndarray:
     """For every explored orbit, its farthest member (a landing snapped to one of its states, rotated
     back to the orbit's frame) if farther than ``min_dist`` (normalised units); rows (orbit, x, y, theta)."""
-    G = sym.order
-    pools = [sym.rotate_poses(ex.start_land[b], j) for b in range(len(ex.start_land)) for j in range(G)]
-    done = np.flatnonzero(ex.explored[:ex.n_orbits])
-    pools += [sym.rotate_poses(ex.land[done].reshape(-1, 3), j) for j in range(G)]
-    land = np.concatenate(pools)
-    land = land[np.all(np.isfinite(land), axis=1)]
-    q, _ = index.embed(land)
-    tgt, dist = index.nearest_embedded(q)
-    keep = (tgt >= 0) & (dist > min_dist)
-    land, tgt, dist = land[keep], tgt[keep], dist[keep]
-    orbit, rot = tgt // G, tgt % G
+    _, orbit, members, dist = _members(ex, index, sym)
+    keep = dist > min_dist
+    orbit, members, dist = orbit[keep], members[keep], dist[keep]
     # farthest member per orbit (ties: first in offering order)
     order = np.lexsort((np.arange(len(orbit)), -dist, orbit))
     first = order[np.r_[True, orbit[order][1:] != orbit[order][:-1]]] if len(order) else order
     first = first[ex.explored[orbit[first]]]
-    members = np.empty((len(first), 3))
-    for j in range(G):
-        sel = rot[first] == j
-        members[sel] = sym.rotate_poses(land[first[sel]], -j)
-    return np.column_stack([orbit[first].astype(np.float64), members])
+    return np.column_stack([orbit[first].astype(np.float64), members[first]])
 
 
 def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor=None, workers=None,
@@ -612,6 +642,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
     K0 = min(K, settings.samples_first) if (K > 1 and settings.adaptive) else K
     topup_rounds = _TOPUP_ROUNDS
     weighted = settings.explore_weight > 0
+    compensate = settings.snap_compensation and not settings.noise_spec.is_zero
     own_executor = executor is None
     if own_executor:
         executor = make_executor(workers, scheduler)
@@ -670,9 +701,12 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             """Tilt samples k_lo..k_hi-1 of ``orbits`` under every action, offer the landings (in
             orbit order, so the batching never changes the model)."""
             nonlocal tilts
+            noise_text = settings.noise
+            if compensate:
+                noise_text = str(compensated_noise(settings.noise_spec, *_snap_spread(ex, index, sym)))
             for lo in range(0, len(orbits), batch):
                 part = orbits[lo:lo + batch]
-                res = _run_tilts(executor, scene, settings.noise, settings.seed,
+                res = _run_tilts(executor, scene, noise_text, settings.seed,
                                  _orbit_jobs(scene, ex, part, k_lo, k_hi, _KEY_ORBIT), done)
                 tilts += n_act * (k_hi - k_lo) * len(part)
                 for b in range(n_act):
@@ -798,10 +832,20 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
         "adaptive_rounds": ex.phase[1] if (K0 < K and not weighted) else 0,
         "exploration_rounds": ex.phase[1] if weighted else 0,
         "topup_tilts": ex.topup_tilts, "samples_first": K0, "recentring_rounds": ex.recentered,
-        "representatives_moved": ex.moved})
+        "representatives_moved": ex.moved, **_noise_stats(settings, ex, index, sym)})
     if checkpoint and os.path.exists(checkpoint):
         os.unlink(checkpoint)
     return BuildResult(model, stats)
+
+
+def _noise_stats(settings, ex, index, sym) -> dict:
+    """Noisy builds: the snapping offset at the end (:func:`_snap_spread`) and the noise added to
+    representatives (the process noise, or its compensated part)."""
+    if settings.noise_spec.is_zero:
+        return {}
+    spread = _snap_spread(ex, index, sym)
+    added = compensated_noise(settings.noise_spec, *spread) if settings.snap_compensation else settings.noise_spec
+    return {"snap_spread_mm": spread[0], "snap_spread_deg": spread[1], "representative_noise": str(added)}
 
 
 def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
