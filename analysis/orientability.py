@@ -156,21 +156,27 @@ def _first_number(*values):
 
 def _sort_key(m: PartMetrics):
     inf = float("inf")
-    return (inf if m.sync_length is None else m.sync_length,
+    return (0 if m.sync_length is not None else 1,
             (m.random_tilts_censored, _first_number(m.random_tilts, m.random_tilts_lower, inf)),
+            inf if m.sync_length is None else m.sync_length,
             -m.converging_share_50, m.mean_entropy_50, m.mean_entropy_10)
 
 
 #: the ranking's metrics in the order they decide (lower is better unless marked).
-RANK_ORDER = ("sync_length", "random_tilts", "converging_share_50 (higher is better)", "mean_entropy_50",
-              "mean_entropy_10")
+RANK_ORDER = ("synchronizable (a word found first)", "random_tilts", "sync_length",
+              "converging_share_50 (higher is better)", "mean_entropy_50", "mean_entropy_10")
 
 
 def rank_parts(metrics: dict[str, PartMetrics]) -> list[dict]:
-    """Rank parts: shortest optimal plan first, then the fewest expected random tilts (first the
-    fewest censored runs, i.e. random sequences that never converged, then the mean, or its lower
-    bound when runs were censored), then the
-    larger converging share, then the lower mean entropy after 50 and 10 tilts.
+    """Rank parts: those with a synchronizing word first (a sensorless plan exists), then the fewest
+    expected random tilts (first the fewest censored runs, i.e. random sequences that never
+    converged, then the mean, or its lower bound when runs were censored), then the shortest word,
+    then the larger converging share, then the lower mean entropy after 50 and 10 tilts.
+
+    The expected random length comes before the shortest word because it is always a number with
+    a confidence interval, while the shortest word is often only a greedy upper bound (the exact
+    search stops at its time budget, sooner on larger models), which would rank a part by how much
+    time its search was given; the word still separates parts the random length does not.
 
     Returns one dictionary per part, best first, with ``shape``, ``rank`` (1 = most orientable), the
     metrics and ``decided_by``: the first metric in that order that separates the part from the next
@@ -181,6 +187,9 @@ def rank_parts(metrics: dict[str, PartMetrics]) -> list[dict]:
     >>> b = dataclasses.replace(a, sync_length=2, sync_word=["N", "E"])
     >>> [(r["shape"], r["rank"], r["decided_by"]) for r in rank_parts({"b": b, "a": a})]
     [('a', 1, 'sync_length'), ('b', 2, None)]
+    >>> c = dataclasses.replace(a, sync_length=None, sync_word=None)
+    >>> [(r["shape"], r["decided_by"]) for r in rank_parts({"c": c, "b": b})]
+    [('b', 'synchronizable'), ('c', None)]
     """
     order = sorted(metrics, key=lambda name: (_sort_key(metrics[name]), name))
     out = []

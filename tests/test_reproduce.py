@@ -117,9 +117,9 @@ def test_contact_models_side_by_side(report):
     assert "Does the answer depend on the contact model?" in (out / "index.md").read_text()
 
 
-def test_rank_cli_uses_cached_models_and_orders_by_sync_length(report, cache_dir, tmp_path):
+def test_rank_cli_uses_cached_models_and_puts_a_synchronizable_part_first(report, cache_dir, tmp_path):
     """A square is oriented by a short plan; a 20 x 30 rectangle never turns by 90 degrees in a
-    square tray, so no word synchronizes it and it ranks last, decided by the shortest word."""
+    square tray, so no word synchronizes it and it ranks last, decided by whether a word exists."""
     from transition_builder.scene import scene_from_options
 
     scene = tmp_path / "scene.json"
@@ -136,7 +136,7 @@ def test_rank_cli_uses_cached_models_and_orders_by_sync_length(report, cache_dir
     assert rows["rectangle:30x30"]["cached"] is True      # the report's key model, same settings
     assert out["order"] == ["rectangle:30x30", "rectangle:20x30"]
     assert rows["rectangle:20x30"]["sync_length"] is None
-    assert rows["rectangle:30x30"]["decided_by"] == "sync_length"
+    assert rows["rectangle:30x30"]["decided_by"] == "synchronizable"
     assert rows["rectangle:30x30"]["sync_word"] == report[0]["key_metrics"]["sync_word"]
     table = (tmp_path / "rank.md").read_text()
     assert "| 1 | rectangle:30x30 |" in table and "| 2 | rectangle:20x30 |" in table

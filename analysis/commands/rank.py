@@ -119,6 +119,14 @@ def _command_line(args) -> str:
     return " ".join(parts)
 
 
+def _word_text(row: dict, none: str, not_found: str) -> str:
+    """The shortest-word column: its length (``*`` if greedy), ``none`` when no word exists (proven),
+    ``not_found`` when the search ended without a word or a proof that there is none."""
+    if row["sync_length"] is None:
+        return none if row["sync_exact"] else not_found
+    return f"{row['sync_length']}{'' if row['sync_exact'] else '*'}"
+
+
 def markdown_table(result: dict, command: str = "kruskal rank") -> str:
     """The ranking as a Markdown table (best first) with the check, if any; ``command`` is the
     command line that made it."""
@@ -129,14 +137,18 @@ def markdown_table(result: dict, command: str = "kruskal rank") -> str:
     lines = ["# Orientability ranking", "",
              f"`{command}` (models at {mm:g} mm / {deg:g} degrees). "
              "Metrics from each part's model (docs/commands.md): the shortest synchronizing word (* = greedy, "
-             "not proven shortest), the expected number of random tilts until the predicted entropy is "
+             "not proven shortest; none = proven not to exist; not found = neither a word nor a proof within "
+             "the budget), the expected number of random tilts until the predicted entropy is "
              "<= 1e-3 bits (censored: random runs that never got there in 1,000 tilts; with any, only a lower "
              "bound is known, shown as >= x), the mean entropy "
-             "after 10 and 50 random tilts, and the share of random 50-tilt sequences that converge.", "",
+             "after 10 and 50 random tilts, and the share of random 50-tilt sequences that converge. Ranked by: "
+             "a synchronizing word exists, then the expected random tilts, then the shortest word, then the "
+             "converging share, then the entropies; `decided by` names the metric that separates a part from "
+             "the next.", "",
              "| rank | part | states | shortest word | expected random tilts (censored) | H after 10 / 50 | "
              "converging | decided by |", "|---|---|---|---|---|---|---|---|"]
     for r in result["ranking"]:
-        word = "none" if r["sync_length"] is None else f"{r['sync_length']}{'' if r['sync_exact'] else '*'}"
+        word = _word_text(r, "none", "not found")
         lines.append(f"| {r['rank']} | {r['shape']} | {r['states']:,} | {word} | {random_tilts_text(r)} "
                      f"({r['random_tilts_censored']}) | {r['mean_entropy_10']:.2f} / {r['mean_entropy_50']:.2f} | "
                      f"{100 * r['converging_share_50']:.0f}% | {r['decided_by'] or '-'} |")
@@ -154,7 +166,7 @@ def format_text(result: dict) -> str:
     lines = ["rank  shape                      sync  random tilts  H10    H50    converging  decided by"]
     for r in result["ranking"]:
         rt = random_tilts_text(r)
-        sl = "-" if r["sync_length"] is None else f"{r['sync_length']}{'' if r['sync_exact'] else '*'}"
+        sl = _word_text(r, "none", "?")
         lines.append(f"{r['rank']:4d}  {r['shape']:<26} {sl:>5} {rt:>13}  {r['mean_entropy_10']:.2f}   "
                      f"{r['mean_entropy_50']:.2f}   {100 * r['converging_share_50']:5.1f}%     {r['decided_by'] or '-'}")
     if "check" in result and "spearman" in result["check"]:
