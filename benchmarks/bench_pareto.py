@@ -61,11 +61,6 @@ def _subsample_errors(refs, names, grid, seqs) -> dict:
     return out
 
 
-def _sim_label(row: dict) -> str:
-    """``simulator vN`` of a builder row (rows from before the version was recorded: v2)."""
-    return "simulator v" + row.get("simulator", "planar-chain-2").rsplit("-", 1)[-1]
-
-
 def _time_step_lines(held: dict, trials: int) -> list[str]:
     """The model built at half the time step beside the same design at the default, both judged by
     default-time-step references of the same simulator version."""
@@ -88,7 +83,7 @@ def _time_step_lines(held: dict, trials: int) -> list[str]:
 def main() -> None:
     from analysis.validate import model_grid, reference_seed
     from analysis.sequences import random_sequences_for
-    from benchmarks.bench_builder import HELD_OUT_SEED, LENGTH, RESULTS, SEQUENCES, reference_cache
+    from benchmarks.bench_builder import HELD_OUT_SEED, LENGTH, RESULTS, SEQUENCES, reference_cache, simulator_number
     from kruskal_markov.model import TransitionModel, atomic_write_text
     from transition_builder.scene import scene_from_options
 
@@ -115,7 +110,7 @@ def main() -> None:
              "|---|---|---|---|---|"]
     points = []
     for k, v in sorted(held.items(), key=lambda kv: kv[1]["build_seconds"]):
-        lines.append(f"| model ({_sim_label(v)}): {v['description']} | {v['build_seconds']:.0f} (build, once) | "
+        lines.append(f"| model (simulator v{simulator_number(v)}): {v['description']} | {v['build_seconds']:.0f} (build, once) | "
                      f"{v['mean_abs_error_bits']:.3f} | {v['max_abs_error_bits']:.2f} | < 1 s |")
         points.append(("model", v["build_seconds"], v["mean_abs_error_bits"], v["max_abs_error_bits"], v["variant"]))
     for m, e in mc.items():

@@ -840,7 +840,8 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
 
 def _noise_stats(settings, ex, index, sym) -> dict:
     """Noisy builds: the snapping offset at the end (:func:`_snap_spread`) and the noise added to
-    representatives (the process noise, or its compensated part)."""
+    representatives (the process noise, or its part compensated for that final offset; the batches
+    were sampled with the offset measured before each of them)."""
     if settings.noise_spec.is_zero:
         return {}
     spread = _snap_spread(ex, index, sym)
