@@ -71,6 +71,12 @@ VARIANTS = {
     "noise-comp": ({"noise": "pose:0.5,0.5", "snap_compensation": True},
                    "noise pose:0.5,0.5, the defaults (1 / 1), representatives perturbed by the noise less the "
                    "snapping offset (snap_compensation)"),
+    "noise-confirm": ({"noise": "pose:0.5,0.5", "confirm_samples": 4},
+                      "noise pose:0.5,0.5, the defaults (1 / 1), heavy rows topped up to 4 samples and only "
+                      "rows whose samples disagree to 8 (confirm_samples)"),
+    "noise-0.5-confirm": ({"noise": "pose:0.5,0.5", "tol_mm": 0.5, "tol_deg": 0.5, "confirm_samples": 4},
+                          "noise pose:0.5,0.5, 0.5 / 0.5, heavy rows topped up to 4 samples and only rows "
+                          "whose samples disagree to 8 (confirm_samples)"),
     "noise-closed-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0, "explore_weight": 0.0},
                          "noise pose:0.5,0.5, K = 2 / 8, full closure, 1 / 1"),
 }

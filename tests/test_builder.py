@@ -425,3 +425,41 @@ def test_snap_compensation_subtracts_the_snapping_offset_from_the_noise():
     added = compensated_noise(NoiseSpec("pose", 0.5, 0.5), st["snap_spread_mm"], st["snap_spread_deg"])
     assert st["representative_noise"] == str(added)
     assert plain.stats["representative_noise"] == "pose:0.5,0.5"
+
+
+def test_confirm_samples_tops_up_only_the_rows_whose_samples_disagree():
+    """Agreement-staged top-up: a heavy row first gets ``confirm_samples`` samples per action; only
+    a (row, action) whose samples disagree (a fault, or landings in two report cells) gets the rest.
+    So a row with the full K samples spans two cells or holds a fault (its first samples are among
+    them), and a row stopped at ``confirm_samples`` lies in one cell without faults."""
+    from dataclasses import replace
+
+    scene = _square_scene()
+    s = BuildSettings(noise="pose:0.5,0.5", samples=6, samples_first=2, confirm_samples=3,
+                      start_samples=60, explore_weight=0.05, seed=5)
+    assert build_key(scene, s) != build_key(scene, replace(s, confirm_samples=0))
+    with pytest.raises(ValueError, match="between samples_first"):
+        BuildSettings(noise="pose:0.5,0.5", samples=6, confirm_samples=6, explore_weight=0.05)
+    with pytest.raises(ValueError, match="weighted exploration"):
+        BuildSettings(noise="pose:0.5,0.5", samples=6, confirm_samples=3, explore_weight=0.0)
+    r = build_model(scene, s, executor=SerialExecutor())
+    assert _same_model(r.model, build_model(scene, s, executor=SerialExecutor()).model)
+    m = r.model
+    assert r.stats["confirm_samples"] == 3
+    rest = m.extras["state_kind"] == STATE_REST
+    seen = set()
+    for a, P in enumerate(m.matrices):
+        n = m.extras["samples"][a]
+        seen |= set(np.unique(n[rest]).tolist())
+        assert set(np.unique(n[rest]).tolist()) <= {2, 3, 6}
+        counts = np.asarray(m.extras[f"counts_{a}"], dtype=np.int64)
+        rows = np.repeat(np.arange(m.n_states), np.diff(P.indptr))
+        np.testing.assert_array_equal(np.bincount(rows, weights=counts, minlength=m.n_states)
+                                      + m.extras["faults"][a], n)
+        for k, agree in ((3, True), (6, False)):
+            for i in np.flatnonzero(rest & (n == k)):
+                cells = np.unique(m.partition[P.indices[P.indptr[i]:P.indptr[i + 1]]])
+                assert (len(cells) == 1 and m.extras["faults"][a][i] == 0) == agree
+    assert {3, 6} <= seen          # (every row of this small scene is heavy)
+    plain = build_model(scene, replace(s, confirm_samples=0), executor=SerialExecutor())
+    assert r.stats["tilts_simulated"] < plain.stats["tilts_simulated"]
