@@ -12,7 +12,10 @@ spread (the same trials at half the time step).
 Run: ``python -m benchmarks builder`` (the default build, about 1 hour on 2 cores with fresh references) or select with
 ``KRUSKAL_BENCH_BUILDER=det,det-recenter,noise`` and ``KRUSKAL_BENCH_BUILDER_TRIALS=1000``;
 ``KRUSKAL_BENCH_BUILDER_REUSE=PATH`` validates a model already built with the (one) selected
-variant's settings (checked by its build key) and reports its recorded build time.
+variant's settings (checked by its build key) and reports its recorded build time; a model of the
+same scene and settings built under an earlier simulator version is accepted when
+``KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR`` names that version (the table then says which simulator
+built it and which judged it).
 Writes ``benchmarks/results/builder.json`` and the markdown table ``benchmarks/BUILDER_RESULTS.md``.
 """
 from __future__ import annotations
@@ -132,14 +135,24 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
         from transition_builder.builder import build_key
 
         model = TransitionModel.load(reuse)
+        built_with = SIMULATOR_VERSION
         if model.metadata.get("build_key") != build_key(scene, settings):
-            raise SystemExit(f"{reuse} was not built with the settings of variant {name!r}")
+            # same scene and design under an earlier simulator version (not recorded in older
+            # models, hence named by KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR); judged by today's
+            design = {k: v for k, v in settings.to_dict().items()
+                      if v or k not in ("snap_compensation", "confirm_samples")}
+            built_with = os.environ.get("KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR")
+            if (model.metadata.get("scene") != scene.to_dict() or model.metadata.get("build_settings") != design
+                    or not built_with):
+                raise SystemExit(f"{reuse} was not built with the settings of variant {name!r} (or, for a model "
+                                 "of another simulator version, set KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR)")
         st = dict(model.metadata["stats"])
         build_s = float(st["simulation_seconds"])
     else:
         result = build_model(scene, settings, workers=workers, progress=None)
         build_s = time.perf_counter() - t0
         model, st = result.model, result.stats
+        built_with = SIMULATOR_VERSION
     model.save(str(RESULTS / f"model-{name}.npz"))
     simulate_judge, _ = reference_cache(judge_scene, trials, model_grid(model), workers)
 
@@ -165,7 +178,7 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
         "per_sequence_max": [s["max_abs_error_bits"] for s in val["per_sequence"]],
         "per_sequence_mean": [s["mean_abs_error_bits"] for s in val["per_sequence"]],
         "validate_seconds": time.perf_counter() - t1, "trials": trials, "fault_rate": st["fault_rate"],
-        "load_average": os.getloadavg()[0], "simulator": SIMULATOR_VERSION,
+        "load_average": os.getloadavg()[0], "simulator": built_with, "judge_simulator": SIMULATOR_VERSION,
         "snap_spread_mm": st.get("snap_spread_mm"), "snap_spread_deg": st.get("snap_spread_deg"),
         "representative_noise": st.get("representative_noise"),
     }
@@ -177,18 +190,21 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
 
 
 def simulator_number(row: dict) -> str:
-    """The simulator version number of a row (``"3"`` for ``planar-chain-3``); rows from before the
+    """The simulator version number of a row (``"3"`` for ``planar-chain-3``; ``"2, judged by 3"``
+    for a model of version 2 validated against version-3 references); rows from before the
     version was recorded were measured with version 2."""
-    return row.get("simulator", "planar-chain-2").rsplit("-", 1)[-1]
+    built = row.get("simulator", "planar-chain-2").rsplit("-", 1)[-1]
+    judge = row.get("judge_simulator", row.get("simulator", "planar-chain-2")).rsplit("-", 1)[-1]
+    return built if built == judge else f"{built}, judged by {judge}"
 
 
 def _table(rows: list[dict]) -> str:
-    head = ("| variant | simulator | build s (2 cores) | states | tilts | splits | mean / max error (bits) | "
-            "steps > 0.25 | final TV | reference noise | band coverage |\n|---|---|---|---|---|---|---|---|---|---|---|\n")
+    head = ("| variant | simulator | M | build s (2 cores) | states | tilts | splits | mean / max error (bits) | "
+            "steps > 0.25 | final TV | reference noise | band coverage |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n")
     lines = []
     for r in rows:
         cov = "-" if r["band_coverage"] is None else f"{100 * r['band_coverage']:.0f}%"
-        lines.append(f"| {r['description']} | {simulator_number(r)} | {r['build_seconds']:.0f} | {r['states']:,} | {r['tilts']:,} | "
+        lines.append(f"| {r['description']} | {simulator_number(r)} | {r.get('trials', TRIALS):,} | {r['build_seconds']:.0f} | {r['states']:,} | {r['tilts']:,} | "
                      f"{r['splits']} | {r['mean_abs_error_bits']:.3f} / {r['max_abs_error_bits']:.2f} | "
                      f"{100 * r['share_steps_above_0_25']:.1f}% | {r['final_tv_distance']:.3f} | "
                      f"{r['reference_noise_bits']:.3f} | {cov} |")
@@ -233,11 +249,14 @@ _TUNING_NOTE = ("References: 6 random 30-tilt sequences from seed 1, M = 1,000 t
 
 def write_markdown(done: dict) -> None:
     """``BUILDER_RESULTS.md`` from every row of ``builder.json``: the held-out table, then the tuning runs."""
-    rows = [v for k, v in done.items() if k.endswith(f"@{TRIALS}@{SEED}")]
+    rows = [v for k, v in done.items() if k.endswith(f"@{SEED}")]
+    rows.sort(key=lambda r: r.get("trials", TRIALS))
     text = ("# Builder: time against error (allen key)\n\nWritten by `python -m benchmarks builder` "
             "(see its docstring); 2-core machine.\n"
             f"References: {SEQUENCES} random {LENGTH}-tilt sequences (seed {SEED}; held-out seed {HELD_OUT_SEED}), "
-            f"M = {TRIALS} trials each; the noisy variants against noisy references.\n\n" + _table(rows))
+            "M trials each (column M; the M = 4,000 references are simulated afresh, not extended from the "
+            "M = 2,000 ones); the noisy variants against noisy references. A model validated "
+            "at both M was built once (its build time is the one recorded in the model).\n\n" + _table(rows))
     tuning = [v for k, v in done.items() if k.endswith("@1000@1")]
     if SEED == HELD_OUT_SEED and tuning:
         text += ("\n## Tuning runs (the defaults were chosen on these)\n\n" + _TUNING_NOTE + "\n\n"
