@@ -61,14 +61,82 @@ def _subsample_errors(refs, names, grid, seqs) -> dict:
     return out
 
 
+def _latest_rows(rows: dict, seed: int) -> dict:
+    """The deterministic builder rows judged on ``seed``: per variant and M, the row of the newest
+    simulator version (a variant measured again under a new version replaces its old row)."""
+    from benchmarks.bench_builder import simulator_number
+
+    best = {}
+    for k, v in rows.items():
+        if not k.endswith(f"@{seed}") or v["noise"] != "none":
+            continue
+        ident = (v["variant"], v["trials"])
+        if ident not in best or int(simulator_number(best[ident])[:1]) < int(simulator_number(v)[:1]):
+            best[ident] = v
+    return {f"{v['variant']}@{v.get('simulator', 'planar-chain-2')}@{v['trials']}": v for v in best.values()}
+
+
+def _direct_error_at(mc: dict, m: float, col: str) -> float:
+    """Direct Monte Carlo's error (``col``: mean or max) at ``m`` trials per sequence: log-log
+    interpolation between the measured sizes, beyond them the sampling-noise scaling 1/sqrt(m)."""
+    sizes = np.array(sorted(mc), dtype=float)
+    errs = np.array([mc[int(k)][col] for k in sizes])
+    if m <= sizes[0]:
+        return float(errs[0] * np.sqrt(sizes[0] / m))
+    if m >= sizes[-1]:
+        return float(errs[-1] * np.sqrt(sizes[-1] / m))
+    return float(np.exp(np.interp(np.log(m), np.log(sizes), np.log(errs))))
+
+
+def _trials_with_max_error(mc: dict, max_error: float) -> int:
+    """The measured M whose direct Monte Carlo max error is nearest ``max_error`` (log scale)."""
+    return min(mc, key=lambda m: abs(np.log(mc[m]["max"]) - np.log(max_error)))
+
+
+#: the paper's experiment A done by direct simulation at the trial count its figures are compared at
+A_SEQUENCES, A_TRIALS, A_LENGTH = 43, 10_000, 50
+
+
+def _experiment_a_lines(held: dict, mc: dict, rate: float) -> list[str]:
+    """Experiment A (43 random 50-tilt sequences) from each model against direct simulation with
+    10,000 trials per sequence, and against direct simulation given the model's time."""
+    from analysis.sequences import random_sequences_for
+    from benchmarks.bench_builder import RESULTS
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.model import TransitionModel
+
+    direct_s = A_SEQUENCES * A_TRIALS * A_LENGTH / rate
+    out = ["", f"**Experiment A by either method.** Direct simulation of the paper's experiment A with "
+               f"{A_TRIALS:,} trials per sequence ({A_SEQUENCES} x {A_TRIALS:,} x {A_LENGTH} tilts, at this run's "
+               f"{rate:.0f} tilts/s) would take {direct_s:,.0f} s ({direct_s / 3600:.1f} h). From a model it is the "
+               f"build plus {A_SEQUENCES} predictions (timed here). \"Direct at equal time\" is direct simulation "
+               f"given the model's time: M = time x rate / ({A_SEQUENCES} x {A_LENGTH}) trials per sequence, its "
+               "error read off the table above (interpolated; 1/sqrt(M) beyond it).", "",
+               "| model | build + A (s) | faster than direct with 10,000 trials | direct at equal time: M | "
+               "its mean / max error | the model's mean / max error |", "|---|---|---|---|---|---|"]
+    for v in sorted(held.values(), key=lambda r: r["build_seconds"]):
+        path = RESULTS / f"model-{v['variant']}.npz"
+        if not path.exists():
+            continue
+        model = TransitionModel.load(str(path))
+        t = time.perf_counter()
+        for seq in random_sequences_for(model.n_actions, A_SEQUENCES, A_LENGTH, 0):
+            entropy_trajectory(model, seq)
+        total = v["build_seconds"] + time.perf_counter() - t
+        m = total * rate / (A_SEQUENCES * A_LENGTH)
+        out.append(f"| {v['description']} | {total:.0f} | {direct_s / total:.0f}x | {m:,.0f} | "
+                   f"{_direct_error_at(mc, m, 'mean'):.3f} / {_direct_error_at(mc, m, 'max'):.2f} | "
+                   f"{v['mean_abs_error_bits']:.3f} / {v['max_abs_error_bits']:.2f} |")
+    return out
+
+
 def _time_step_lines(held: dict, trials: int) -> list[str]:
     """The model built at half the time step beside the same design at the default, both judged by
     default-time-step references of the same simulator version."""
-    from benchmarks.bench_builder import HELD_OUT_SEED
     from transition_builder.settings import SIMULATOR_VERSION
 
-    half = held.get(f"det-1mm-half-step@{SIMULATOR_VERSION}@{trials}@{HELD_OUT_SEED}")
-    same = held.get(f"det-1mm@{SIMULATOR_VERSION}@{trials}@{HELD_OUT_SEED}")
+    half = held.get(f"det-1mm-half-step@{SIMULATOR_VERSION}@{trials}")
+    same = held.get(f"det-1mm@{SIMULATOR_VERSION}@{trials}")
     if not (half and same):
         return []
     per = ", ".join(f"{a:.2f} / {b:.2f}" for a, b in zip(same["per_sequence_max"], half["per_sequence_max"]))
@@ -88,10 +156,11 @@ def main() -> None:
     from transition_builder.scene import scene_from_options
 
     rows = json.loads((RESULTS / "builder.json").read_text())
-    held = {k: v for k, v in rows.items() if k.endswith(f"@{HELD_OUT_SEED}") and v["noise"] == "none"}
+    held = _latest_rows(rows, HELD_OUT_SEED)
     if not held:
         raise SystemExit("no held-out deterministic builder rows: run `python -m benchmarks builder` first")
     trials = max(v["trials"] for v in held.values())
+    held = {k: v for k, v in held.items() if v["trials"] == trials}
     scene = scene_from_options("allen-key")
     grid = model_grid(TransitionModel.load(str(RESULTS / "model-det.npz")))
     simulate, stats = reference_cache(scene, trials, grid, 2)
@@ -120,7 +189,7 @@ def main() -> None:
         points.append(("direct", sec, e["mean"], e["max"], f"M={m}"))
     # break-even: the smallest M whose mean error is no better than the default model's, and how many
     # sequences the model's one build costs at that M
-    det = held.get(f"det@{trials}@{HELD_OUT_SEED}")
+    det = next((v for v in held.values() if v["variant"] == "det"), None)
     if det:
         worse = [m for m, e in mc.items() if e["mean"] >= det["mean_abs_error_bits"]]
         if worse:
@@ -131,11 +200,12 @@ def main() -> None:
                           f"costs {per_seq:.0f} s per {LENGTH}-tilt sequence, so the model's {det['build_seconds']:.0f} s "
                           f"build pays for itself from about {det['build_seconds'] / per_seq:.0f} sequences on; "
                           "the paper's 43 sequences x 50 tilts are near that point, a million random sequences "
-                          "(45 s through the model) are far past it. The model's worst step is another matter: "
-                          "its max error is that of about M = 25."]
+                          "(under a minute through the model, reports/full/index.md) are far past it. The model's "
+                          f"worst step is another matter: its max error ({det['max_abs_error_bits']:.2f}) is that "
+                          f"of about M = {_trials_with_max_error(mc, det['max_abs_error_bits']):,}."]
     if det:
         # is a cheaper model as accurate on these sequences?  Say so, beside what the tuning set said
-        alts = [v for k, v in held.items() if k != f"det@{trials}@{HELD_OUT_SEED}"
+        alts = [v for v in held.values() if v["variant"] != "det"
                 and v["build_seconds"] < det["build_seconds"]
                 and v["mean_abs_error_bits"] <= det["mean_abs_error_bits"]]
         if alts:
@@ -153,6 +223,7 @@ def main() -> None:
                           f"{det['mean_abs_error_bits']:.3f} / {det['max_abs_error_bits']:.2f}.{tuned} The two "
                           "judge sets disagree, so the difference between the two designs is within the spread "
                           "between sets of six sequences; the cheaper one is `kruskal build --resolution 0.5,0.5`."]
+    lines += _experiment_a_lines(held, mc, rate)
     lines += _time_step_lines(held, trials)
     spread = next((v["simulation_spread_bits"] for v in held.values() if "simulation_spread_bits" in v), None)
     if spread:
