@@ -11,6 +11,7 @@ spread (the same trials at half the time step).
 
 Run: ``python -m benchmarks builder`` (the default build, about 1 hour on 2 cores with fresh references) or select with
 ``KRUSKAL_BENCH_BUILDER=det,det-recenter,noise`` and ``KRUSKAL_BENCH_BUILDER_TRIALS=1000``;
+``KRUSKAL_BENCH_BUILDER_SPREAD=0`` skips the half-time-step references of the default variant;
 ``KRUSKAL_BENCH_BUILDER_REUSE=PATH`` validates a model already built with the (one) selected
 variant's settings (checked by its build key) and reports its recorded build time; a model of the
 same scene and settings built under an earlier simulator version is accepted when
@@ -229,7 +230,8 @@ def main() -> None:
     print(f"allen key, sequence seed {SEED} (held-out: {HELD_OUT_SEED}): {SEQUENCES} x {LENGTH} tilts, M = {TRIALS}; "
           f"variants {', '.join(names)} (load average {os.getloadavg()[0]:.2f})", flush=True)
     for name in names:
-        row = run_variant(name, spread=(name == "det"))
+        spread = name == "det" and os.environ.get("KRUSKAL_BENCH_BUILDER_SPREAD", "1") != "0"
+        row = run_variant(name, spread=spread)
         done = json.loads(out_json.read_text()) if out_json.exists() else {}   # another run may have written
         done[f"{name}@{row['simulator']}@{TRIALS}@{SEED}"] = row
         out_json.write_text(json.dumps(done, indent=1))
