@@ -133,18 +133,17 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
     if reuse:
         # a model this variant's settings already built (e.g. `kruskal build ... --out PATH`): validate it
         from kruskal_markov.model import TransitionModel
-        from transition_builder.builder import build_key
+        from transition_builder.builder import build_key, settings_design
 
         model = TransitionModel.load(reuse)
         built_with = SIMULATOR_VERSION
         if model.metadata.get("build_key") != build_key(scene, settings):
             # same scene and design under an earlier simulator version (not recorded in older
             # models, hence named by KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR); judged by today's
-            design = {k: v for k, v in settings.to_dict().items()
-                      if v or k not in ("snap_compensation", "confirm_samples")}
             built_with = os.environ.get("KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR")
-            if (model.metadata.get("scene") != scene.to_dict() or model.metadata.get("build_settings") != design
-                    or not built_with):
+            same_design = (settings_design(model.metadata.get("build_settings", {}))
+                           == settings_design(settings.to_dict()))
+            if model.metadata.get("scene") != scene.to_dict() or not same_design or not built_with:
                 raise SystemExit(f"{reuse} was not built with the settings of variant {name!r} (or, for a model "
                                  "of another simulator version, set KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR)")
         st = dict(model.metadata["stats"])
@@ -190,13 +189,18 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
     return row
 
 
+def built_version(row: dict) -> int:
+    """The version number of the simulator that built a row's model (3 for ``planar-chain-3``);
+    rows from before the version was recorded were measured with version 2."""
+    return int(row.get("simulator", "planar-chain-2").rsplit("-", 1)[-1])
+
+
 def simulator_number(row: dict) -> str:
-    """The simulator version number of a row (``"3"`` for ``planar-chain-3``; ``"2, judged by 3"``
-    for a model of version 2 validated against version-3 references); rows from before the
-    version was recorded were measured with version 2."""
-    built = row.get("simulator", "planar-chain-2").rsplit("-", 1)[-1]
-    judge = row.get("judge_simulator", row.get("simulator", "planar-chain-2")).rsplit("-", 1)[-1]
-    return built if built == judge else f"{built}, judged by {judge}"
+    """A row's simulator version for a table: ``"3"``, or ``"2, judged by 3"`` for a model of
+    version 2 validated against version-3 references."""
+    built = built_version(row)
+    judge = int(row["judge_simulator"].rsplit("-", 1)[-1]) if "judge_simulator" in row else built
+    return str(built) if built == judge else f"{built}, judged by {judge}"
 
 
 def _table(rows: list[dict]) -> str:

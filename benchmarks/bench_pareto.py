@@ -64,16 +64,16 @@ def _subsample_errors(refs, names, grid, seqs) -> dict:
 def _latest_rows(rows: dict, seed: int) -> dict:
     """The deterministic builder rows judged on ``seed``: per variant and M, the row of the newest
     simulator version (a variant measured again under a new version replaces its old row)."""
-    from benchmarks.bench_builder import simulator_number
+    from benchmarks.bench_builder import built_version
 
     best = {}
     for k, v in rows.items():
         if not k.endswith(f"@{seed}") or v["noise"] != "none":
             continue
         ident = (v["variant"], v["trials"])
-        if ident not in best or int(simulator_number(best[ident])[:1]) < int(simulator_number(v)[:1]):
+        if ident not in best or built_version(best[ident]) < built_version(v):
             best[ident] = v
-    return {f"{v['variant']}@{v.get('simulator', 'planar-chain-2')}@{v['trials']}": v for v in best.values()}
+    return {f"{v['variant']}@planar-chain-{built_version(v)}@{v['trials']}": v for v in best.values()}
 
 
 def _direct_error_at(mc: dict, m: float, col: str) -> float:

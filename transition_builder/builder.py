@@ -287,16 +287,24 @@ def _package_version() -> str:
         return "0+unknown"
 
 
+#: build options added after models were cached; at their "off" value they are left out of the
+#: cache key, so that switching them off reproduces the keys of the models built before them
+_LATER_OPTIONS = ("snap_compensation", "confirm_samples")
+
+
+def settings_design(settings: dict) -> dict:
+    """Build settings (``BuildSettings.to_dict()``, or a model's ``build_settings``) without the
+    later options that are off: the same design compares equal whether or not it was built before
+    those options existed."""
+    return {k: v for k, v in settings.items() if v or k not in _LATER_OPTIONS}
+
+
 def build_key(scene: Scene, settings: BuildSettings) -> str:
     """Content hash (hex) of everything that changes a built model: the scene's own content hash
     (shape, tray, friction, tilt, actions, every solver setting, simulator and PyBullet versions),
     the build settings (noise and seed included), the builder and package versions."""
-    design = settings.to_dict()
-    for option in ("snap_compensation", "confirm_samples"):
-        if not design[option]:
-            del design[option]               # off: the models of the builder before the option
-    payload = {"scene": scene.content_hash(), "settings": design, "builder": BUILDER_VERSION,
-               "package": _package_version()}
+    payload = {"scene": scene.content_hash(), "settings": settings_design(settings.to_dict()),
+               "builder": BUILDER_VERSION, "package": _package_version()}
     if settings.explore_weight > 0:
         payload["weighted"] = _WEIGHTED_DESIGN
     text = json.dumps(payload, sort_keys=True, separators=(",", ":"))
@@ -774,9 +782,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     jobs += _orbit_jobs(scene, ex, orbits, k_lo, k_hi, _KEY_ORBIT, actions=[b])
                     slots.append((orbits, b))
                 res = _run_tilts(executor, scene, noise_text, settings.seed, jobs, done)
-                n_new = len(part) * (k_hi - k_lo)
-                tilts += n_new
-                ex.topup_tilts += n_new
+                tilts += len(part) * (k_hi - k_lo)
                 for (orbits, b), (rest, status) in zip(slots, res):
                     ex.land[orbits, b, k_lo:k_hi] = rest.reshape(len(orbits), k_hi - k_lo, 3)
                     ex.status[orbits, b, k_lo:k_hi] = status.reshape(len(orbits), k_hi - k_lo)
@@ -807,6 +813,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     ex.topup_tilts += n_act * (K1 - K0) * len(top)
                 if len(disputed):
                     sample_pairs(disputed, K1, K)
+                    ex.topup_tilts += (K - K1) * len(disputed)
                 ex.phase = ("explore", ex.phase[1] + 1)
                 maybe_checkpoint(force=True)
             ex.phase = ("done", ex.phase[1])
