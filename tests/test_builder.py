@@ -463,3 +463,42 @@ def test_confirm_samples_tops_up_only_the_rows_whose_samples_disagree():
     assert {3, 6} <= seen          # (every row of this small scene is heavy)
     plain = build_model(scene, replace(s, confirm_samples=0), executor=SerialExecutor())
     assert r.stats["tilts_simulated"] < plain.stats["tilts_simulated"]
+
+
+def test_flush_side_is_on_without_noise_and_keys_stay_apart():
+    """The flush side is the deterministic default and off with noise (so the noisy default's cache
+    key is the one it had before the option existed); switching it changes a deterministic key."""
+    scene = _square_scene()
+    assert BuildSettings().flush_side is True
+    assert BuildSettings(noise="pose:0.5,0.5").flush_side is False
+    assert build_key(scene, BuildSettings()) != build_key(scene, BuildSettings(flush_side=False))
+    assert build_key(scene, BuildSettings(noise="pose:0.5,0.5")) == \
+        build_key(scene, BuildSettings(noise="pose:0.5,0.5", flush_side=False))
+
+
+def test_flush_side_build_never_snaps_across_the_two_ends_of_a_flush_edge():
+    """With the flush side, a landing snaps only onto a representative with the same report cell and
+    the same contact signature including the flush bits: tilting a state's pose again lands in a
+    pose whose signature is that of the state its row points to."""
+    from analysis.validate import model_grid
+    from transition_builder.snapping import wall_contacts
+
+    scene = _square_scene()
+    r = build_model(scene, BuildSettings(start_samples=150, seed=3, flush_side=True), executor=SerialExecutor())
+    m = r.model
+    kind, poses = m.extras["state_kind"], m.extras["state_poses"]
+    rest = np.flatnonzero(kind == STATE_REST)[::4]      # rotation 0 of every orbit: rows tilted as they are
+
+    def signature(p):
+        return wall_contacts(scene.shape, p, scene.tray_x_mm, scene.tray_y_mm, 0.05, flush_side=True)
+
+    sig = signature(poses[rest])
+    assert np.any(sig >> 4), "no representative lies flush against a wall: the test would check nothing"
+    grid = model_grid(m)
+    for a, name in enumerate(("N", "NE")):
+        with TraySimulator(scene) as sim:
+            land, status = sim.tilt(poses[rest], name)
+        assert np.all(status == 0)
+        targets = np.array([m.matrices[a].getrow(s).indices[0] for s in rest])
+        np.testing.assert_array_equal(grid.voxel_index(land), m.partition[targets])
+        np.testing.assert_array_equal(signature(land), signature(poses[targets]))

@@ -50,6 +50,31 @@ def test_never_snaps_across_cells_or_contacts(index):
     assert index.snap([[10.01, 100.0, 0.0]]).tolist() == [1]
 
 
+def test_flush_side_tells_the_two_ends_of_a_nearly_flush_edge_apart():
+    # a 20 x 10 rectangle resting on the south wall (centre y = 5), its long edge a hair off flush
+    shape = parse_shape("rectangle:20x10")
+    eps = 1e-4
+    poses = [[100.0, 5.0 + 10 * eps, eps], [100.0, 5.0 + 10 * eps, -eps], [100.0, 100.0, 0.3]]
+    plain = wall_contacts(shape, poses, 200, 200, 0.05)
+    sided = wall_contacts(shape, poses, 200, 200, 0.05, flush_side=True)
+    assert plain.tolist() == [4, 4, 0]                      # both touch the south wall only
+    assert sided[0] & 15 == 4 and sided[1] & 15 == 4        # the wall bits are unchanged
+    assert {int(sided[0]) >> 4, int(sided[1]) >> 4} == {0, 4}   # the south flush bit tells the ends apart
+    # one vertex touching (a corner on the wall): no flush bit; no wall: nothing
+    corner = [[100.0, 5.0 * math.cos(0.3) + 10.0 * math.sin(0.3), 0.3]]
+    assert wall_contacts(shape, corner, 200, 200, 0.05, flush_side=True).tolist() == [4]
+    assert sided[2] == 0
+    # the index then never snaps one end onto the other, however close
+    grid = ReportGrid(200, 200, 4, 4, 4, symmetry_order=shape.symmetry_order)
+    idx = PoseIndex(shape, grid, 0.5, 0.5, flush_side=True)
+    idx.add(poses[:1])
+    assert idx.snap(poses[:2]).tolist() == [0, -1]
+    assert PoseIndex(shape, grid, 0.5, 0.5).snap(poses[1:2]).tolist() == [-1]   # empty index
+    plain_idx = PoseIndex(shape, grid, 0.5, 0.5)
+    plain_idx.add(poses[:1])
+    assert plain_idx.snap(poses[:2]).tolist() == [0, 0]
+
+
 def test_tree_and_tail_give_the_same_answers():
     shape = parse_shape("allen-key")
     grid = ReportGrid(200, 200, 4, 4, 4)

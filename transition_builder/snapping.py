@@ -4,7 +4,7 @@ A landing pose joins the nearest existing representative within a tolerance *in 
 cell and with the same wall contacts*, or it founds a new representative (docs/builder.md). The
 tolerance is a normalised Euclidean ball: ``(dx/tol_mm)^2 + (dy/tol_mm)^2 + (dtheta/tol_rad)^2 <= 1``,
 theta compared modulo the shape's symmetry period. The cell/contact condition is exact: the group
-key ``cell * 16 + contacts`` enters the k-d tree as a fourth coordinate spaced far beyond the ball,
+key ``cell * 256 + contacts`` enters the k-d tree as a fourth coordinate spaced far beyond the ball,
 so a query never crosses groups.
 
 Queries run on a :class:`scipy.spatial.cKDTree` over the representatives known at the last rebuild,
@@ -28,17 +28,33 @@ _BIG = 1e12             # "non-periodic" box size for cKDTree's periodic-box arg
 _MAX_TAIL = 256         # representatives added since the last tree rebuild, scanned by brute force
 
 
-def wall_contacts(shape: Shape, poses, tray_x_mm: float, tray_y_mm: float, tol_mm: float) -> np.ndarray:
-    """Bitmask of the walls each pose touches within ``tol_mm``: 1 west, 2 east, 4 south, 8 north."""
+def wall_contacts(shape: Shape, poses, tray_x_mm: float, tray_y_mm: float, tol_mm: float,
+                  flush_side: bool = False) -> np.ndarray:
+    """Bitmask of the walls each pose touches within ``tol_mm``: 1 west, 2 east, 4 south, 8 north.
+
+    With ``flush_side``, bits 4-7 (16 west ... 128 north) say, for a wall that two or more
+    vertices touch (an edge lying flush, or nearly), which end of the touching set is closest to
+    the wall: set when the closest vertex lies beyond the middle of the touching vertices along
+    the wall. An edge a hair off flush (1e-4 rad on the allen key: its ends 0.006 mm apart in
+    distance to the wall) rests on one end or the other, and the next tilt can tell the two apart.
+    """
     p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     if len(p) == 0:
         return np.zeros(0, dtype=np.int64)
     v = shape.placed(p)
     x, y = v[..., 0], v[..., 1]
-    return ((x.min(axis=1) <= tol_mm).astype(np.int64)
-            | ((x.max(axis=1) >= tray_x_mm - tol_mm).astype(np.int64) << 1)
-            | ((y.min(axis=1) <= tol_mm).astype(np.int64) << 2)
-            | ((y.max(axis=1) >= tray_y_mm - tol_mm).astype(np.int64) << 3))
+    walls = ((x, y), (tray_x_mm - x, y), (y, x), (tray_y_mm - y, x))   # (distance to wall, along it)
+    out = np.zeros(len(p), dtype=np.int64)
+    rows = np.arange(len(p))
+    for bit, (dist, along) in enumerate(walls):
+        touch = dist <= tol_mm
+        out |= touch.any(axis=1).astype(np.int64) << bit
+        if flush_side:
+            n_touch = touch.sum(axis=1)
+            mid = np.where(touch, along, 0.0).sum(axis=1) / np.maximum(n_touch, 1)
+            closest = along[rows, np.argmin(dist, axis=1)]
+            out |= ((n_touch >= 2) & (closest > mid)).astype(np.int64) << (bit + 4)
+    return out
 
 
 class PoseIndex:
@@ -55,11 +71,14 @@ class PoseIndex:
         A vertex within this of a wall counts as touching it.
     use_contacts : bool
         Also require the same wall-contact signature.
+    flush_side : bool
+        Also require the same flush side (:func:`wall_contacts`).
     """
 
     def __init__(self, shape: Shape, grid: ReportGrid, tol_mm: float, tol_deg: float,
-                 contact_tol_mm: float = 0.05, use_contacts: bool = True):
+                 contact_tol_mm: float = 0.05, use_contacts: bool = True, flush_side: bool = False):
         self.shape = shape
+        self.flush_side = bool(flush_side)
         self.grid = grid
         self.scale = np.array([1.0 / tol_mm, 1.0 / tol_mm, 1.0 / math.radians(tol_deg)])
         self.period = 2.0 * math.pi / shape.symmetry_order
@@ -89,7 +108,8 @@ class PoseIndex:
         p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         cells = self.grid.voxel_index(p)
         if self.use_contacts:
-            contacts = wall_contacts(self.shape, p, self.grid.tray_x_mm, self.grid.tray_y_mm, self.contact_tol_mm)
+            contacts = wall_contacts(self.shape, p, self.grid.tray_x_mm, self.grid.tray_y_mm, self.contact_tol_mm,
+                                     self.flush_side)
         else:
             contacts = np.zeros(len(p), dtype=np.int64)
         th = np.mod(p[:, 2], self.period)
@@ -98,7 +118,7 @@ class PoseIndex:
         q[:, 0] = p[:, 0] * self.scale[0]
         q[:, 1] = p[:, 1] * self.scale[1]
         q[:, 2] = np.minimum(th * self.scale[2], self.box[2] * (1 - 1e-15))
-        q[:, 3] = (cells * 16 + contacts) * _GROUP_SPACING
+        q[:, 3] = (cells * 256 + contacts) * _GROUP_SPACING
         return q, cells
 
     def add(self, poses) -> np.ndarray:

@@ -40,6 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--confirm-samples", type=int, default=None, metavar="K1",
                         help="noisy builds: top heavy rows up to K1 samples first, and only those whose "
                              "samples disagree on the report cell up to K (default: the builder's)")
+    parser.add_argument("--flush-side", action=argparse.BooleanOptionalAction, default=None,
+                        help="snap only between poses resting on the same end of an edge flush with a wall "
+                             "(default: on without noise, off with noise)")
     parser.add_argument("--no-symmetry", action="store_true", help="do not use the tray's rotation symmetry")
     parser.add_argument("--support-points", type=int, default=None,
                         help="simulator floor contact: 1 sphere (default) or K legs")
@@ -76,6 +79,7 @@ def run(args: argparse.Namespace) -> dict:
                              max_states=args.max_states, noise=args.noise, seed=args.seed,
                              explore_weight=args.explore_weight,
                              **({} if args.confirm_samples is None else {"confirm_samples": args.confirm_samples}),
+                             **({} if args.flush_side is None else {"flush_side": args.flush_side}),
                              **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}),
                              **({} if args.recenter_rounds is None else {"recenter_rounds": args.recenter_rounds}))
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
