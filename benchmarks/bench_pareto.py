@@ -212,7 +212,9 @@ def main() -> None:
                 and v["mean_abs_error_bits"] <= det["mean_abs_error_bits"]]
         if alts:
             alt = min(alts, key=lambda v: v["build_seconds"])
-            tune_alt, tune_det = rows.get(f"{alt['variant']}@1000@1"), rows.get("det-recenter-0.25@1000@1")
+            tuning = _latest_rows(rows, 1)
+            tune_alt, tune_det = (next((v for v in tuning.values() if v["variant"] == name and v["trials"] == 1000),
+                                       None) for name in (alt["variant"], "det"))
             tuned = ""
             if tune_alt and tune_det:
                 tuned = (f" On the tuning sequences (seed 1, M = 1,000) it was the other way round: "
