@@ -476,29 +476,52 @@ def test_flush_side_is_on_without_noise_and_keys_stay_apart():
         build_key(scene, BuildSettings(noise="pose:0.5,0.5", flush_side=False))
 
 
-def test_flush_side_build_never_snaps_across_the_two_ends_of_a_flush_edge():
-    """With the flush side, a landing snaps only onto a representative with the same report cell and
-    the same contact signature including the flush bits: tilting a state's pose again lands in a
-    pose whose signature is that of the state its row points to."""
+def _flush_mismatch(scene, model) -> tuple[float, int]:
+    """Re-tilt the rotation-0 rest states under N and NE; the share of landings whose contact
+    signature with the flush side differs from that of the state their row points to, and how many
+    of those target states lie flush."""
     from analysis.validate import model_grid
     from transition_builder.snapping import wall_contacts
 
-    scene = _square_scene()
-    r = build_model(scene, BuildSettings(start_samples=150, seed=3, flush_side=True), executor=SerialExecutor())
-    m = r.model
-    kind, poses = m.extras["state_kind"], m.extras["state_poses"]
-    rest = np.flatnonzero(kind == STATE_REST)[::4]      # rotation 0 of every orbit: rows tilted as they are
+    kind, poses = model.extras["state_kind"], model.extras["state_poses"]
+    n_start = int(np.sum(kind == STATE_START))
+    rest = np.flatnonzero((kind == STATE_REST) & ((np.arange(model.n_states) - n_start) % 4 == 0))
 
     def signature(p):
         return wall_contacts(scene.shape, p, scene.tray_x_mm, scene.tray_y_mm, 0.05, flush_side=True)
 
-    sig = signature(poses[rest])
-    assert np.any(sig >> 4), "no representative lies flush against a wall: the test would check nothing"
-    grid = model_grid(m)
+    grid = model_grid(model)
+    bad, total, flush = 0, 0, 0
     for a, name in enumerate(("N", "NE")):
         with TraySimulator(scene) as sim:
             land, status = sim.tilt(poses[rest], name)
         assert np.all(status == 0)
-        targets = np.array([m.matrices[a].getrow(s).indices[0] for s in rest])
-        np.testing.assert_array_equal(grid.voxel_index(land), m.partition[targets])
-        np.testing.assert_array_equal(signature(land), signature(poses[targets]))
+        targets = np.array([model.matrices[a].getrow(s).indices[0] for s in rest])
+        np.testing.assert_array_equal(grid.voxel_index(land), model.partition[targets])
+        bad += int(np.sum(signature(land) != signature(poses[targets])))
+        total += len(rest)
+        flush += int(np.sum(signature(poses[targets]) >> 4 > 0))
+    return bad / total, flush
+
+
+def test_flush_side_build_never_snaps_across_the_two_ends_of_a_flush_edge(square_build):
+    """With the flush side (the default), a landing snaps only onto a representative with the same
+    report cell and contact signature including the flush bits: re-tilting a state's pose lands in
+    a pose with the signature of the state its row points to. Not always exactly: a trial carries a
+    little Bullet state from the one before it in its task (up to 1e-3 rad, docs/simulator.md), and
+    a pose within 1e-3 rad of flush can then rest on the other end; on the square 0.8% of the
+    re-tilts did, where a build without the flush side mismatches 38% (the slow test below)."""
+    share, flush = _flush_mismatch(_square_scene(), square_build.model)
+    assert flush > 20, "too few representatives lie flush against a wall: the test would check little"
+    assert share <= 0.03
+
+
+@pytest.mark.slow
+def test_without_the_flush_side_landings_snap_across_the_two_ends():
+    """The check above can fail: without the flush side, many landings snap onto a representative
+    resting on the other end of a flush edge."""
+    scene = _square_scene()
+    r = build_model(scene, BuildSettings(start_samples=150, max_states=1200, seed=3, flush_side=False),
+                    executor=SerialExecutor())
+    share, _ = _flush_mismatch(scene, r.model)
+    assert share > 0.1
