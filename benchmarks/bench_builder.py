@@ -248,9 +248,9 @@ def main() -> None:
     done = json.loads(out_json.read_text()) if out_json.exists() else {}
     print(f"allen key, sequence seed {SEED} (held-out: {HELD_OUT_SEED}): {SEQUENCES} x {LENGTH} tilts, M = {TRIALS}; "
           f"variants {', '.join(names)} (load average {os.getloadavg()[0]:.2f})", flush=True)
+    # the simulator's own spread (half the time step), with the first deterministic variant
+    first_det = next((n for n in names if "noise" not in VARIANTS[n][0]), None)
     for name in names:
-        # the simulator's own spread (half the time step), with the first deterministic variant
-        first_det = next(n for n in names + [None] if n is None or "noise" not in VARIANTS[n][0])
         spread = name == first_det and os.environ.get("KRUSKAL_BENCH_BUILDER_SPREAD", "1") != "0"
         row = run_variant(name, spread=spread)
         done = json.loads(out_json.read_text()) if out_json.exists() else {}   # another run may have written
@@ -268,6 +268,12 @@ _TUNING_NOTE = ("References: 6 random 30-tilt sequences from seed 1, M = 1,000 t
                 "overstate the cost; the 0.5 / 0.5 design without refinement or recentring built in 246 s with "
                 "85,040 tilts and scored 0.086 / 0.96 (10% of steps above 0.25) against these references "
                 "(`kruskal validate`, same seed and M).")
+
+
+def _per_sequence_lines(rows: list) -> str:
+    """One markdown bullet per row: its description and its per-sequence max errors."""
+    return "\n".join(f"- {r['description']}: per-sequence max error "
+                     + ", ".join(f"{x:.2f}" for x in r["per_sequence_max"]) for r in rows) + "\n"
 
 
 def write_markdown(done: dict) -> None:
@@ -290,14 +296,11 @@ def write_markdown(done: dict) -> None:
                  f"tilts (seed {SECOND_HELD_OUT_SEED}) were simulated afterwards and never looked at before "
                  "the models were scored on them (`KRUSKAL_BENCH_BUILDER_SEED="
                  f"{SECOND_HELD_OUT_SEED} python -m benchmarks builder`).\n\n" + _table(second)
-                 + "\n" + "\n".join(f"- {r['description']}: per-sequence max error "
-                                     + ", ".join(f"{x:.2f}" for x in r["per_sequence_max"]) for r in second) + "\n")
+                 + "\n" + _per_sequence_lines(second))
     tuning = [v for k, v in done.items() if k.endswith("@1000@1")]
     if main_seed == HELD_OUT_SEED and tuning:
         text += ("\n## Tuning runs (seed 1)\n\n" + _TUNING_NOTE + "\n\n"
-                 + _table(tuning) + "\n"
-                 + "\n".join(f"- {r['description']}: per-sequence max error "
-                              + ", ".join(f"{x:.2f}" for x in r["per_sequence_max"]) for r in tuning) + "\n")
+                 + _table(tuning) + "\n" + _per_sequence_lines(tuning))
     target = "BUILDER_RESULTS.md" if main_seed == HELD_OUT_SEED else f"results/builder-seed{SEED}.md"
     (HERE / target).write_text(text)
     print(text)

@@ -212,9 +212,8 @@ def main() -> None:
                 and v["mean_abs_error_bits"] <= det["mean_abs_error_bits"]]
         if alts:
             alt = min(alts, key=lambda v: v["build_seconds"])
-            tuning = _latest_rows(rows, 1)
-            tune_alt, tune_det = (next((v for v in tuning.values() if v["variant"] == name and v["trials"] == 1000),
-                                       None) for name in (alt["variant"], "det"))
+            tuning = {(v["variant"], v["trials"]): v for v in _latest_rows(rows, 1).values()}
+            tune_alt, tune_det = tuning.get((alt["variant"], 1000)), tuning.get(("det", 1000))
             tuned = ""
             if tune_alt and tune_det:
                 tuned = (f" On the tuning sequences (seed 1, M = 1,000) it was the other way round: "

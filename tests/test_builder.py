@@ -477,7 +477,8 @@ def test_flush_side_is_on_without_noise_and_keys_stay_apart():
 
 
 def _flush_mismatch(scene, model) -> tuple[float, int]:
-    """Re-tilt the rotation-0 rest states under N and NE; the share of landings whose contact
+    """Re-tilt the rotation-0 rest states (state ``n_start + o * G + j`` is rotation ``j`` of orbit
+    ``o``) under N and NE; the share of landings whose contact
     signature with the flush side differs from that of the state their row points to, and how many
     of those target states lie flush."""
     from analysis.validate import model_grid
@@ -485,7 +486,8 @@ def _flush_mismatch(scene, model) -> tuple[float, int]:
 
     kind, poses = model.extras["state_kind"], model.extras["state_poses"]
     n_start = int(np.sum(kind == STATE_START))
-    rest = np.flatnonzero((kind == STATE_REST) & ((np.arange(model.n_states) - n_start) % 4 == 0))
+    order = int(model.metadata["symmetry_order"])
+    rest = np.flatnonzero((kind == STATE_REST) & ((np.arange(model.n_states) - n_start) % order == 0))
 
     def signature(p):
         return wall_contacts(scene.shape, p, scene.tray_x_mm, scene.tray_y_mm, 0.05, flush_side=True)
