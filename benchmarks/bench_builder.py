@@ -96,6 +96,8 @@ VARIANTS = {
                           "whose samples disagree to 8 (confirm_samples)"),
     "noise-closed-1mm": ({"noise": "pose:0.5,0.5", "tol_mm": 1.0, "tol_deg": 1.0, "explore_weight": 0.0},
                          "noise pose:0.5,0.5, K = 2 / 8, full closure, 1 / 1"),
+    "noise-by-weight": ({"noise": "pose:0.5,0.5", "max_samples": 128, "heavy_weight": 0.05},
+                        "noise pose:0.5,0.5, 1 / 1, rows of weight w >= 0.05 get 8 w / 0.05 samples (up to 128)"),
     "det-recenter-flush": ({"tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 3, "flush_side": True},
                            "deterministic, 0.5 / 0.5, 3 recentring rounds, flush side in the contact signature"),
 }

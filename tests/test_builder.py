@@ -527,3 +527,79 @@ def test_without_the_flush_side_landings_snap_across_the_two_ends():
                     executor=SerialExecutor())
     share, _ = _flush_mismatch(scene, r.model)
     assert share > 0.1
+
+
+def test_max_samples_gives_heavy_rows_samples_in_proportion_to_their_weight():
+    """With ``max_samples`` every explored row ends with at least ``K * w / heavy_weight`` samples
+    (rounded up to a multiple of K, at most ``max_samples``), where ``w`` is its weight on the
+    weighing sequences through the finished model (the build stops only when no row wants more);
+    the samples still add up, and the option leaves other keys alone when off."""
+    from dataclasses import replace
+
+    from transition_builder.builder import (_WEIGHT_LENGTH, _WEIGHT_SEQUENCES, _WEIGHT_STREAM, _WEIGHT_THRESHOLD,
+                                            _proportional_samples)
+
+    scene = _square_scene()
+    s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5,
+                      max_samples=12, heavy_weight=0.1)
+    plain = replace(s, max_samples=0)
+    assert build_key(scene, plain) == build_key(scene, replace(plain, heavy_weight=0.3)) != build_key(scene, s)
+    for bad in ({"max_samples": 3}, {"max_samples": 12, "explore_weight": 0.0}, {"max_samples": 12, "heavy_weight": 0.0}):
+        with pytest.raises(ValueError):
+            BuildSettings(**{**s.to_dict(), **bad})
+    with pytest.raises(ValueError, match="process noise"):
+        BuildSettings(max_samples=12)
+    r = build_model(scene, s, executor=SerialExecutor())
+    m = r.model
+    assert _same_model(m, build_model(scene, s, executor=SerialExecutor()).model)
+    # the weights, as the builder computes them, on the finished model
+    rng = np.random.default_rng([s.seed, _WEIGHT_STREAM])
+    seqs = rng.integers(0, m.n_actions, size=(_WEIGHT_SEQUENCES, _WEIGHT_LENGTH))
+    T = [P.T.tocsr() for P in m.matrices]
+    dist = np.repeat(m.initial[:, None], _WEIGHT_SEQUENCES, axis=1)
+    w = dist.max(axis=1)
+    for t in range(_WEIGHT_LENGTH):
+        for a in range(m.n_actions):
+            cols = np.flatnonzero(seqs[:, t] == a)
+            dist[:, cols] = T[a] @ dist[:, cols]
+        np.maximum(w, dist.max(axis=1), out=w)
+    kind = m.extras["state_kind"]
+    rest = np.flatnonzero(kind == STATE_REST)
+    G = r.stats["symmetry_order"]
+    orbit_w = np.repeat(w[rest].reshape(-1, G).max(axis=1), G)
+    want = _proportional_samples(orbit_w, 3, 0.1, 12)
+    heavy = orbit_w >= _WEIGHT_THRESHOLD        # the rows topped up from samples_first (2) to K (3)
+    for a, P in enumerate(m.matrices):
+        n = m.extras["samples"][a]
+        assert np.all(n[rest][heavy] >= want[heavy]) and np.all(n[rest] <= 12)
+        assert np.all((n[rest] % 3 == 0) | (n[rest] == 2))
+        counts = np.asarray(m.extras[f"counts_{a}"], dtype=np.int64)
+        rows = np.repeat(np.arange(m.n_states), np.diff(P.indptr))
+        np.testing.assert_array_equal(np.bincount(rows, weights=counts, minlength=m.n_states)
+                                      + m.extras["faults"][a], n)
+    assert np.any(want > 3) and r.stats["rows_sampled_by_weight"] > 0
+    assert r.stats["weighted_sample_tilts"] == sum(int(np.sum(np.maximum(m.extras["samples"][a][rest] - 3, 0)))
+                                                   for a in range(m.n_actions)) // G
+    assert np.array_equal(_proportional_samples([0.0, 0.05, 0.1, 0.11, 0.25, 0.9], 3, 0.1, 12), [3, 3, 3, 6, 9, 12])
+
+
+def test_checkpoint_keeps_the_samples_added_by_weight(tmp_path):
+    """The extra samples of ``max_samples`` are part of the checkpoint (a resumed build continues
+    with exactly the rows it had), and a checkpoint of another build is not loaded."""
+    from transition_builder.builder import _Exploration
+
+    ex = _Exploration(n_actions=2, samples=3)
+    ex.add_orbits(np.array([[10.0, 20.0, 0.1], [30.0, 40.0, 0.2]]))
+    ex.start_poses, ex.start_land = np.zeros((4, 3)), np.zeros((1, 4, 3))
+    ex.start_status = np.zeros((1, 4), dtype=np.int8)
+    ex.more_src = np.array([[1, 0, 3], [1, 1, 3]])
+    ex.more_land = np.array([[31.0, 41.0, 0.3], [np.nan, np.nan, np.nan]])
+    ex.more_status = np.array([0, 3], dtype=np.int8)
+    ex.more_count[1] = 1
+    path = str(tmp_path / "c.npz")
+    ex.save(path, "key-a")
+    back = _Exploration.load(path, "key-a", 2, 3)
+    assert back is not None and _Exploration.load(path, "key-b", 2, 3) is None
+    assert np.array_equal(back.more_src, ex.more_src) and np.array_equal(back.more_status, ex.more_status)
+    np.testing.assert_array_equal(back.more_land, ex.more_land)
+    assert back.more_count.tolist() == [0, 1] and back.more_count.dtype == np.int64

@@ -40,6 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--confirm-samples", type=int, default=None, metavar="K1",
                         help="noisy builds: top heavy rows up to K1 samples first, and only those whose "
                              "samples disagree on the report cell up to K (default: the builder's)")
+    parser.add_argument("--max-samples", type=int, default=None, metavar="KMAX",
+                        help="noisy builds: rows of weight w >= --heavy-weight get K * w / heavy-weight "
+                             "samples, up to KMAX (default: the builder's)")
+    parser.add_argument("--heavy-weight", type=float, default=None, metavar="W",
+                        help="the weight from which --max-samples adds samples (default: the builder's)")
     parser.add_argument("--flush-side", action=argparse.BooleanOptionalAction, default=None,
                         help="snap only between poses resting on the same end of an edge flush with a wall "
                              "(default: on without noise, off with noise)")
@@ -80,6 +85,8 @@ def run(args: argparse.Namespace) -> dict:
                              explore_weight=args.explore_weight,
                              **({} if args.confirm_samples is None else {"confirm_samples": args.confirm_samples}),
                              **({} if args.flush_side is None else {"flush_side": args.flush_side}),
+                             **({} if args.max_samples is None else {"max_samples": args.max_samples}),
+                             **({} if args.heavy_weight is None else {"heavy_weight": args.heavy_weight}),
                              **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}),
                              **({} if args.recenter_rounds is None else {"recenter_rounds": args.recenter_rounds}))
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
