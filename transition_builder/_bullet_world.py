@@ -66,8 +66,19 @@ def _friction_radius_of_outline(vertex_bytes: bytes, n_vertices: int, n: int) ->
 def support_cells(shape, k: int, n: int = 160, iters: int = 40):
     """Split the part into ``k`` cells of nearly equal area (Lloyd's k-means on a grid of points
     inside the polygon; deterministic). Returns cell centroids (k, 2) in mm and area weights (k,)
-    summing to 1; the weighted centroid is the part's centroid (the origin) by construction."""
-    v = shape.vertices
+    summing to 1; the weighted centroid is the part's centroid (the origin) by construction.
+
+    Computed once per outline and ``k`` (a world is built again before every task, and the
+    k-means took most of a 4-leg build's time); the arrays returned are copies.
+    """
+    v = np.ascontiguousarray(shape.vertices, dtype=np.float64)
+    c, w = _support_cells_of_outline(v.tobytes(), len(v), int(k), int(n), int(iters))
+    return c.copy(), w.copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _support_cells_of_outline(vertex_bytes: bytes, n_vertices: int, k: int, n: int, iters: int):
+    v = np.frombuffer(vertex_bytes, dtype=np.float64).reshape(n_vertices, 2)
     lo, hi = v.min(axis=0), v.max(axis=0)
     h = max(hi - lo) / n
     xs = np.arange(lo[0] + h / 2, hi[0], h)

@@ -86,6 +86,7 @@ class TraySimulator:
             raise ValueError(f"TraySimulator needs a Scene, got {type(scene).__name__}")
         self.scene = scene
         self._worlds: dict[int, BulletWorld] = {}
+        self._stale: set[int] = set()      # worlds to build again before their next use (fresh_start)
         st = scene.settings
         self._dt_check = st.check_interval_s
         self._dwell_checks = max(1, int(math.ceil(st.dwell_s / self._dt_check - 1e-9)))
@@ -102,6 +103,9 @@ class TraySimulator:
         if w is None:
             w = BulletWorld(self.scene, self.scene.downhill_angle(k))
             self._worlds[k] = w
+        elif k in self._stale:
+            w.rebuild()
+        self._stale.discard(k)
         return w
 
     def prepare(self, actions=None):
@@ -118,12 +122,14 @@ class TraySimulator:
         1e-3 rad (measured on a uniform-friction scene, 2 of 126 builder tasks; up to 3e-4 mm on a
         friction map), and neither restoring a saved state nor re-applying the engine parameters
         removed it; resetting the physics server does. So every world is reset and built again
-        (:meth:`BulletWorld.rebuild`, a few milliseconds). Direct simulation and the builder call
-        this at the start of every task, whose trials are fixed by the task list alone, so every
-        result is the same for any number of workers and any executor.
+        (:meth:`BulletWorld.rebuild`, a few milliseconds), lazily: each world just before its next
+        use, so a builder task, which tilts under one action, rebuilds one world and not eight (the
+        worlds are separate physics servers; the results are the same as rebuilding all at once).
+        Direct simulation and the builder call this at the start of every task, whose trials are
+        fixed by the task list alone, so every result is the same for any number of workers and
+        any executor.
         """
-        for w in self._worlds.values():
-            w.rebuild()
+        self._stale.update(self._worlds)
 
     @property
     def friction_map(self) -> bool:
@@ -135,6 +141,7 @@ class TraySimulator:
         for w in self._worlds.values():
             w.close()
         self._worlds.clear()
+        self._stale.clear()
 
     def __enter__(self):
         return self
