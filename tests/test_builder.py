@@ -168,7 +168,7 @@ def test_local_pool_and_dask_give_identical_models():
     task to the next gave other landings (up to 1e-3 rad) depending on which worker ran what."""
     distributed = pytest.importorskip("distributed")
     scene = _square_scene()
-    s = BuildSettings(start_samples=120, seed=0)
+    s = BuildSettings(start_samples=120, seed=0, tol_mm=0.5, tol_deg=0.5)
     serial = build_model(scene, s, executor=SerialExecutor()).model
     pool = make_executor(2)
     local = build_model(scene, s, executor=pool).model
@@ -186,7 +186,7 @@ _RESUME_SCRIPT = textwrap.dedent("""
     from transition_builder.executors import SerialExecutor
     from transition_builder.scene import scene_from_options
     scene = scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0))
-    r = build_model(scene, BuildSettings(start_samples=100, seed=4), executor=SerialExecutor(),
+    r = build_model(scene, BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor(),
                     checkpoint=sys.argv[1], checkpoint_interval_s=0.0, batch_tilts=160)
     r.model.save(sys.argv[2])
     print("resumed" if r.stats["resumed"] else "fresh")
@@ -224,7 +224,7 @@ def test_resume_after_sigkill(tmp_path):
     assert res.stdout.strip() == "resumed"
     assert not os.path.exists(ckpt)                       # removed once the model is written
     fresh = build_model(scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)),
-                        BuildSettings(start_samples=100, seed=4), executor=SerialExecutor(),
+                        BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor(),
                         batch_tilts=160).model          # the same task grouping as the killed build
     assert _same_model(TransitionModel.load(out), fresh)
 
@@ -312,8 +312,9 @@ def test_refinement_splits_diverging_representatives():
     """Refinement tilts the farthest member of each representative and splits where a landing falls
     in another report cell; the split-off states are real rest poses whose rows are their own tilts."""
     scene = _square_scene()
-    base = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=0), executor=SerialExecutor())
-    ref = build_model(scene, BuildSettings(start_samples=150, seed=3, refine_rounds=2, recenter_rounds=0),
+    base = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=0, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor())
+    ref = build_model(scene, BuildSettings(start_samples=150, seed=3, refine_rounds=2, recenter_rounds=0,
+                                    tol_mm=0.5, tol_deg=0.5),
                       executor=SerialExecutor())
     st = ref.stats
     assert st["refinement_rounds"] == 2 and st["refinement_tilts"] > 0
@@ -367,7 +368,7 @@ def test_weighted_exploration_borrows_rows_of_nearby_explored_states():
     from transition_builder.builder import STATE_UNEXPLORED
 
     scene = _square_scene()
-    s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5)
+    s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5, max_samples=0)
     r = build_model(scene, s, executor=SerialExecutor())
     m, st = r.model, r.stats
     kind = m.extras["state_kind"]
@@ -413,7 +414,7 @@ def test_snap_compensation_subtracts_the_snapping_offset_from_the_noise():
     assert compensated_noise(NoiseSpec("none"), 0.3, 0.3).is_zero
     scene = _square_scene()
     s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5,
-                      snap_compensation=True)
+                      snap_compensation=True, max_samples=0)
     assert build_key(scene, s) != build_key(scene, replace(s, snap_compensation=False))
     a = build_model(scene, s, executor=SerialExecutor())
     b = build_model(scene, s, executor=SerialExecutor())
@@ -549,6 +550,10 @@ def test_max_samples_gives_heavy_rows_samples_in_proportion_to_their_weight():
             BuildSettings(**{**s.to_dict(), **bad})
     with pytest.raises(ValueError, match="process noise"):
         BuildSettings(max_samples=12)
+    # on by default for weighted noisy builds only
+    assert BuildSettings(noise="pose:0.5,0.5").max_samples == 128 and BuildSettings().max_samples == 0
+    assert BuildSettings(noise="pose:0.5,0.5", explore_weight=0.0).max_samples == 0
+    assert BuildSettings(noise="pose:0.5,0.5", samples=8, confirm_samples=4).max_samples == 0
     r = build_model(scene, s, executor=SerialExecutor())
     m = r.model
     assert _same_model(m, build_model(scene, s, executor=SerialExecutor()).model)

@@ -89,10 +89,14 @@ _WEIGHT_SEQUENCES = 200     # random sequences that weigh the rows of an adaptiv
 _WEIGHT_LENGTH = 30
 _WEIGHT_THRESHOLD = 1e-3
 _DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-3
+#: noisy builds: samples in proportion to weight from this weight on, up to this many per action
+_DEFAULT_NOISY_HEAVY_WEIGHT = 0.025
+_DEFAULT_NOISY_MAX_SAMPLES = 128
 #: default snapping tolerance (mm and degrees), chosen with the flush-side signature on the tuning set
 #: and two held-out sets of sequences (benchmarks/BUILDER_RESULTS.md, docs/builder.md)
 _DEFAULT_TOL_DETERMINISTIC = 0.25
-_DEFAULT_TOL_NOISY = 1.0
+_DEFAULT_TOL_NOISY = 0.75
+_DEFAULT_NOISY_SAMPLES = 4
 _RECENTER_RADIUS = 0.05     # tolerance units: members this close count as one resting point
 _GROUP_GAP = 1e6
 _WEIGHT_STREAM = 12
@@ -106,13 +110,13 @@ class BuildSettings:
     ----------
     tol_mm, tol_deg : float or None
         Snapping tolerance (mm in x and y, degrees in theta); None: 0.25 / 0.25 without noise,
-        1 / 1 with noise (the cheapest noisy setting within the 30-minute build target; 0.5 / 0.5 is
-        more accurate at twice the cost, ``docs/builder.md``).
+        0.75 / 0.75 with noise (with ``samples`` 4 and ``max_samples`` the design that met the
+        noisy targets within the 30-minute build target; ``docs/builder.md``).
     start_samples : int
         Uniform start poses for the first tilt (the initial distribution).
     samples : int or None
         Samples per (representative, action): None = 1 without noise (the physics is
-        deterministic) and 8 with noise.
+        deterministic) and 4 with noise (rows that carry mass get more: ``max_samples``).
     grid : str
         Report grid ``AxBxG``; ``theta_offset`` its theta bin offset (None: centred on the axes).
     symmetry : bool
@@ -172,8 +176,9 @@ class BuildSettings:
         noise plus the snapping offset it stands for (a landing moved onto its representative,
         root mean square over all landings so far) has the variance of the process noise
         (:func:`compensated_noise`; the offset is measured again before every batch of samples).
-    max_samples : int
-        Samples in proportion to weight (weighted noisy builds; 0: off). A row whose weight ``w``
+    max_samples : int or None
+        Samples in proportion to weight (weighted noisy builds; 0: off; None: 128 for weighted noisy
+        builds, off otherwise). A row whose weight ``w``
         (the largest probability one of its states holds at some step of the weighing sequences)
         reaches ``heavy_weight`` gets ``samples * w / heavy_weight`` samples per action (rounded up
         to a multiple of ``samples``), up to ``max_samples``. The rows that hold a tenth of the mass
@@ -182,8 +187,8 @@ class BuildSettings:
         minimise the variance of the propagated distribution for a given number of tilts. The
         decision depends on the weights alone, never on the samples' outcomes, so the estimate
         stays unbiased (unlike ``confirm_samples``).
-    heavy_weight : float
-        The weight at which ``max_samples`` starts adding samples (default 0.05).
+    heavy_weight : float or None
+        The weight at which ``max_samples`` starts adding samples (None: 0.025).
     flush_side : bool or None
         Snap only within the same flush side (:func:`transition_builder.snapping.wall_contacts`):
         an edge resting a hair off flush against a wall rests on one end or the other, and a pose
@@ -214,8 +219,8 @@ class BuildSettings:
     snap_compensation: bool = False
     confirm_samples: int = 0
     flush_side: bool | None = None
-    max_samples: int = 0
-    heavy_weight: float = 0.05
+    max_samples: int | None = None
+    heavy_weight: float | None = None
 
     def __post_init__(self):
         deterministic = parse_noise(self.noise).is_zero
@@ -242,14 +247,6 @@ class BuildSettings:
             raise ValueError(f"build setting confirm_samples must be a non-negative integer, got {c!r}")
         object.__setattr__(self, "confirm_samples", int(c))
         object.__setattr__(self, "snap_compensation", bool(self.snap_compensation))
-        ms = self.max_samples
-        if isinstance(ms, bool) or not isinstance(ms, (int, np.integer)) or not 0 <= ms <= 10_000:
-            raise ValueError(f"build setting max_samples must be an integer in 0..10000, got {ms!r}")
-        object.__setattr__(self, "max_samples", int(ms))
-        hw = self.heavy_weight
-        if isinstance(hw, bool) or not isinstance(hw, (int, float)) or not 0 < hw <= 1:
-            raise ValueError(f"build setting heavy_weight must be in (0, 1], got {hw!r}")
-        object.__setattr__(self, "heavy_weight", float(hw))
         fs = self.flush_side
         if fs is None:
             fs = parse_noise(self.noise).is_zero      # on for deterministic builds
@@ -282,7 +279,7 @@ class BuildSettings:
         object.__setattr__(self, "noise", str(noise))
         k = self.samples
         if k is None:
-            k = 1 if noise.is_zero else 8
+            k = 1 if noise.is_zero else _DEFAULT_NOISY_SAMPLES
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1 or k > 10_000:
             raise ValueError(f"samples per row must be an integer in 1..10000, got {self.samples!r}")
         if noise.is_zero:
@@ -295,6 +292,19 @@ class BuildSettings:
             if ew == 0 or not self.adaptive:
                 raise ValueError("confirm_samples needs adaptive sampling with weighted exploration "
                                  "(explore_weight > 0)")
+        weighted_noisy = not noise.is_zero and ew > 0 and not self.confirm_samples
+        ms = self.max_samples
+        if ms is None:
+            ms = _DEFAULT_NOISY_MAX_SAMPLES if weighted_noisy and k < _DEFAULT_NOISY_MAX_SAMPLES else 0
+        if isinstance(ms, bool) or not isinstance(ms, (int, np.integer)) or not 0 <= ms <= 10_000:
+            raise ValueError(f"build setting max_samples must be an integer in 0..10000, got {ms!r}")
+        object.__setattr__(self, "max_samples", int(ms))
+        hw = self.heavy_weight
+        if hw is None:
+            hw = _DEFAULT_NOISY_HEAVY_WEIGHT
+        if isinstance(hw, bool) or not isinstance(hw, (int, float)) or not 0 < hw <= 1:
+            raise ValueError(f"build setting heavy_weight must be in (0, 1], got {hw!r}")
+        object.__setattr__(self, "heavy_weight", float(hw))
         if self.max_samples:
             if noise.is_zero or ew == 0:
                 raise ValueError("max_samples needs process noise and weighted exploration (explore_weight > 0)")

@@ -22,9 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--noise", default="none", help="process noise: none | pose:SIGMA_MM,SIGMA_DEG")
     parser.add_argument("--resolution", default=None, metavar="MM,DEG",
                         help="snapping tolerance of representative rest poses, mm and degrees "
-                             "(default 0.25,0.25 without noise, 1,1 with noise)")
+                             "(default 0.25,0.25 without noise, 0.75,0.75 with noise)")
     parser.add_argument("--samples", type=int, default=None, metavar="K",
-                        help="samples per state and action (default 1 without noise, 8 with noise)")
+                        help="samples per state and action (default 1 without noise, 4 with noise)")
     parser.add_argument("--start-samples", type=int, default=5000,
                         help="uniform start poses for the first tilt (default 5000)")
     parser.add_argument("--grid", default="4x4x4", help="report grid AxBxG (default 4x4x4)")
