@@ -149,6 +149,15 @@ def _expected(metrics: dict, key: str, ci_key: str, lower_key: str) -> str:
     return f"{_fmt(metrics.get(key), '.1f')} (95% interval {_fmt(ci[0], '.1f')}-{_fmt(ci[1], '.1f')})"
 
 
+def _contact_builds(s: dict) -> str:
+    """How the compared contact models were built: the same settings, or which differ."""
+    contact = s.get("contact_build")
+    if contact is None or contact == s.get("key_build"):
+        return "The same build settings, the same random sequences:"
+    return (f"The same random sequences; the models on legs were built with `{contact}`, the single contact's "
+            f"with `{s.get('key_build')}`, so part of a difference can be the resolution's:")
+
+
 def _contact_decision(cm: dict, keys: list, s: dict) -> list:
     """The paragraph that states which contact model is the default and why (analysis issue, item 3)."""
     other = cm[keys[1]]
@@ -299,7 +308,7 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         keys = list(cm)
         lines += ["## Does the answer depend on the contact model?", "",
                   "The simulator carries the part on one support sphere under its centroid (default) or on K legs "
-                  "(`--support-points K`). The same build settings, the same random sequences:", "",
+                  "(`--support-points K`). " + _contact_builds(s), "",
                   "| answer | " + " | ".join(f"{k} support point{'s' if k != '1' else ''}" for k in keys) + " |",
                   "|---|" + "---|" * len(keys)]
         rows = [("model states", "states", ",d"),

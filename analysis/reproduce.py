@@ -45,7 +45,9 @@ class ReproduceSettings:
 
     ``friction`` is the floor's uniform friction coefficient (None: the scene default) of the key and
     the B parts; ``key_build`` and ``part_build`` are :class:`~transition_builder.builder.BuildSettings` changes for
-    the key's model and the B parts' models; ``parts`` are the B shape specs and ``maps`` the C
+    the key's model and the B parts' models, and ``contact_build`` for the key's models under the
+    other contact models of ``compare_support_points`` (None: ``key_build``, so that both contact
+    models are compared at the same resolution); ``parts`` are the B shape specs and ``maps`` the C
     friction specs; ``tray_mm`` the tray of every scene.
     """
 
@@ -75,6 +77,7 @@ class ReproduceSettings:
     sync_time_budget: float = 60.0
     part_sync_time_budget: float = 20.0
     compare_support_points: tuple = (4,)
+    contact_build: dict | None = None
     contact_ensemble_count: int = 100_000
     epsilon: float = CONVERGED_BITS
 
@@ -243,7 +246,8 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     out["contact_models"] = {"1": _contact_summary(key, km, s, names)}
     for k in s.compare_support_points:
         scene_k = key_scene.with_settings(support_points=int(k))
-        model_k, info = _build(scene_k, s.key_build, s.seed, workers, progress, f"{s.shape}, {k} support points")
+        model_k, info = _build(scene_k, s.key_build if s.contact_build is None else s.contact_build, s.seed,
+                               workers, progress, f"{s.shape}, {k} support points")
         mk = part_metrics(model_k, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
                           sync_time_budget=s.sync_time_budget)
         out["contact_models"][str(k)] = {**_contact_summary(model_k, mk, s, names), "model": info}
