@@ -600,7 +600,6 @@ def test_checkpoint_keeps_the_samples_added_by_weight(tmp_path):
     ex.more_src = np.array([[1, 0, 3], [1, 1, 3]])
     ex.more_land = np.array([[31.0, 41.0, 0.3], [np.nan, np.nan, np.nan]])
     ex.more_status = np.array([0, 3], dtype=np.int8)
-    ex.more_count[1] = 1
     path = str(tmp_path / "c.npz")
     ex.save(path, "key-a")
     back = _Exploration.load(path, "key-a", 2, 3)

@@ -451,18 +451,23 @@ class _Exploration:
         self.more_src = np.zeros((0, 3), dtype=np.int64)
         self.more_land = np.zeros((0, 3))
         self.more_status = np.zeros(0, dtype=np.int8)
-        self.more_count = np.zeros(0, dtype=np.int64)      # per orbit: samples per action beyond ``samples``
 
     @property
     def n_orbits(self) -> int:
         return len(self.orbit_poses)
+
+    @property
+    def more_count(self) -> np.ndarray:
+        """Per orbit: samples per action drawn beyond ``samples`` (from ``more_src``)."""
+        count = np.zeros(self.n_orbits, dtype=np.int64)
+        np.maximum.at(count, self.more_src[:, 0], self.more_src[:, 2] + 1 - self.samples)
+        return count
 
     def add_orbits(self, poses: np.ndarray, split_from: int = -1):
         n_old = self.n_orbits
         n = n_old + len(poses)
         self.orbit_poses = np.concatenate([self.orbit_poses, poses])
         self.split_from = np.concatenate([self.split_from, np.full(len(poses), split_from, dtype=np.int64)])
-        self.more_count = np.concatenate([self.more_count, np.zeros(len(poses), dtype=np.int64)])
         if n > len(self.land):
             cap = max(n, 2 * len(self.land), 64)
             land = np.full((cap, self.n_actions, self.samples, 3), np.nan)
@@ -481,7 +486,6 @@ class _Exploration:
                   "start_status": self.start_status,
                   "phase": np.array([_PHASES.index(self.phase[0]), self.phase[1]]),
                   "more_src": self.more_src, "more_land": self.more_land, "more_status": self.more_status,
-                  "more_count": self.more_count,
                   "candidates": self.candidates, "counters": np.array([self.cand_done, self.splits,
                                                                        self.refine_tilts, self.topup_tilts,
                                                                        self.recentered, self.moved])}
@@ -509,14 +513,12 @@ class _Exploration:
                 ex.more_src = np.array(z["more_src"], dtype=np.int64)
                 ex.more_land = np.array(z["more_land"])
                 ex.more_status = np.array(z["more_status"], dtype=np.int8)
-                ex.more_count = np.array(z["more_count"], dtype=np.int64)
                 (ex.cand_done, ex.splits, ex.refine_tilts, ex.topup_tilts, ex.recentered,
                  ex.moved) = (int(v) for v in z["counters"])
         except Exception:
             return None
         n = ex.n_orbits
-        if (ex.land.shape != (n, n_actions, samples, 3) or len(ex.explored) != n or len(ex.split_from) != n
-                or len(ex.more_count) != n):
+        if ex.land.shape != (n, n_actions, samples, 3) or len(ex.explored) != n or len(ex.split_from) != n:
             return None
         return ex
 
@@ -557,11 +559,13 @@ def _rotated_landings(sym: TraySymmetry, land_o: np.ndarray) -> np.ndarray:
 
 def _orbit_jobs(scene, ex, orbits, k_lo, k_hi, key_tag, actions=None):
     """Tilt jobs for samples ``k_lo..k_hi-1`` of every orbit under every action (or the action
-    indices ``actions``), one job per action; a noise stream per (orbit, action, sample)."""
-    K = k_hi - k_lo
-    poses = np.repeat(ex.orbit_poses[orbits], K, axis=0)
-    ids = np.repeat(orbits, K)
-    ks = np.tile(np.arange(k_lo, k_hi), len(orbits))
+    indices ``actions``), one job per action; a noise stream per (orbit, action, sample).
+    ``k_lo`` and ``k_hi`` are numbers, or arrays with one range per orbit."""
+    lo = np.broadcast_to(np.asarray(k_lo, dtype=np.int64), len(orbits))
+    hi = np.broadcast_to(np.asarray(k_hi, dtype=np.int64), len(orbits))
+    poses = np.repeat(ex.orbit_poses[orbits], hi - lo, axis=0)
+    ids = np.repeat(orbits, hi - lo)
+    ks = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]) if len(orbits) else np.zeros(0, dtype=np.int64)
     return [(scene.actions[b], poses, np.column_stack([np.full(len(poses), key_tag), ids, np.full(len(poses), b), ks]))
             for b in (range(len(scene.actions)) if actions is None else actions)]
 
@@ -860,14 +864,9 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     acc += n_act * cnt_all[end]
                     end += 1
                 part, lo, hi, cnt = orbits[start:end], k_lo[start:end], k_hi[start:end], cnt_all[start:end]
-                poses = np.repeat(ex.orbit_poses[part], cnt, axis=0)
-                ids = np.repeat(part, cnt)
-                ks = np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)])
-                jobs = [(scene.actions[b], poses,
-                         np.column_stack([np.full(len(poses), _KEY_ORBIT), ids, np.full(len(poses), b), ks]))
-                        for b in range(n_act)]
-                res = _run_tilts(executor, scene, noise_text, settings.seed, jobs, done)
-                tilts += n_act * len(poses)
+                res = _run_tilts(executor, scene, noise_text, settings.seed,
+                                 _orbit_jobs(scene, ex, part, lo, hi, _KEY_ORBIT), done)
+                tilts += n_act * int(cnt.sum())
                 offs = np.concatenate([[0], np.cumsum(cnt)])
                 srcs, lands, stats_ = [], [], []
                 for i, o in enumerate(part):
@@ -883,7 +882,6 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 ex.more_src = np.concatenate([ex.more_src] + srcs).astype(np.int64)
                 ex.more_land = np.concatenate([ex.more_land] + lands)
                 ex.more_status = np.concatenate([ex.more_status] + stats_).astype(np.int8)
-                ex.more_count[part] = hi - K
                 start = end
 
         def sample_pairs(pairs, k_lo, k_hi):
@@ -1097,13 +1095,14 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
     # rest rows of explored orbits: the first K samples, then those added in proportion to weight
     done = np.flatnonzero(ex.explored[:n_orbits])
     E = len(done)
+    more_of_action = [np.flatnonzero(ex.more_src[:, 1] == b) for b in range(n_act)]
     for j in range(G):
         for b in range(n_act):
             a = sym.rotate_action(b, j)
             src = np.repeat(n_start + done * G + j, K)
             st = ex.status[done, b].reshape(-1)
             land = ex.land[done, b].reshape(-1, 3)
-            more = np.flatnonzero(ex.more_src[:, 1] == b)
+            more = more_of_action[b]
             if len(more):
                 src = np.concatenate([src, n_start + ex.more_src[more, 0] * G + j])
                 st = np.concatenate([st, ex.more_status[more]])
