@@ -54,6 +54,7 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from kruskal_markov.model import TransitionModel, atomic_savez
 from transition_builder.executors import make_executor, simulator_for
@@ -531,23 +532,36 @@ def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.n
     """Offer landings (in order, already rotated as needed) to the index; found new orbits.
 
     A landing with no representative within tolerance (same cell and contacts) founds an orbit:
-    its ``G`` rotations join the index. Returns the number of orbits founded.
+    its ``G`` rotations join the index. Returns the number of orbits founded. Offering the
+    landings of many orbits in one call founds exactly what offering them orbit by orbit would:
+    a landing is checked against every representative there was before the call (one vectorised
+    query) and against the rotations of every landing that founded an orbit before it in this
+    call (neighbour lists among the call's misses, then one pass in order). The builder offers a
+    whole batch at once.
     """
     ok = np.all(np.isfinite(landings), axis=1)
     cand = landings[ok]
     if len(cand) == 0:
         return 0
-    hit = index.snap(cand)
-    new_poses = []
-    for i in np.flatnonzero(hit < 0):
-        p = cand[i:i + 1]
-        if new_poses and index.snap(p)[0] >= 0:       # joined an orbit founded earlier in this batch
-            continue
-        index.add(np.concatenate([sym.rotate_poses(p, j) for j in range(sym.order)]))
-        new_poses.append(p[0])
-    if new_poses:
-        ex.add_orbits(np.array(new_poses))
-    return len(new_poses)
+    q, _ = index.embed(cand)
+    if len(q) > 64:
+        index.compact()                                  # many queries: all through the tree
+    hit, _ = index.nearest_embedded(q)
+    miss = np.flatnonzero(hit < 0)
+    if len(miss) == 0:
+        return 0
+    G = sym.order
+    rot = np.stack([sym.rotate_poses(cand[miss], j) for j in range(G)], axis=1)     # (m, G, 3)
+    rq, _ = index.embed(rot.reshape(-1, 3))
+    near = cKDTree(rq, boxsize=index.box).query_ball_point(q[miss], r=1.0 + 1e-12)
+    founds = np.zeros(len(miss), dtype=bool)
+    for t, nb in enumerate(near):
+        owners = np.asarray(nb, dtype=np.int64) // G
+        founds[t] = not founds[owners[owners < t]].any()
+    if founds.any():
+        index.add(rot[founds].reshape(-1, 3))
+        ex.add_orbits(cand[miss[founds]])
+    return int(founds.sum())
 
 
 def _rotated_landings(sym: TraySymmetry, land_o: np.ndarray) -> np.ndarray:
@@ -637,6 +651,7 @@ def _members(ex: _Exploration, index: PoseIndex, sym: TraySymmetry):
     land = np.concatenate(pools)
     land = land[np.all(np.isfinite(land), axis=1)]
     q, _ = index.embed(land)
+    index.compact()                                      # many queries: all through the tree
     tgt, dist = index.nearest_embedded(q)
     keep = tgt >= 0
     land, tgt, dist = land[keep], tgt[keep], dist[keep]
@@ -685,31 +700,27 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     land, orbit, members, _ = _members(ex, index, sym)
     mq, _ = index.embed(members)
     mq[:, 3] = orbit * _GROUP_GAP                         # neighbours only within one orbit
-    from scipy.spatial import cKDTree
     tree = cKDTree(mq, boxsize=np.array([1e12, 1e12, index.box[2], 1e12]))
     density = tree.query_ball_point(mq, _RECENTER_RADIUS, return_length=True)
     order = np.lexsort((np.arange(len(orbit)), -density, orbit))
     first = order[np.r_[True, orbit[order][1:] != orbit[order][:-1]]] if len(order) else order
-    moved = []
-    for i in first:
-        o = int(orbit[i])
-        if density[i] < 2 or not ex.explored[o]:
-            continue
-        rq, _ = index.embed(ex.orbit_poses[o:o + 1])
-        d = np.abs(mq[i, :3] - rq[0, :3])
-        d[2] = min(d[2], index.box[2] - d[2])
-        if np.sqrt((d ** 2).sum()) <= _RECENTER_RADIUS:
-            continue
-        moved.append((o, members[i]))
-    for o, p in moved:
-        ex.orbit_poses[o] = p
-        ex.explored[o] = False
-        ex.land[o] = np.nan
-        ex.status[o] = NOT_DRAWN
-        index.move(np.arange(o * G, (o + 1) * G), np.concatenate([sym.rotate_poses(p[None], j) for j in range(G)]))
-    if moved:
-        _offer(index, ex, sym, land)                    # landings left uncovered found new orbits
-    return len(moved)
+    first = first[(density[first] >= 2) & ex.explored[orbit[first]]]
+    rq, _ = index.embed(ex.orbit_poses[orbit[first]])
+    d = np.abs(mq[first, :3] - rq[:, :3])
+    d[:, 2] = np.minimum(d[:, 2], index.box[2] - d[:, 2])
+    first = first[np.sqrt((d ** 2).sum(axis=1)) > _RECENTER_RADIUS]
+    if len(first) == 0:
+        return 0
+    o = orbit[first]                                    # distinct orbits
+    p = members[first]
+    ex.orbit_poses[o] = p
+    ex.explored[o] = False
+    ex.land[o] = np.nan
+    ex.status[o] = NOT_DRAWN
+    index.move((o[:, None] * G + np.arange(G)).reshape(-1),
+               np.stack([sym.rotate_poses(p, j) for j in range(G)], axis=1).reshape(-1, 3))
+    _offer(index, ex, sym, land)                        # landings left uncovered found new orbits
+    return len(first)
 
 
 def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry, min_dist: float) -> np.ndarray:
@@ -816,10 +827,10 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             ex.start_land = np.stack([r[0] for r in res])
             ex.start_status = np.stack([r[1] for r in res])
             tilts += len(reps) * n0
-            for i in range(n0):
-                for bi in range(len(reps)):
-                    _offer(index, ex, sym, np.concatenate(
-                        [sym.rotate_poses(ex.start_land[bi, i:i + 1], j) for j in range(G)]))
+            # offering order: start i, then its action, then the rotation
+            rot = np.stack([sym.rotate_poses(ex.start_land[bi], j) for bi in range(len(reps)) for j in range(G)],
+                           axis=1)                                       # (n0, n_reps * G, 3)
+            _offer(index, ex, sym, rot.reshape(-1, 3))
             maybe_checkpoint(force=True)
         else:
             # the index is exactly the representatives saved (every founding decision up to the
@@ -848,8 +859,8 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     ex.land[part, b, k_lo:k_hi] = res[b][0].reshape(len(part), k_hi - k_lo, 3)
                     ex.status[part, b, k_lo:k_hi] = res[b][1].reshape(len(part), k_hi - k_lo)
                 ex.explored[part] = True
-                for o in part:
-                    _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, :, k_lo:k_hi]))
+                _offer(index, ex, sym, np.concatenate([_rotated_landings(sym, ex.land[o, :, k_lo:k_hi])
+                                                       for o in part]))
 
         def sample_more(orbits, k_lo, k_hi):
             """Tilt samples ``k_lo[i]..k_hi[i]-1`` (beyond ``samples``) of ``orbits[i]`` under every
@@ -868,7 +879,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                                  _orbit_jobs(scene, ex, part, lo, hi, _KEY_ORBIT), done)
                 tilts += n_act * int(cnt.sum())
                 offs = np.concatenate([[0], np.cumsum(cnt)])
-                srcs, lands, stats_ = [], [], []
+                srcs, lands, stats_, offered = [], [], [], []
                 for i, o in enumerate(part):
                     sl = slice(offs[i], offs[i + 1])
                     land_o = np.stack([res[b][0][sl] for b in range(n_act)])        # (n_act, c, 3)
@@ -878,7 +889,8 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                                                  np.tile(np.arange(lo[i], hi[i]), n_act)]))
                     lands.append(land_o.reshape(-1, 3))
                     stats_.append(stat_o.reshape(-1))
-                    _offer(index, ex, sym, _rotated_landings(sym, land_o))
+                    offered.append(_rotated_landings(sym, land_o))
+                _offer(index, ex, sym, np.concatenate(offered))
                 ex.more_src = np.concatenate([ex.more_src] + srcs).astype(np.int64)
                 ex.more_land = np.concatenate([ex.more_land] + lands)
                 ex.more_status = np.concatenate([ex.more_status] + stats_).astype(np.int8)
@@ -902,8 +914,8 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 for (orbits, b), (rest, status) in zip(slots, res):
                     ex.land[orbits, b, k_lo:k_hi] = rest.reshape(len(orbits), k_hi - k_lo, 3)
                     ex.status[orbits, b, k_lo:k_hi] = status.reshape(len(orbits), k_hi - k_lo)
-                for o, b in part:
-                    _offer(index, ex, sym, _rotated_landings(sym, ex.land[o, b:b + 1, k_lo:k_hi]))
+                _offer(index, ex, sym, np.concatenate([_rotated_landings(sym, ex.land[o, b:b + 1, k_lo:k_hi])
+                                                       for o, b in part]))
 
         if weighted:
             # weighted exploration: expand only what carries mass (module docstring); one
