@@ -50,6 +50,9 @@ HALF_TIME_STEP = {"time_step_s": 1.0 / 480.0, "substeps": 8}
 VARIANTS = {
     "det": ({}, "deterministic, defaults: 0.25 mm / 0.25 deg, 3 recentring rounds, flush side in the contact "
                 "signature"),
+    "det-probes": ({"probes": 4},
+                   "deterministic, the defaults with member probes: representatives of weight >= 0.05 tilt 4 "
+                   "of their members; rows where one lands in another report cell take the members' landings"),
     "det-0.5": ({"flush_side": False, "tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 0},
                 "deterministic, 0.5 / 0.5, no recentring"),
     "det-1mm": ({"flush_side": False, "tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 0},

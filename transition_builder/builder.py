@@ -74,9 +74,9 @@ BUILDER_VERSION = "snap-1"
 #: ``model.extras["state_kind"]`` values.
 STATE_START, STATE_REST, STATE_UNEXPLORED = 0, 1, 2
 _START_STREAM = 11          # seed stream of the start poses
-_KEY_START, _KEY_ORBIT, _KEY_REFINE = 1, 2, 3   # first key of a sampled tilt's noise stream
+_KEY_START, _KEY_ORBIT, _KEY_REFINE, _KEY_PROBE = 1, 2, 3, 4   # first key of a sampled tilt's noise stream
 _CHUNK = 48                 # tilts per executor task
-_CHECKPOINT_FORMAT = 4
+_CHECKPOINT_FORMAT = 5
 #: status of a sample slot not drawn (yet); adaptive builds draw fewer samples for light rows.
 NOT_DRAWN = -1
 _PHASES = ("explore", "refine", "topup", "done")
@@ -92,6 +92,7 @@ _WEIGHT_THRESHOLD = 1e-3
 _DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-3
 #: noisy builds: samples in proportion to weight from this weight on, up to this many per action
 _DEFAULT_NOISY_HEAVY_WEIGHT = 0.025
+_DEFAULT_PROBE_WEIGHT = 0.05       # member probes (deterministic builds): from this weight on
 _DEFAULT_NOISY_MAX_SAMPLES = 128
 #: default snapping tolerance (mm and degrees), chosen with the flush-side signature on the tuning set
 #: and two held-out sets of sequences (benchmarks/BUILDER_RESULTS.md, docs/builder.md)
@@ -101,6 +102,7 @@ _DEFAULT_NOISY_SAMPLES = 4
 _RECENTER_RADIUS = 0.05     # tolerance units: members this close count as one resting point
 _GROUP_GAP = 1e6
 _WEIGHT_STREAM = 12
+_PROBE_STREAM = 13          # seed stream of the members a probed row tilts
 
 
 @dataclass(frozen=True)
@@ -197,6 +199,19 @@ class BuildSettings:
         of flush sent the next tilt's landing 0.1 mm and the one after 0.7 mm apart). None: on
         without noise (at 0.25 mm it lowered the mean and the worst step on both held-out sets of
         sequences), off with noise (the noise moves theta by far more than such an angle).
+    probes : int
+        Member probes (deterministic builds; 0: off). Once exploration and recentring have closed,
+        every representative of weight at least ``probe_weight`` (the largest probability one of
+        its states holds at some step of 200 random 30-tilt sequences through the model) tilts up
+        to ``probes`` of its members — landings that snapped to it, drawn at random, so a pose
+        many landings share is drawn as often — under every action. Where a member lands in
+        another report cell than the representative, or faults where it does not (or the other way
+        round), the physics is sensitive inside the representative's tolerance, and the row
+        becomes the representative's landing and its members' with equal weights (Ulam's
+        method: the image of the cell, not of its centre); elsewhere the row stays the
+        representative's single landing. Exploration then continues from what the members reach.
+    probe_weight : float or None
+        The weight from which a representative is probed (None: 0.05).
     """
 
     tol_mm: float | None = None
@@ -222,6 +237,8 @@ class BuildSettings:
     flush_side: bool | None = None
     max_samples: int | None = None
     heavy_weight: float | None = None
+    probes: int = 0
+    probe_weight: float | None = None
 
     def __post_init__(self):
         deterministic = parse_noise(self.noise).is_zero
@@ -313,6 +330,17 @@ class BuildSettings:
                 raise ValueError(f"max_samples must exceed samples ({k}), got {self.max_samples}")
             if self.confirm_samples:
                 raise ValueError("max_samples and confirm_samples cannot be combined")
+        pr = self.probes
+        if isinstance(pr, bool) or not isinstance(pr, (int, np.integer)) or not 0 <= pr <= 64:
+            raise ValueError(f"build setting probes must be an integer in 0..64, got {pr!r}")
+        object.__setattr__(self, "probes", int(pr))
+        pw = _DEFAULT_PROBE_WEIGHT if self.probe_weight is None else self.probe_weight
+        if isinstance(pw, bool) or not isinstance(pw, (int, float)) or not 0 < pw <= 1:
+            raise ValueError(f"build setting probe_weight must be in (0, 1], got {pw!r}")
+        object.__setattr__(self, "probe_weight", float(pw))
+        if self.probes and (not noise.is_zero or ew > 0):
+            raise ValueError("probes are for deterministic builds that explore everything (no noise, "
+                             "explore_weight 0)")
         parse_grid(self.grid)
         if self.theta_offset is not None and not math.isfinite(self.theta_offset):
             raise ValueError("theta_offset must be finite")
@@ -345,9 +373,9 @@ def _package_version() -> str:
 
 #: build options added after models were cached; at their "off" value they are left out of the
 #: cache key, so that switching them off reproduces the keys of the models built before them
-_LATER_OPTIONS = ("snap_compensation", "confirm_samples", "flush_side", "max_samples")
+_LATER_OPTIONS = ("snap_compensation", "confirm_samples", "flush_side", "max_samples", "probes")
 #: later options that only matter while another one is on (option: the one it serves)
-_SERVING_OPTIONS = {"heavy_weight": "max_samples"}
+_SERVING_OPTIONS = {"heavy_weight": "max_samples", "probe_weight": "probes"}
 
 
 def settings_design(settings: dict) -> dict:
@@ -448,6 +476,8 @@ class _Exploration:
         self.topup_tilts = 0
         self.recentered = 0         # recentring rounds done
         self.moved = 0              # representatives moved by recentring
+        self.probed = 0             # 1 once the member probes are done
+        self.probe_tilts = 0
         # samples beyond ``samples`` (max_samples): one row per tilt, (orbit, action, k) in ``more_src``
         self.more_src = np.zeros((0, 3), dtype=np.int64)
         self.more_land = np.zeros((0, 3))
@@ -489,7 +519,8 @@ class _Exploration:
                   "more_src": self.more_src, "more_land": self.more_land, "more_status": self.more_status,
                   "candidates": self.candidates, "counters": np.array([self.cand_done, self.splits,
                                                                        self.refine_tilts, self.topup_tilts,
-                                                                       self.recentered, self.moved])}
+                                                                       self.recentered, self.moved,
+                                                                       self.probed, self.probe_tilts])}
         atomic_savez(path, arrays, prefix=".ckpt-")
 
     @classmethod
@@ -515,7 +546,7 @@ class _Exploration:
                 ex.more_land = np.array(z["more_land"])
                 ex.more_status = np.array(z["more_status"], dtype=np.int8)
                 (ex.cand_done, ex.splits, ex.refine_tilts, ex.topup_tilts, ex.recentered,
-                 ex.moved) = (int(v) for v in z["counters"])
+                 ex.moved, ex.probed, ex.probe_tilts) = (int(v) for v in z["counters"])
         except Exception:
             return None
         n = ex.n_orbits
@@ -917,6 +948,56 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 _offer(index, ex, sym, np.concatenate([_rotated_landings(sym, ex.land[o, b:b + 1, k_lo:k_hi])
                                                        for o, b in part]))
 
+        def probe_members():
+            """Member probes (``BuildSettings.probes``): tilt members of the heavy representatives,
+            keep them where the physics is sensitive inside the tolerance; returns orbits founded."""
+            nonlocal tilts
+            w, _ = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
+            heavy = np.flatnonzero((w >= settings.probe_weight) & ex.explored[:ex.n_orbits])
+            _, orbit, members, _ = _members(ex, index, sym)
+            rng = np.random.default_rng([settings.seed, _PROBE_STREAM])
+            by_orbit = np.argsort(orbit, kind="stable")
+            bounds = np.searchsorted(orbit[by_orbit], np.stack([heavy, heavy + 1]))
+            ids, poses = [], []
+            for o, lo, hi in zip(heavy, bounds[0], bounds[1]):
+                mine = by_orbit[lo:hi]
+                pick = mine if len(mine) <= settings.probes else \
+                    np.sort(rng.choice(mine, settings.probes, replace=False))
+                ids.append(np.full(len(pick), o))
+                poses.append(members[pick])
+            ids = np.concatenate(ids) if ids else np.zeros(0, dtype=np.int64)
+            poses = np.concatenate(poses) if poses else np.zeros((0, 3))
+            k = np.arange(len(ids)) - np.searchsorted(ids, ids) + 1        # 1.. within an orbit
+            jobs = [(scene.actions[b], poses, np.column_stack([np.full(len(ids), _KEY_PROBE), ids,
+                                                              np.full(len(ids), b), k]))
+                    for b in range(n_act)]
+            res = _run_tilts(executor, scene, settings.noise, settings.seed, jobs, done)
+            tilts += n_act * len(ids)
+            ex.probe_tilts += n_act * len(ids)
+            src, land, status = [], [], []
+            for b in range(n_act):
+                rest, st = res[b]
+                rep_st = ex.status[ids, b, 0]
+                rep_cell = np.full(len(ids), -1, dtype=np.int64)
+                ok_rep = rep_st == OK
+                rep_cell[ok_rep] = grid.voxel_index(ex.land[ids[ok_rep], b, 0])
+                cell = np.full(len(ids), -1, dtype=np.int64)
+                ok = st == OK
+                cell[ok] = grid.voxel_index(rest[ok])
+                differs = (cell != rep_cell) | ((st == OK) != ok_rep)
+                sensitive = np.isin(ids, ids[differs])                   # every member of such a row
+                src.append(np.column_stack([ids[sensitive], np.full(int(sensitive.sum()), b), k[sensitive]]))
+                land.append(rest[sensitive])
+                status.append(st[sensitive])
+            src, land, status = np.concatenate(src), np.concatenate(land), np.concatenate(status)
+            order = np.lexsort((src[:, 2], src[:, 1], src[:, 0]))          # by orbit, action, member
+            src, land, status = src[order], land[order], status[order]
+            ex.more_src = np.concatenate([ex.more_src, src]).astype(np.int64)
+            ex.more_land = np.concatenate([ex.more_land, land])
+            ex.more_status = np.concatenate([ex.more_status, status]).astype(np.int8)
+            ex.probed = 1
+            return _offer(index, ex, sym, _rotated_landings(sym, land[:, None, :])) if len(land) else 0
+
         if weighted:
             # weighted exploration: expand only what carries mass (module docstring); one
             # checkpoint per round, so a resumed build makes exactly the same decisions
@@ -972,6 +1053,11 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     if moved:
                         continue
                     ex.recentered = settings.recenter_rounds
+                if not capped and settings.probes and not ex.probed:
+                    founded = probe_members()
+                    maybe_checkpoint(force=True)
+                    if founded:
+                        continue
                 if capped or ex.phase[1] >= (topup_rounds if K0 < K else rounds):
                     break
                 if K0 < K:
@@ -1050,7 +1136,11 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
         "recentring_rounds": ex.recentered,
         "max_samples": settings.max_samples, "rows_sampled_by_weight": int(np.sum(ex.more_count > 0)),
         "weighted_sample_tilts": int(len(ex.more_src)),
-        "representatives_moved": ex.moved, **_noise_stats(settings, ex, index, sym)})
+        "representatives_moved": ex.moved,
+        **({"probes": settings.probes, "probe_tilts": ex.probe_tilts,
+            "rows_probed_sensitive": int(len(np.unique(ex.more_src[:, :2], axis=0))) if len(ex.more_src) else 0}
+           if settings.probes else {}),
+        **_noise_stats(settings, ex, index, sym)})
     if checkpoint and os.path.exists(checkpoint):
         os.unlink(checkpoint)
     return BuildResult(model, stats)

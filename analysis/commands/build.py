@@ -45,6 +45,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "samples, up to KMAX (default: the builder's)")
     parser.add_argument("--heavy-weight", type=float, default=None, metavar="W",
                         help="the weight from which --max-samples adds samples (default: the builder's)")
+    parser.add_argument("--probes", type=int, default=None, metavar="M",
+                        help="deterministic builds: representatives of weight >= --probe-weight tilt up to M of "
+                             "their members; where one lands in another report cell the row becomes the "
+                             "members' landings (default 0: off)")
+    parser.add_argument("--probe-weight", type=float, default=None, metavar="W",
+                        help="the weight from which --probes probes a representative (default: the builder's)")
     parser.add_argument("--flush-side", action=argparse.BooleanOptionalAction, default=None,
                         help="snap only between poses resting on the same end of an edge flush with a wall "
                              "(default: on without noise, off with noise)")
@@ -87,6 +93,8 @@ def run(args: argparse.Namespace) -> dict:
                              **({} if args.flush_side is None else {"flush_side": args.flush_side}),
                              **({} if args.max_samples is None else {"max_samples": args.max_samples}),
                              **({} if args.heavy_weight is None else {"heavy_weight": args.heavy_weight}),
+                             **({} if args.probes is None else {"probes": args.probes}),
+                             **({} if args.probe_weight is None else {"probe_weight": args.probe_weight}),
                              **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}),
                              **({} if args.recenter_rounds is None else {"recenter_rounds": args.recenter_rounds}))
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
