@@ -607,3 +607,53 @@ def test_checkpoint_keeps_the_samples_added_by_weight(tmp_path):
     assert np.array_equal(back.more_src, ex.more_src) and np.array_equal(back.more_status, ex.more_status)
     np.testing.assert_array_equal(back.more_land, ex.more_land)
     assert back.more_count.tolist() == [0, 1] and back.more_count.dtype == np.int64
+
+
+def _probe_scene():
+    # an acute triangle in a small tray with a 1 mm tolerance: its landings are sensitive to the
+    # start pose inside a representative's tolerance often enough to exercise the member probes
+    return scene_from_options("triangle:1", friction_spec=0.3, tray_mm=(100.0, 100.0))
+
+
+def test_member_probes_give_sensitive_rows_their_members_landings():
+    """With ``probes``, a heavy representative's row under an action takes its members' landings
+    where one of them lands in another report cell (or faults where the representative does not);
+    every other row keeps the representative's single landing. Samples still add up, a sensitive
+    row spans more than one report cell, and the option leaves the cache key of a build without it
+    alone."""
+    from dataclasses import replace
+
+    scene = _probe_scene()
+    s = BuildSettings(start_samples=100, seed=2, tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, probes=2,
+                      probe_weight=0.3)
+    r = build_model(scene, s, executor=SerialExecutor())
+    st, m = r.stats, r.model
+    assert st["probes"] == 2 and st["probe_tilts"] > 0
+    assert st["rows_probed_sensitive"] > 0, "the scene should have rows that are sensitive inside the tolerance"
+    kind = m.extras["state_kind"]
+    samples, faults = m.extras["samples"], m.extras["faults"]
+    rest = kind == STATE_REST
+    spread_rows = 0
+    for a in range(m.n_actions):
+        P = m.matrices[a]
+        counts = np.asarray(m.extras[f"counts_{a}"], dtype=np.int64)
+        rows = np.repeat(np.arange(m.n_states), np.diff(P.indptr))
+        per_row = np.bincount(rows, weights=counts, minlength=m.n_states)
+        np.testing.assert_array_equal(per_row + faults[a], samples[a])
+        probed = rest & (samples[a] > 1)
+        # a probed row: the representative and 1..2 members; the others: one sample, one target
+        assert np.all(samples[a][probed] <= 3)
+        single = rest & (samples[a] == 1)
+        assert np.all(np.diff(P.indptr)[single] <= 1)
+        for i in np.flatnonzero(probed):
+            cells = m.partition[P.indices[P.indptr[i]:P.indptr[i + 1]]]
+            # kept only because a member's landing differs in cell (or in faulting) from the rep's
+            assert len(np.unique(cells)) > 1 or 0 < faults[a][i] < samples[a][i]
+            spread_rows += 1
+    # symmetry: every sensitive (orbit, action) pair gives one row per rotation
+    assert spread_rows == st["rows_probed_sensitive"] * st["symmetry_order"]
+    assert build_key(scene, replace(s, probes=0)) == build_key(scene, replace(s, probes=0, probe_weight=0.5))
+    assert build_key(scene, replace(s, probes=0)) != build_key(scene, s)
+    for bad in ({"probes": -1}, {"probes": 2, "noise": "pose:0.5,0.5"}, {"probes": 2, "probe_weight": 0.0}):
+        with pytest.raises(ValueError):
+            BuildSettings(**{**s.to_dict(), **bad})
