@@ -13,7 +13,7 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e '.[test]'
 	touch $@
 
-# The main job: the paper's experiments from models, quick settings (7 minutes on 2 cores on a
+# The main job: the paper's experiments from models, quick settings (5-8 minutes on 2 cores on a
 # fresh machine), written to reports/index.md with figures. The committed full report is reports/full/
 # (`kruskal reproduce --out reports/full`).
 run: $(VENV)/.installed
