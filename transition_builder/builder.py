@@ -582,7 +582,7 @@ def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.n
     if len(miss) == 0:
         return 0
     G = sym.order
-    rot = np.stack([sym.rotate_poses(cand[miss], j) for j in range(G)], axis=1)     # (m, G, 3)
+    rot = _with_rotations(sym, cand[miss]).reshape(-1, G, 3)
     rq, _ = index.embed(rot.reshape(-1, 3))
     near = cKDTree(rq, boxsize=index.box).query_ball_point(q[miss], r=1.0 + 1e-12)
     founds = np.zeros(len(miss), dtype=bool)
@@ -595,10 +595,12 @@ def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.n
     return int(founds.sum())
 
 
-def _rotated_landings(sym: TraySymmetry, land_o: np.ndarray) -> np.ndarray:
-    """Landings of one orbit (n_act, K, 3) in the offering order (action, sample, rotation)."""
-    flat = land_o.reshape(-1, 3)
-    rot = np.stack([sym.rotate_poses(flat, j) for j in range(sym.order)], axis=1)   # (n_act*K, G, 3)
+def _with_rotations(sym: TraySymmetry, poses: np.ndarray) -> np.ndarray:
+    """Every pose of ``poses`` (any leading shape, last axis x, y, theta; taken in C order) followed
+    by its ``G`` rotations: ``(n * G, 3)``, pose-major. The order in which landings are offered
+    and in which an orbit's states are numbered."""
+    flat = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    rot = np.stack([sym.rotate_poses(flat, j) for j in range(sym.order)], axis=1)   # (n, G, 3)
     return rot.reshape(-1, 3)
 
 
@@ -748,8 +750,7 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     ex.explored[o] = False
     ex.land[o] = np.nan
     ex.status[o] = NOT_DRAWN
-    index.move((o[:, None] * G + np.arange(G)).reshape(-1),
-               np.stack([sym.rotate_poses(p, j) for j in range(G)], axis=1).reshape(-1, 3))
+    index.move((o[:, None] * G + np.arange(G)).reshape(-1), _with_rotations(sym, p))
     _offer(index, ex, sym, land)                        # landings left uncovered found new orbits
     return len(first)
 
@@ -859,15 +860,12 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             ex.start_status = np.stack([r[1] for r in res])
             tilts += len(reps) * n0
             # offering order: start i, then its action, then the rotation
-            rot = np.stack([sym.rotate_poses(ex.start_land[bi], j) for bi in range(len(reps)) for j in range(G)],
-                           axis=1)                                       # (n0, n_reps * G, 3)
-            _offer(index, ex, sym, rot.reshape(-1, 3))
+            _offer(index, ex, sym, _with_rotations(sym, ex.start_land.transpose(1, 0, 2)))
             maybe_checkpoint(force=True)
         else:
             # the index is exactly the representatives saved (every founding decision up to the
             # checkpoint is in them), so continuing gives the same model as an uninterrupted build
-            for o in range(ex.n_orbits):
-                index.add(np.concatenate([sym.rotate_poses(ex.orbit_poses[o:o + 1], j) for j in range(G)]))
+            index.add(_with_rotations(sym, ex.orbit_poses))
         batch = max(1, int(batch_tilts) // (n_act * K))
         capped = False
 
@@ -890,8 +888,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     ex.land[part, b, k_lo:k_hi] = res[b][0].reshape(len(part), k_hi - k_lo, 3)
                     ex.status[part, b, k_lo:k_hi] = res[b][1].reshape(len(part), k_hi - k_lo)
                 ex.explored[part] = True
-                _offer(index, ex, sym, np.concatenate([_rotated_landings(sym, ex.land[o, :, k_lo:k_hi])
-                                                       for o in part]))
+                _offer(index, ex, sym, _with_rotations(sym, ex.land[part, :, k_lo:k_hi]))
 
         def sample_more(orbits, k_lo, k_hi):
             """Tilt samples ``k_lo[i]..k_hi[i]-1`` (beyond ``samples``) of ``orbits[i]`` under every
@@ -910,7 +907,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                                  _orbit_jobs(scene, ex, part, lo, hi, _KEY_ORBIT), done)
                 tilts += n_act * int(cnt.sum())
                 offs = np.concatenate([[0], np.cumsum(cnt)])
-                srcs, lands, stats_, offered = [], [], [], []
+                srcs, lands, stats_ = [], [], []
                 for i, o in enumerate(part):
                     sl = slice(offs[i], offs[i + 1])
                     land_o = np.stack([res[b][0][sl] for b in range(n_act)])        # (n_act, c, 3)
@@ -920,8 +917,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                                                  np.tile(np.arange(lo[i], hi[i]), n_act)]))
                     lands.append(land_o.reshape(-1, 3))
                     stats_.append(stat_o.reshape(-1))
-                    offered.append(_rotated_landings(sym, land_o))
-                _offer(index, ex, sym, np.concatenate(offered))
+                _offer(index, ex, sym, _with_rotations(sym, np.concatenate(lands)))
                 ex.more_src = np.concatenate([ex.more_src] + srcs).astype(np.int64)
                 ex.more_land = np.concatenate([ex.more_land] + lands)
                 ex.more_status = np.concatenate([ex.more_status] + stats_).astype(np.int8)
@@ -945,8 +941,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 for (orbits, b), (rest, status) in zip(slots, res):
                     ex.land[orbits, b, k_lo:k_hi] = rest.reshape(len(orbits), k_hi - k_lo, 3)
                     ex.status[orbits, b, k_lo:k_hi] = status.reshape(len(orbits), k_hi - k_lo)
-                _offer(index, ex, sym, np.concatenate([_rotated_landings(sym, ex.land[o, b:b + 1, k_lo:k_hi])
-                                                       for o, b in part]))
+                _offer(index, ex, sym, _with_rotations(sym, ex.land[part[:, 0], part[:, 1], k_lo:k_hi]))
 
         def probe_members():
             """Member probes (``BuildSettings.probes``): tilt members of the heavy representatives,
@@ -984,7 +979,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 cell = np.full(len(ids), -1, dtype=np.int64)
                 ok = st == OK
                 cell[ok] = grid.voxel_index(rest[ok])
-                differs = (cell != rep_cell) | ((st == OK) != ok_rep)
+                differs = (cell != rep_cell) | (ok != ok_rep)
                 sensitive = np.isin(ids, ids[differs])                   # every member of such a row
                 src.append(np.column_stack([ids[sensitive], np.full(int(sensitive.sum()), b), k[sensitive]]))
                 land.append(rest[sensitive])
@@ -996,7 +991,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             ex.more_land = np.concatenate([ex.more_land, land])
             ex.more_status = np.concatenate([ex.more_status, status]).astype(np.int8)
             ex.probed = 1
-            return _offer(index, ex, sym, _rotated_landings(sym, land[:, None, :])) if len(land) else 0
+            return _offer(index, ex, sym, _with_rotations(sym, land)) if len(land) else 0
 
         if weighted:
             # weighted exploration: expand only what carries mass (module docstring); one
@@ -1110,14 +1105,14 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     if not diverge.any():
                         continue
                     p = member[i:i + 1]
-                    index.add(np.concatenate([sym.rotate_poses(p, j) for j in range(G)]))
+                    index.add(_with_rotations(sym, p))
                     new = ex.n_orbits
                     ex.add_orbits(p, split_from=o)
                     ex.land[new, :, 0] = mland[i]
                     ex.status[new, :, 0] = mstat[i]
                     ex.explored[new] = True
                     ex.splits += 1
-                    _offer(index, ex, sym, _rotated_landings(sym, ex.land[new]))
+                    _offer(index, ex, sym, _with_rotations(sym, ex.land[new]))
                 ex.cand_done = hi
                 maybe_checkpoint()
             ex.phase = ("explore", ex.phase[1])
@@ -1281,9 +1276,7 @@ def _assemble(scene, settings, sym, grid, index, ex, reps, key, run_stats):
     partition[:n_start] = cells_used
     partition[n_start:] = index.cells[:n_rest]
     state_poses = np.full((n, 3), np.nan)
-    rest_poses = np.concatenate([sym.rotate_poses(ex.orbit_poses, j)[:, None, :] for j in range(G)],
-                                axis=1).reshape(-1, 3) if n_orbits else np.zeros((0, 3))
-    state_poses[n_start:] = rest_poses
+    state_poses[n_start:] = _with_rotations(sym, ex.orbit_poses)
     extras = {"state_poses": state_poses, "state_kind": kind, "faults": faults.astype(np.int32),
               "samples": samples.astype(np.int32), **count_data}
     if len(borrowers):
