@@ -53,6 +53,9 @@ VARIANTS = {
     "det-probes": ({"probes": 4},
                    "deterministic, the defaults with member probes: representatives of weight >= 0.05 tilt 4 "
                    "of their members; rows where one lands in another report cell take the members' landings"),
+    "det-probes-far": ({"probes": 4, "probe_distance": 4.0},
+                       "deterministic, the defaults with member probes that also spread rows whose members land "
+                       "more than 4 tolerance balls (1 mm / 1 deg) from the representative's landing"),
     "det-0.5": ({"flush_side": False, "tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 0},
                 "deterministic, 0.5 / 0.5, no recentring"),
     "det-1mm": ({"flush_side": False, "tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 0},

@@ -615,7 +615,17 @@ def _probe_scene():
     return scene_from_options("triangle:1", friction_spec=0.3, tray_mm=(100.0, 100.0))
 
 
-def test_member_probes_give_sensitive_rows_their_members_landings():
+_PROBE_SETTINGS = BuildSettings(start_samples=100, seed=2, tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, probes=2,
+                                probe_weight=0.3)
+
+
+@pytest.fixture(scope="module")
+def probed_build():
+    """The probe scene built with member probes (cell-sensitive rows only), shared by two tests."""
+    return build_model(_probe_scene(), _PROBE_SETTINGS, executor=SerialExecutor())
+
+
+def test_member_probes_give_sensitive_rows_their_members_landings(probed_build):
     """With ``probes``, a heavy representative's row under an action takes its members' landings
     where one of them lands in another report cell (or faults where the representative does not);
     every other row keeps the representative's single landing. Samples still add up, a sensitive
@@ -623,11 +633,8 @@ def test_member_probes_give_sensitive_rows_their_members_landings():
     alone."""
     from dataclasses import replace
 
-    scene = _probe_scene()
-    s = BuildSettings(start_samples=100, seed=2, tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, probes=2,
-                      probe_weight=0.3)
-    r = build_model(scene, s, executor=SerialExecutor())
-    st, m = r.stats, r.model
+    scene, s = _probe_scene(), _PROBE_SETTINGS
+    st, m = probed_build.stats, probed_build.model
     assert st["probes"] == 2 and st["probe_tilts"] > 0
     assert st["rows_probed_sensitive"] > 0, "the scene should have rows that are sensitive inside the tolerance"
     kind = m.extras["state_kind"]
@@ -657,3 +664,28 @@ def test_member_probes_give_sensitive_rows_their_members_landings():
     for bad in ({"probes": -1}, {"probes": 2, "noise": "pose:0.5,0.5"}, {"probes": 2, "probe_weight": 0.0}):
         with pytest.raises(ValueError):
             BuildSettings(**{**s.to_dict(), **bad})
+
+
+def test_probe_distance_also_spreads_rows_whose_members_scatter_inside_a_cell(probed_build):
+    """``probe_distance`` adds the rows where a member lands in the representative's report cell
+    but farther than that many tolerance balls from its landing: the same members are tilted, so
+    the probed rows are a strict superset of the cell-sensitive ones (the states before probing
+    keep their indices); at 0 the option is left out of the cache key."""
+    from dataclasses import replace
+
+    from transition_builder.builder import settings_design
+
+    scene, s = _probe_scene(), _PROBE_SETTINGS
+    cell_only = probed_build
+    far = build_model(scene, replace(s, probe_distance=2.0), executor=SerialExecutor())
+    assert far.stats["rows_probed_sensitive"] > cell_only.stats["rows_probed_sensitive"] > 0
+    for a in range(cell_only.model.n_actions):
+        rows_cell = np.flatnonzero(cell_only.model.extras["samples"][a] > 1)
+        rows_far = np.flatnonzero(far.model.extras["samples"][a] > 1)
+        assert set(rows_cell.tolist()) <= set(rows_far.tolist())
+    assert "probe_distance" not in settings_design(s.to_dict())
+    assert settings_design(replace(s, probe_distance=2.0).to_dict())["probe_distance"] == 2.0
+    assert build_key(scene, s) != build_key(scene, replace(s, probe_distance=2.0))
+    for bad in (-1.0, float("nan"), float("inf"), True):
+        with pytest.raises(ValueError):
+            replace(s, probe_distance=bad)

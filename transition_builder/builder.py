@@ -212,6 +212,12 @@ class BuildSettings:
         representative's single landing. Exploration then continues from what the members reach.
     probe_weight : float or None
         The weight from which a representative is probed (None: 0.05).
+    probe_distance : float
+        With ``probes``, also count a row as sensitive where a member lands in the same report cell
+        as the representative but farther than ``probe_distance`` tolerance balls from its landing
+        (the snapping metric, :class:`transition_builder.snapping.PoseIndex`; 0: off, the report
+        cell and faults alone decide). A tilt that scatters a tight cluster across a report cell
+        sends the pieces different ways at later tilts, which a single landing cannot follow.
     """
 
     tol_mm: float | None = None
@@ -239,6 +245,7 @@ class BuildSettings:
     heavy_weight: float | None = None
     probes: int = 0
     probe_weight: float | None = None
+    probe_distance: float = 0.0
 
     def __post_init__(self):
         deterministic = parse_noise(self.noise).is_zero
@@ -338,6 +345,10 @@ class BuildSettings:
         if isinstance(pw, bool) or not isinstance(pw, (int, float)) or not 0 < pw <= 1:
             raise ValueError(f"build setting probe_weight must be in (0, 1], got {pw!r}")
         object.__setattr__(self, "probe_weight", float(pw))
+        pd = self.probe_distance
+        if isinstance(pd, bool) or not isinstance(pd, (int, float)) or not (0 <= pd < math.inf):
+            raise ValueError(f"build setting probe_distance must be a finite number >= 0, got {pd!r}")
+        object.__setattr__(self, "probe_distance", float(pd))
         if self.probes and (not noise.is_zero or ew > 0):
             raise ValueError("probes are for deterministic builds that explore everything (no noise, "
                              "explore_weight 0)")
@@ -373,9 +384,9 @@ def _package_version() -> str:
 
 #: build options added after models were cached; at their "off" value they are left out of the
 #: cache key, so that switching them off reproduces the keys of the models built before them
-_LATER_OPTIONS = ("snap_compensation", "confirm_samples", "flush_side", "max_samples", "probes")
+_LATER_OPTIONS = ("snap_compensation", "confirm_samples", "flush_side", "max_samples", "probes", "probe_distance")
 #: later options that only matter while another one is on (option: the one it serves)
-_SERVING_OPTIONS = {"heavy_weight": "max_samples", "probe_weight": "probes"}
+_SERVING_OPTIONS = {"heavy_weight": "max_samples", "probe_weight": "probes", "probe_distance": "probes"}
 
 
 def settings_design(settings: dict) -> dict:
@@ -980,6 +991,11 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 ok = st == OK
                 cell[ok] = grid.voxel_index(rest[ok])
                 differs = (cell != rep_cell) | (ok != ok_rep)
+                if settings.probe_distance > 0:
+                    both = ok & ok_rep
+                    far = np.zeros(len(ids), dtype=bool)
+                    far[both] = index.distance(rest[both], ex.land[ids[both], b, 0]) > settings.probe_distance
+                    differs |= far
                 sensitive = np.isin(ids, ids[differs])                   # every member of such a row
                 src.append(np.column_stack([ids[sensitive], np.full(int(sensitive.sum()), b), k[sensitive]]))
                 land.append(rest[sensitive])

@@ -199,6 +199,16 @@ class PoseIndex:
         out[hit] = candidates[i[hit]]
         return out
 
+    def distance(self, poses_a, poses_b) -> np.ndarray:
+        """Distance in tolerance units between paired poses (theta modulo the symmetry period);
+        ``inf`` where the two lie in different report cells or contact groups."""
+        qa, _ = self.embed(poses_a)
+        qb, _ = self.embed(poses_b)
+        diff = np.abs(qa - qb)
+        diff[:, 2] = np.minimum(diff[:, 2], self.box[2] - diff[:, 2])
+        d = np.sqrt((diff[:, :3] ** 2).sum(axis=1))
+        return np.where(diff[:, 3] > 0, np.inf, d)
+
     def snap(self, poses) -> np.ndarray:
         """Index of the nearest representative within tolerance (same cell and contacts), -1 if none."""
         q, _ = self.embed(poses)

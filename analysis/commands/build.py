@@ -51,6 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "members' landings (default 0: off)")
     parser.add_argument("--probe-weight", type=float, default=None, metavar="W",
                         help="the weight from which --probes probes a representative (default: the builder's)")
+    parser.add_argument("--probe-distance", type=float, default=None, metavar="D",
+                        help="with --probes, a member landing in the representative's report cell but more than "
+                             "D tolerance balls from its landing also makes the row sensitive (default 0: off)")
     parser.add_argument("--flush-side", action=argparse.BooleanOptionalAction, default=None,
                         help="snap only between poses resting on the same end of an edge flush with a wall "
                              "(default: on without noise, off with noise)")
@@ -95,6 +98,7 @@ def run(args: argparse.Namespace) -> dict:
                              **({} if args.heavy_weight is None else {"heavy_weight": args.heavy_weight}),
                              **({} if args.probes is None else {"probes": args.probes}),
                              **({} if args.probe_weight is None else {"probe_weight": args.probe_weight}),
+                             **({} if args.probe_distance is None else {"probe_distance": args.probe_distance}),
                              **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}),
                              **({} if args.recenter_rounds is None else {"recenter_rounds": args.recenter_rounds}))
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
