@@ -117,6 +117,10 @@ VARIANTS = {
                              "samples (up to 128)"),
     "det-recenter-flush": ({"tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 3, "flush_side": True},
                            "deterministic, 0.5 / 0.5, 3 recentring rounds, flush side in the contact signature"),
+    "det-recenter-flush-probes": ({"tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 3, "flush_side": True,
+                                   "probes": 4, "probe_distance": 4.0},
+                                  "deterministic, 0.5 / 0.5, 3 recentring rounds, flush side, member probes (4 "
+                                  "members, distance 4)"),
 }
 DEFAULT_SELECTION = "det"
 
