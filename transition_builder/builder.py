@@ -215,8 +215,8 @@ class BuildSettings:
     probe_distance : float
         With ``probes``, also count a row as sensitive where a member lands in the same report cell
         as the representative but farther than ``probe_distance`` tolerance balls from its landing
-        (the snapping metric, :class:`transition_builder.snapping.PoseIndex`; 0: off, the report
-        cell and faults alone decide). A tilt that scatters a tight cluster across a report cell
+        (the snapping metric, :class:`transition_builder.snapping.PoseIndex`; a landing in another
+        contact group counts as far; 0: off, the report cell and faults alone decide). A tilt that scatters a tight cluster across a report cell
         sends the pieces different ways at later tilts, which a single landing cannot follow.
     """
 
