@@ -216,8 +216,9 @@ class BuildSettings:
         With ``probes``, also count a row as sensitive where a member lands in the same report cell
         as the representative but farther than ``probe_distance`` tolerance balls from its landing
         (the snapping metric, :class:`transition_builder.snapping.PoseIndex`; a landing in another
-        contact group counts as far; 0: off, the report cell and faults alone decide). A tilt that scatters a tight cluster across a report cell
-        sends the pieces different ways at later tilts, which a single landing cannot follow.
+        contact group counts as far; 0: off, the report cell and faults alone decide). A tilt that
+        scatters a tight cluster across a report cell sends the pieces different ways at later
+        tilts, which a single landing cannot follow.
     """
 
     tol_mm: float | None = None

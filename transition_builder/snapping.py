@@ -167,9 +167,7 @@ class PoseIndex:
             dist[hit] = d[hit]
         if self._n > self._tree_n and n:
             tail = self._points[self._tree_n:]
-            diff = np.abs(q[:, None, :] - tail[None, :, :])
-            diff[..., 2] = np.minimum(diff[..., 2], self.box[2] - diff[..., 2])
-            d2 = np.sqrt((diff ** 2).sum(axis=-1))
+            d2 = self._wrapped_norm(q[:, None, :] - tail[None, :, :])
             j = np.argmin(d2, axis=1)
             dj = d2[np.arange(n), j]
             better = (dj <= 1.0 + 1e-12) & (dj < dist)
@@ -204,10 +202,14 @@ class PoseIndex:
         ``inf`` where the two lie in different report cells or contact groups."""
         qa, _ = self.embed(poses_a)
         qb, _ = self.embed(poses_b)
-        diff = np.abs(qa - qb)
-        diff[:, 2] = np.minimum(diff[:, 2], self.box[2] - diff[:, 2])
-        d = np.sqrt((diff[:, :3] ** 2).sum(axis=1))
-        return np.where(diff[:, 3] > 0, np.inf, d)
+        return np.where(qa[:, 3] != qb[:, 3], np.inf, self._wrapped_norm(qa - qb))
+
+    def _wrapped_norm(self, diff: np.ndarray) -> np.ndarray:
+        """Euclidean norm over the last axis of differences of query coordinates, theta wrapped
+        around the symmetry period (the metric of the k-d tree's periodic box)."""
+        diff = np.abs(diff)
+        diff[..., 2] = np.minimum(diff[..., 2], self.box[2] - diff[..., 2])
+        return np.sqrt((diff ** 2).sum(axis=-1))
 
     def snap(self, poses) -> np.ndarray:
         """Index of the nearest representative within tolerance (same cell and contacts), -1 if none."""
