@@ -312,8 +312,10 @@ def test_refinement_splits_diverging_representatives():
     """Refinement tilts the farthest member of each representative and splits where a landing falls
     in another report cell; the split-off states are real rest poses whose rows are their own tilts."""
     scene = _square_scene()
-    base = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=0, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor())
-    ref = build_model(scene, BuildSettings(start_samples=150, seed=3, refine_rounds=2, recenter_rounds=0,
+    # probes off: refinement alone, so every rest row is one landing
+    base = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=0, tol_mm=0.5, tol_deg=0.5,
+                                            probes=0), executor=SerialExecutor())
+    ref = build_model(scene, BuildSettings(start_samples=150, seed=3, refine_rounds=2, recenter_rounds=0, probes=0,
                                     tol_mm=0.5, tol_deg=0.5),
                       executor=SerialExecutor())
     st = ref.stats

@@ -93,6 +93,10 @@ _DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-3
 #: noisy builds: samples in proportion to weight from this weight on, up to this many per action
 _DEFAULT_NOISY_HEAVY_WEIGHT = 0.025
 _DEFAULT_PROBE_WEIGHT = 0.05       # member probes (deterministic builds): from this weight on
+#: member probes by default without noise: 4 members of every representative of weight >= 0.05, and a
+#: row is sensitive where one lands in another cell or more than 4 tolerance balls away (docs/builder.md)
+_DEFAULT_PROBES = 4
+_DEFAULT_PROBE_DISTANCE = 4.0
 _DEFAULT_NOISY_MAX_SAMPLES = 128
 #: default snapping tolerance (mm and degrees), chosen with the flush-side signature on the tuning set
 #: and two held-out sets of sequences (benchmarks/BUILDER_RESULTS.md, docs/builder.md)
@@ -199,8 +203,9 @@ class BuildSettings:
         of flush sent the next tilt's landing 0.1 mm and the one after 0.7 mm apart). None: on
         without noise (at 0.25 mm it lowered the mean and the worst step on both held-out sets of
         sequences), off with noise (the noise moves theta by far more than such an angle).
-    probes : int
-        Member probes (deterministic builds; 0: off). Once exploration and recentring have closed,
+    probes : int or None
+        Member probes (deterministic builds; 0: off; None: 4 without noise and weighted exploration,
+        0 otherwise, chosen on two held-out sets of sequences, docs/builder.md). Once exploration and recentring have closed,
         every representative of weight at least ``probe_weight`` (the largest probability one of
         its states holds at some step of 200 random 30-tilt sequences through the model) tilts up
         to ``probes`` of its members — landings that snapped to it, drawn at random, so a pose
@@ -212,8 +217,8 @@ class BuildSettings:
         representative's single landing. Exploration then continues from what the members reach.
     probe_weight : float or None
         The weight from which a representative is probed (None: 0.05).
-    probe_distance : float
-        With ``probes``, also count a row as sensitive where a member lands in the same report cell
+    probe_distance : float or None
+        (None: 4 with probes, 0 without.) With ``probes``, also count a row as sensitive where a member lands in the same report cell
         as the representative but farther than ``probe_distance`` tolerance balls from its landing
         (the snapping metric, :class:`transition_builder.snapping.PoseIndex`; a landing in another
         contact group counts as far; 0: off, the report cell and faults alone decide). A tilt that
@@ -244,9 +249,9 @@ class BuildSettings:
     flush_side: bool | None = None
     max_samples: int | None = None
     heavy_weight: float | None = None
-    probes: int = 0
+    probes: int | None = None
     probe_weight: float | None = None
-    probe_distance: float = 0.0
+    probe_distance: float | None = None
 
     def __post_init__(self):
         deterministic = parse_noise(self.noise).is_zero
@@ -339,6 +344,8 @@ class BuildSettings:
             if self.confirm_samples:
                 raise ValueError("max_samples and confirm_samples cannot be combined")
         pr = self.probes
+        if pr is None:
+            pr = _DEFAULT_PROBES if noise.is_zero and ew == 0 else 0
         if isinstance(pr, bool) or not isinstance(pr, (int, np.integer)) or not 0 <= pr <= 64:
             raise ValueError(f"build setting probes must be an integer in 0..64, got {pr!r}")
         object.__setattr__(self, "probes", int(pr))
@@ -347,6 +354,8 @@ class BuildSettings:
             raise ValueError(f"build setting probe_weight must be in (0, 1], got {pw!r}")
         object.__setattr__(self, "probe_weight", float(pw))
         pd = self.probe_distance
+        if pd is None:
+            pd = _DEFAULT_PROBE_DISTANCE if pr else 0.0
         if isinstance(pd, bool) or not isinstance(pd, (int, float)) or not (0 <= pd < math.inf):
             raise ValueError(f"build setting probe_distance must be a finite number >= 0, got {pd!r}")
         object.__setattr__(self, "probe_distance", float(pd))
