@@ -339,7 +339,8 @@ def test_recentring_moves_representatives_onto_resting_points():
     """Recentring moves a representative onto the densest point of its members and tilts it again;
     every landing still has a representative and every sample is accounted for."""
     scene = _square_scene()
-    r = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=2), executor=SerialExecutor())
+    r = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=2, probes=0),
+                    executor=SerialExecutor())
     st = r.stats
     assert st["recentring_rounds"] >= 1 and st["representatives_moved"] > 0
     assert st["unexplored_states"] == 0
@@ -473,6 +474,10 @@ def test_flush_side_is_on_without_noise_and_keys_stay_apart():
     key is the one it had before the option existed); switching it changes a deterministic key."""
     scene = _square_scene()
     assert BuildSettings().flush_side is True
+    # member probes with a distance: on by default without noise, off with noise or weighted exploration
+    assert (BuildSettings().probes, BuildSettings().probe_distance) == (4, 4.0)
+    assert BuildSettings(noise="pose:0.5,0.5").probes == 0 and BuildSettings(explore_weight=0.01).probes == 0
+    assert BuildSettings(probes=0).probe_distance == 0.0
     assert BuildSettings(noise="pose:0.5,0.5").flush_side is False
     assert build_key(scene, BuildSettings()) != build_key(scene, BuildSettings(flush_side=False))
     assert build_key(scene, BuildSettings(noise="pose:0.5,0.5")) == \
@@ -618,7 +623,7 @@ def _probe_scene():
 
 
 _PROBE_SETTINGS = BuildSettings(start_samples=100, seed=2, tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, probes=2,
-                                probe_weight=0.3)
+                                probe_weight=0.3, probe_distance=0.0)
 
 
 @pytest.fixture(scope="module")
