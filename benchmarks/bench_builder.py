@@ -54,8 +54,13 @@ VARIANTS = {
                   "deterministic, defaults: 0.25 mm / 0.25 deg, 3 recentring rounds, flush side in the contact "
                   "signature"),
     "det-probes": ({"probes": 4, "probe_distance": 0.0},
-                   "deterministic, 0.25 / 0.25, 3 recentring rounds, flush side, member probes without a distance: representatives of weight >= 0.05 tilt 4 "
-                   "of their members; rows where one lands in another report cell take the members' landings"),
+                   "deterministic, 0.25 / 0.25, 3 recentring rounds, flush side, member probes without a "
+                   "distance: representatives of weight >= 0.05 tilt 4 of their members; rows where one lands "
+                   "in another report cell take the members' landings"),
+    "det-probes-far": ({"probes": 4, "probe_distance": 4.0},
+                       "deterministic, the design before the default with member probes that also spread rows "
+                       "whose members land more than 4 tolerance balls (1 mm / 1 deg) from the representative's "
+                       "landing (the same settings as the default now)"),
     "det-0.5": ({"probes": 0, "flush_side": False, "tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 0},
                 "deterministic, 0.5 / 0.5, no recentring"),
     "det-1mm": ({"probes": 0, "flush_side": False, "tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 0},
@@ -71,13 +76,15 @@ VARIANTS = {
                     "deterministic, 0.5 / 0.5, 2 refinement rounds"),
     "det-recenter": ({"probes": 0, "flush_side": False, "tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 3},
                      "deterministic, 0.5 / 0.5, 3 recentring rounds"),
-    "det-recenter-0.25": ({"probes": 0, "flush_side": False, "recenter_rounds": 3, "tol_mm": 0.25, "tol_deg": 0.25},
+    "det-recenter-0.25": ({"probes": 0, "flush_side": False, "recenter_rounds": 3, "tol_mm": 0.25,
+                           "tol_deg": 0.25},
                           "deterministic, 0.25 / 0.25, 3 recentring rounds (the default before the flush side)"),
     "det-0.25": ({"probes": 0, "flush_side": False, "tol_mm": 0.25, "tol_deg": 0.25, "recenter_rounds": 0},
                  "deterministic, 0.25 / 0.25"),
-    "det-0.1": ({"probes": 0, "flush_side": False, "tol_mm": 0.1, "tol_deg": 0.1, "recenter_rounds": 0}, "deterministic, 0.1 / 0.1"),
-    "det-1mm-half-step": ({"probes": 0, "flush_side": False, "tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 0,
-                           "scene": HALF_TIME_STEP},
+    "det-0.1": ({"probes": 0, "flush_side": False, "tol_mm": 0.1, "tol_deg": 0.1, "recenter_rounds": 0},
+                "deterministic, 0.1 / 0.1"),
+    "det-1mm-half-step": ({"probes": 0, "flush_side": False, "tol_mm": 1.0, "tol_deg": 1.0,
+                           "recenter_rounds": 0, "scene": HALF_TIME_STEP},
                           "deterministic, 1 mm / 1 deg, built at half the time step (1/480 s, 8 sub-steps), "
                           "judged at the default"),
     "noise": ({"noise": "pose:0.5,0.5"},

@@ -474,14 +474,27 @@ def test_flush_side_is_on_without_noise_and_keys_stay_apart():
     key is the one it had before the option existed); switching it changes a deterministic key."""
     scene = _square_scene()
     assert BuildSettings().flush_side is True
-    # member probes with a distance: on by default without noise, off with noise or weighted exploration
-    assert (BuildSettings().probes, BuildSettings().probe_distance) == (4, 4.0)
-    assert BuildSettings(noise="pose:0.5,0.5").probes == 0 and BuildSettings(explore_weight=0.01).probes == 0
-    assert BuildSettings(probes=0).probe_distance == 0.0
     assert BuildSettings(noise="pose:0.5,0.5").flush_side is False
     assert build_key(scene, BuildSettings()) != build_key(scene, BuildSettings(flush_side=False))
     assert build_key(scene, BuildSettings(noise="pose:0.5,0.5")) == \
         build_key(scene, BuildSettings(noise="pose:0.5,0.5", flush_side=False))
+
+
+def test_member_probes_are_on_by_default_only_where_they_were_chosen():
+    """Probes with a distance are the deterministic default at the default tolerance (and finer);
+    off with noise, weighted exploration or a coarser tolerance (where they hurt), unless asked."""
+    assert (BuildSettings().probes, BuildSettings().probe_distance) == (4, 4.0)
+    assert BuildSettings(tol_mm=0.1, tol_deg=0.1).probes == 4
+    assert BuildSettings(noise="pose:0.5,0.5").probes == 0 and BuildSettings(explore_weight=0.01).probes == 0
+    assert BuildSettings(tol_mm=0.5, tol_deg=0.5).probes == 0
+    assert BuildSettings(tol_mm=0.25, tol_deg=1.0).probes == 0
+    assert (BuildSettings(tol_mm=0.5, tol_deg=0.5, probes=4).probes,
+            BuildSettings(tol_mm=0.5, tol_deg=0.5, probes=4).probe_distance) == (4, 4.0)
+    assert BuildSettings(probes=0).probe_distance == 0.0
+    scene = _square_scene()
+    assert build_key(scene, BuildSettings()) != build_key(scene, BuildSettings(probes=0))
+    assert build_key(scene, BuildSettings(tol_mm=1.0, tol_deg=1.0)) == \
+        build_key(scene, BuildSettings(tol_mm=1.0, tol_deg=1.0, probes=0))
 
 
 def _flush_mismatch(scene, model) -> tuple[float, int]:

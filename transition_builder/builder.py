@@ -93,8 +93,9 @@ _DEFAULT_NOISY_EXPLORE_WEIGHT = 1e-3
 #: noisy builds: samples in proportion to weight from this weight on, up to this many per action
 _DEFAULT_NOISY_HEAVY_WEIGHT = 0.025
 _DEFAULT_PROBE_WEIGHT = 0.05       # member probes (deterministic builds): from this weight on
-#: member probes by default without noise: 4 members of every representative of weight >= 0.05, and a
-#: row is sensitive where one lands in another cell or more than 4 tolerance balls away (docs/builder.md)
+#: member probes by default without noise at the default tolerance or finer: 4 members of every
+#: representative of weight >= 0.05, and a row is sensitive where one lands in another cell or more
+#: than 4 tolerance balls away (docs/builder.md)
 _DEFAULT_PROBES = 4
 _DEFAULT_PROBE_DISTANCE = 4.0
 _DEFAULT_NOISY_MAX_SAMPLES = 128
@@ -204,26 +205,29 @@ class BuildSettings:
         without noise (at 0.25 mm it lowered the mean and the worst step on both held-out sets of
         sequences), off with noise (the noise moves theta by far more than such an angle).
     probes : int or None
-        Member probes (deterministic builds; 0: off; None: 4 without noise and weighted exploration,
-        0 otherwise, chosen on two held-out sets of sequences, docs/builder.md). Once exploration and recentring have closed,
-        every representative of weight at least ``probe_weight`` (the largest probability one of
-        its states holds at some step of 200 random 30-tilt sequences through the model) tilts up
-        to ``probes`` of its members — landings that snapped to it, drawn at random, so a pose
-        many landings share is drawn as often — under every action. Where a member lands in
-        another report cell than the representative, or faults where it does not (or the other way
-        round), the physics is sensitive inside the representative's tolerance, and the row
-        becomes the representative's landing and its members' with equal weights (Ulam's
-        method: the image of the cell, not of its centre); elsewhere the row stays the
-        representative's single landing. Exploration then continues from what the members reach.
+        Member probes (deterministic builds; 0: off; None: 4 without noise and weighted exploration
+        at the default tolerance or finer, where they were chosen on two held-out sets of sequences;
+        0 otherwise — at 0.5 mm / 0.5 deg they made the worst step worse, docs/builder.md). Once
+        exploration and recentring have closed, every representative of weight at least
+        ``probe_weight`` (the largest probability one of its states holds at some step of 200 random
+        30-tilt sequences through the model) tilts up to ``probes`` of its members — landings that
+        snapped to it, drawn at random, so a pose many landings share is drawn as often — under
+        every action. Where a member lands in another report cell than the representative, or faults
+        where it does not (or the other way round), the physics is sensitive inside the
+        representative's tolerance, and the row becomes the representative's landing and its
+        members' with equal weights (Ulam's method: the image of the cell, not of its centre);
+        elsewhere the row stays the representative's single landing. Exploration then continues from
+        what the members reach.
     probe_weight : float or None
         The weight from which a representative is probed (None: 0.05).
     probe_distance : float or None
-        (None: 4 with probes, 0 without.) With ``probes``, also count a row as sensitive where a member lands in the same report cell
-        as the representative but farther than ``probe_distance`` tolerance balls from its landing
-        (the snapping metric, :class:`transition_builder.snapping.PoseIndex`; a landing in another
-        contact group counts as far; 0: off, the report cell and faults alone decide). A tilt that
-        scatters a tight cluster across a report cell sends the pieces different ways at later
-        tilts, which a single landing cannot follow.
+        (None: 4 with probes, 0 without.) With ``probes``, also count a row as sensitive where a
+        member lands in the same report cell as the representative but farther than
+        ``probe_distance`` tolerance balls from its landing (the snapping metric,
+        :class:`transition_builder.snapping.PoseIndex`; a landing in another contact group counts as
+        far; 0: off, the report cell and faults alone decide). A tilt that scatters a tight cluster
+        across a report cell sends the pieces different ways at later tilts, which a single landing
+        cannot follow.
     """
 
     tol_mm: float | None = None
@@ -345,7 +349,8 @@ class BuildSettings:
                 raise ValueError("max_samples and confirm_samples cannot be combined")
         pr = self.probes
         if pr is None:
-            pr = _DEFAULT_PROBES if noise.is_zero and ew == 0 else 0
+            fine = max(self.tol_mm, self.tol_deg) <= _DEFAULT_TOL_DETERMINISTIC
+            pr = _DEFAULT_PROBES if noise.is_zero and ew == 0 and fine else 0
         if isinstance(pr, bool) or not isinstance(pr, (int, np.integer)) or not 0 <= pr <= 64:
             raise ValueError(f"build setting probes must be an integer in 0..64, got {pr!r}")
         object.__setattr__(self, "probes", int(pr))

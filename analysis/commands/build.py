@@ -48,13 +48,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--probes", type=int, default=None, metavar="M",
                         help="deterministic builds: representatives of weight >= --probe-weight tilt up to M of "
                              "their members; where one lands in another report cell the row becomes the "
-                             "members' landings (default: 4 without noise, 0 with noise or weighted exploration)")
+                             "members' landings (default: 4 without noise at the default tolerance or finer, 0 "
+                             "with noise, weighted exploration or a coarser tolerance)")
     parser.add_argument("--probe-weight", type=float, default=None, metavar="W",
                         help="the weight from which --probes probes a representative (default: the builder's)")
     parser.add_argument("--probe-distance", type=float, default=None, metavar="D",
                         help="with --probes, a member landing in the representative's report cell but more than "
-                             "D tolerance balls from its landing also makes the row sensitive (default: 4 with --probes, "
-                             "0 without)")
+                             "D tolerance balls from its landing also makes the row sensitive (default: 4 "
+                             "with --probes, 0 without)")
     parser.add_argument("--flush-side", action=argparse.BooleanOptionalAction, default=None,
                         help="snap only between poses resting on the same end of an edge flush with a wall "
                              "(default: on without noise, off with noise)")
