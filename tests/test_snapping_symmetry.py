@@ -124,3 +124,33 @@ def test_symmetry_off_for_friction_maps_and_rectangular_trays():
     # an action set not closed under quarter turns falls back to half turns
     assert tray_symmetry(scene_from_options("allen-key", actions="N,S")).order == 2
     assert tray_symmetry(scene_from_options("allen-key", actions="N,E")).order == 1
+
+
+def test_neighbour_counts_match_a_periodic_ball_query_on_tight_clusters():
+    """The recentring density (a compiled sweep) against scipy's ball query with the same periodic
+    metric, on the kind of data it was written for: tight clusters of near-identical points (and
+    exact duplicates), clusters straddling the theta wrap, and groups that must not see each other."""
+    from scipy.spatial import cKDTree
+
+    from transition_builder._density import neighbour_counts
+
+    rng = np.random.default_rng(5)
+    period, r = 12.0, 0.05
+    centres = np.column_stack([rng.uniform(1, 5, 40), rng.uniform(1, 5, 40), rng.uniform(0, period, 40)])
+    centres[:5, 2] = period - 1e-3                       # across the wrap
+    which = rng.integers(0, 40, 3000)
+    pts = centres[which] + rng.normal(0, 0.02, (3000, 3))
+    pts[:, 2] = np.mod(pts[:, 2], period)
+    pts[1:600:2], which[1:600:2] = pts[0:600:2], which[0:600:2]     # exact duplicates
+    pts[-50:] = np.column_stack([rng.uniform(10, 50, 50), rng.uniform(10, 50, 50), rng.uniform(0, period, 50)])
+    group = which % 3                                    # clusters of three groups share places
+    got = neighbour_counts(pts, group, r, period)
+    want = np.zeros(len(pts), dtype=np.int64)
+    for g in range(3):
+        sel = np.flatnonzero(group == g)
+        tree = cKDTree(pts[sel], boxsize=[1e6, 1e6, period])
+        want[sel] = tree.query_ball_point(pts[sel], r, return_length=True)
+    assert np.array_equal(got, want)
+    assert want.max() > 20 and (want == 1).any()       # dense clusters and lone points both tested
+    with pytest.raises(ValueError, match="points"):
+        neighbour_counts(pts[:, :2], group, r, period)

@@ -57,6 +57,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from kruskal_markov.model import TransitionModel, atomic_savez
+from transition_builder._density import neighbour_counts
 from transition_builder.executors import make_executor, simulator_for
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_pose
@@ -105,7 +106,6 @@ _DEFAULT_TOL_DETERMINISTIC = 0.25
 _DEFAULT_TOL_NOISY = 0.75
 _DEFAULT_NOISY_SAMPLES = 4
 _RECENTER_RADIUS = 0.05     # tolerance units: members this close count as one resting point
-_GROUP_GAP = 1e6
 _WEIGHT_STREAM = 12
 _PROBE_STREAM = 13          # seed stream of the members a probed row tilts
 
@@ -758,9 +758,7 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     G = sym.order
     land, orbit, members, _ = _members(ex, index, sym)
     mq, _ = index.embed(members)
-    mq[:, 3] = orbit * _GROUP_GAP                         # neighbours only within one orbit
-    tree = cKDTree(mq, boxsize=np.array([1e12, 1e12, index.box[2], 1e12]))
-    density = tree.query_ball_point(mq, _RECENTER_RADIUS, return_length=True)
+    density = neighbour_counts(mq[:, :3], orbit, _RECENTER_RADIUS, index.box[2])   # within one orbit
     order = np.lexsort((np.arange(len(orbit)), -density, orbit))
     first = order[np.r_[True, orbit[order][1:] != orbit[order][:-1]]] if len(order) else order
     first = first[(density[first] >= 2) & ex.explored[orbit[first]]]
