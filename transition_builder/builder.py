@@ -457,19 +457,60 @@ def tilt_chunk(scene: Scene, action: str, poses: np.ndarray, noise_text: str, se
 
 def _run_tilts(executor, scene, noise_text, seed, jobs, on_done=None):
     """Run ``jobs`` = list of (action_name, poses (n,3), keys (n, m)); returns [(rest, status)] in order."""
-    tasks, where = [], []
-    for j, (action, poses, keys) in enumerate(jobs):
-        for lo in range(0, len(poses), _CHUNK):
-            tasks.append((scene, action, poses[lo:lo + _CHUNK], noise_text, seed, keys[lo:lo + _CHUNK]))
-            where.append((j, lo))
-    out = [(np.full((len(p), 3), np.nan), np.zeros(len(p), dtype=np.int8)) for _, p, _ in jobs]
-    for idx, (rest, status) in executor.map(tilt_chunk, tasks):
-        j, lo = where[idx]
-        out[j][0][lo:lo + len(rest)] = rest
-        out[j][1][lo:lo + len(rest)] = status
-        if on_done is not None:
-            on_done(len(rest))
-    return out
+    out = []
+    _stream_tilts(executor, scene, noise_text, seed, [jobs], lambda i, res: out.append(res), on_done)
+    return out[0]
+
+
+def _stream_tilts(executor, scene, noise_text, seed, batches, on_batch, on_done=None) -> bool:
+    """Run several batches of jobs as one stream of executor tasks.
+
+    ``batches`` is a list of job lists (as for :func:`_run_tilts`); ``on_batch(i, results)`` is
+    called for batch 0, 1, ... in order, each as soon as it and every batch before it are done,
+    while the workers go on with the later batches (so the parent's snapping overlaps the
+    simulation, and no batch's last task leaves a worker idle). Each batch is cut into tasks of
+    ``_CHUNK`` exactly as on its own, so the landings are the same as batch after batch. When
+    ``on_batch`` returns False the rest is cancelled and False returned; True otherwise.
+    """
+    tasks, where, outs, pending = [], [], [], []
+    for i, jobs in enumerate(batches):
+        outs.append([(np.full((len(p), 3), np.nan), np.zeros(len(p), dtype=np.int8)) for _, p, _ in jobs])
+        pending.append(0)
+        for j, (action, poses, keys) in enumerate(jobs):
+            for lo in range(0, len(poses), _CHUNK):
+                tasks.append((scene, action, poses[lo:lo + _CHUNK], noise_text, seed, keys[lo:lo + _CHUNK]))
+                where.append((i, j, lo))
+                pending[i] += 1
+    nxt = 0
+
+    def deliver() -> bool:
+        nonlocal nxt
+        while nxt < len(batches) and pending[nxt] == 0:
+            go = on_batch(nxt, outs[nxt])
+            outs[nxt] = None
+            nxt += 1
+            if go is False:
+                return False
+        return True
+
+    if not deliver():
+        return False
+    results = executor.map(tilt_chunk, tasks)
+    try:
+        for idx, (rest, status) in results:
+            i, j, lo = where[idx]
+            outs[i][j][0][lo:lo + len(rest)] = rest
+            outs[i][j][1][lo:lo + len(rest)] = status
+            pending[i] -= 1
+            if on_done is not None:
+                on_done(len(rest))
+            if pending[i] == 0 and i == nxt and not deliver():
+                return False
+    finally:
+        close = getattr(results, "close", None)
+        if close is not None:
+            close()                     # a stopped stream cancels the tasks not yet run
+    return deliver()
 
 
 # ------------------------------------------------------------------------------------------------
@@ -898,21 +939,36 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                 return str(compensated_noise(settings.noise_spec, *_snap_spread(ex, index, sym)))
             return settings.noise
 
+        def offer_part(part, res, k_lo, k_hi):
+            nonlocal tilts
+            tilts += n_act * (k_hi - k_lo) * len(part)
+            for b in range(n_act):
+                ex.land[part, b, k_lo:k_hi] = res[b][0].reshape(len(part), k_hi - k_lo, 3)
+                ex.status[part, b, k_lo:k_hi] = res[b][1].reshape(len(part), k_hi - k_lo)
+            ex.explored[part] = True
+            _offer(index, ex, sym, _with_rotations(sym, ex.land[part, :, k_lo:k_hi]))
+
         def sample_orbits(orbits, k_lo, k_hi):
             """Tilt samples k_lo..k_hi-1 of ``orbits`` under every action, offer the landings (in
-            orbit order, so the batching never changes the model)."""
-            nonlocal tilts
-            noise_text = sample_noise()
-            for lo in range(0, len(orbits), batch):
-                part = orbits[lo:lo + batch]
-                res = _run_tilts(executor, scene, noise_text, settings.seed,
-                                 _orbit_jobs(scene, ex, part, k_lo, k_hi, _KEY_ORBIT), done)
-                tilts += n_act * (k_hi - k_lo) * len(part)
-                for b in range(n_act):
-                    ex.land[part, b, k_lo:k_hi] = res[b][0].reshape(len(part), k_hi - k_lo, 3)
-                    ex.status[part, b, k_lo:k_hi] = res[b][1].reshape(len(part), k_hi - k_lo)
-                ex.explored[part] = True
-                _offer(index, ex, sym, _with_rotations(sym, ex.land[part, :, k_lo:k_hi]))
+            orbit order, so the batching never changes the model), batch after batch, streamed."""
+            parts = [orbits[lo:lo + batch] for lo in range(0, len(orbits), batch)]
+            _stream_tilts(executor, scene, sample_noise(), settings.seed,
+                          [_orbit_jobs(scene, ex, part, k_lo, k_hi, _KEY_ORBIT) for part in parts],
+                          lambda i, res: offer_part(parts[i], res, k_lo, k_hi), done)
+
+        def explore_batches(parts):
+            """The exploration's next batches of orbits (samples 0..K0-1), streamed: before each
+            but the first the state cap is checked, after each a checkpoint may be taken, as when
+            they were run one by one. False if the cap stopped it."""
+            def offer(i, res):
+                if i and ex.n_orbits * G >= settings.max_states:
+                    return False
+                offer_part(parts[i], res, 0, K0)
+                maybe_checkpoint()
+                return True
+
+            return _stream_tilts(executor, scene, sample_noise(), settings.seed,
+                                 [_orbit_jobs(scene, ex, part, 0, K0, _KEY_ORBIT) for part in parts], offer, done)
 
         def sample_more(orbits, k_lo, k_hi):
             """Tilt samples ``k_lo[i]..k_hi[i]-1`` (beyond ``samples``) of ``orbits[i]`` under every
@@ -1067,8 +1123,13 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
                     if ex.n_orbits * G >= settings.max_states:
                         capped = True
                         break
-                    sample_orbits(queue[:batch], 0, K0)
-                    maybe_checkpoint()
+                    # the next len(queue) // batch batches are known now (landings found new orbits at
+                    # the end of the queue), so they run as one stream; with snap compensation the
+                    # noise is worked out anew before each batch, so one at a time
+                    known = 1 if compensate else max(1, len(queue) // batch)
+                    if not explore_batches([queue[i * batch:(i + 1) * batch] for i in range(known)]):
+                        capped = True
+                        break
                 if not capped and K == 1 and ex.recentered < settings.recenter_rounds:
                     ex.recentered += 1
                     moved = _recenter(ex, index, sym)
