@@ -10,15 +10,15 @@ within it along x), compiled with Numba: the pairs are visited once each, at abo
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _sweep_counts(x, y, th, start, period, r2, r):       # pragma: no cover - compiled
     n = x.shape[0]
     counts = np.ones(n, dtype=np.int64)                   # every point is its own neighbour
     half = 0.5 * period
-    for g in range(start.shape[0] - 1):
+    for g in prange(start.shape[0] - 1):                  # groups are independent: threads
         lo, hi = start[g], start[g + 1]
         for i in range(lo, hi):
             for j in range(i + 1, hi):
