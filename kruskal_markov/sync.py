@@ -500,19 +500,22 @@ def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None):
     """Greedy pair merging without Eppstein's tables: while the current set has two or more
     states, search breadth-first in the pair graph from two of its states for the shortest word
     that merges them, and apply it to the whole set. The search follows single-valued rows only (a
-    set-valued row -- e.g. the uniform start states' first tilt -- is left out of it); while the set
-    holds a state with a set-valued row, the letter with the smallest image is applied first. Each
-    search visits only the pairs reachable from its start pair (at most ``max_pairs``). None if a
-    search exhausts its pairs without merging, exceeds ``max_pairs``, or ``deadline`` passes."""
+    set-valued row -- e.g. the uniform start states' first tilt, or a row that member probes
+    spread over several landings -- is left out of it; applied to the whole set, the word may still
+    take other states through such rows, and the set grows by their images); while the set holds a
+    state whose rows are set-valued under every letter (the uniform start states), the letter with
+    the smallest image is applied first. Each search visits only the pairs reachable from its start
+    pair (at most ``max_pairs``). None if a search exhausts its pairs without merging, exceeds
+    ``max_pairs``, the word grows past ``4 n`` letters, or ``deadline`` passes."""
     n, k = aut.n, aut.k
     single = []
     for a in range(k):
         ptr = aut.indptr[a]
         one = np.diff(ptr) == 1
         single.append(np.where(one, aut.indices[np.minimum(ptr[:-1], aut.indices.size - 1)], -1).astype(np.int64))
-    multi = np.zeros(n, dtype=bool)
+    multi = np.ones(n, dtype=bool)                        # set-valued under every letter
     for a in range(k):
-        multi |= single[a] < 0
+        multi &= single[a] < 0
     states = np.unique(np.asarray(s, dtype=np.int64))
     word = []
     while states.size > 1:
@@ -530,6 +533,8 @@ def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None):
         if u is None:
             return None
         word += u
+        if len(word) > 4 * n:
+            return None
         for a in u:
             states = _set_image(aut, states, a)
     return word

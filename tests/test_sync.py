@@ -496,3 +496,22 @@ def test_pair_by_pair_greedy_when_eppstein_does_not_fit():
     assert not set_valued.deterministic
     word = _pair_merging_greedy(set_valued, np.array([n]))
     assert word is not None and is_synchronizing_word(set_valued, word, np.array([n]))
+
+
+def test_pair_by_pair_greedy_through_rows_spread_under_one_letter():
+    """Rows that member probes spread (set-valued under one letter, single under the others) do
+    not stop the pair merging: the pair searches go around them and the word synchronizes."""
+    from kruskal_markov.sync import _pair_merging_greedy
+
+    n = 40
+    table = np.array([[min(q + 1, n - 1) for q in range(n)],            # slide right, stop at the wall
+                      [max(q - 1, 0) for q in range(n)]])
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), t)), shape=(n, n)).tolil() for t in table]
+    for q in range(0, n, 5):                                             # every fifth state spreads under "left"
+        mats[1][q, max(q - 1, 0)] = 0.5
+        mats[1][q, min(q + 1, n - 1)] = 0.5
+    model = TransitionModel(["right", "left"], [m.tocsr() for m in mats], initial=np.full(n, 1.0 / n))
+    aut = support_automaton(model, 0.0)
+    assert not aut.deterministic
+    word = _pair_merging_greedy(aut, np.arange(n))
+    assert word is not None and is_synchronizing_word(aut, word, np.arange(n))
