@@ -51,8 +51,8 @@ VARIANTS = {
     "det": ({}, "deterministic, defaults: 0.25 mm / 0.25 deg, 3 recentring rounds, flush side in the contact "
                 "signature, member probes (4 members, distance 4)"),
     "det-flush": ({"probes": 0},
-                  "deterministic, defaults: 0.25 mm / 0.25 deg, 3 recentring rounds, flush side in the contact "
-                  "signature"),
+                  "deterministic, 0.25 mm / 0.25 deg, 3 recentring rounds, flush side in the contact signature "
+                  "(the default before the member probes)"),
     "det-probes": ({"probes": 4, "probe_distance": 0.0},
                    "deterministic, 0.25 / 0.25, 3 recentring rounds, flush side, member probes without a "
                    "distance: representatives of weight >= 0.05 tilt 4 of their members; rows where one lands "
