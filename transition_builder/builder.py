@@ -804,9 +804,7 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     first = order[np.r_[True, orbit[order][1:] != orbit[order][:-1]]] if len(order) else order
     first = first[(density[first] >= 2) & ex.explored[orbit[first]]]
     rq, _ = index.embed(ex.orbit_poses[orbit[first]])
-    d = np.abs(mq[first, :3] - rq[:, :3])
-    d[:, 2] = np.minimum(d[:, 2], index.box[2] - d[:, 2])
-    first = first[np.sqrt((d ** 2).sum(axis=1)) > _RECENTER_RADIUS]
+    first = first[index.wrapped_norm(mq[first, :3] - rq[:, :3]) > _RECENTER_RADIUS]
     if len(first) == 0:
         return 0
     o = orbit[first]                                    # distinct orbits

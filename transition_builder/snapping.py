@@ -167,7 +167,7 @@ class PoseIndex:
             dist[hit] = d[hit]
         if self._n > self._tree_n and n:
             tail = self._points[self._tree_n:]
-            d2 = self._wrapped_norm(q[:, None, :] - tail[None, :, :])
+            d2 = self.wrapped_norm(q[:, None, :] - tail[None, :, :])
             j = np.argmin(d2, axis=1)
             dj = d2[np.arange(n), j]
             better = (dj <= 1.0 + 1e-12) & (dj < dist)
@@ -202,9 +202,9 @@ class PoseIndex:
         ``inf`` where the two lie in different report cells or contact groups."""
         qa, _ = self.embed(poses_a)
         qb, _ = self.embed(poses_b)
-        return np.where(qa[:, 3] != qb[:, 3], np.inf, self._wrapped_norm(qa - qb))
+        return np.where(qa[:, 3] != qb[:, 3], np.inf, self.wrapped_norm(qa - qb))
 
-    def _wrapped_norm(self, diff: np.ndarray) -> np.ndarray:
+    def wrapped_norm(self, diff: np.ndarray) -> np.ndarray:
         """Euclidean norm over the last axis of differences of query coordinates, theta wrapped
         around the symmetry period (the metric of the k-d tree's periodic box)."""
         diff = np.abs(diff)
