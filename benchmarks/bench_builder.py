@@ -132,8 +132,9 @@ VARIANTS = {
 DEFAULT_SELECTION = "det"
 
 
-def reference_cache(scene, trials, grid, workers):
-    """A ``simulate`` function for :func:`analysis.validate.validate_model` that keeps its results."""
+def reference_cache(scene, trials, grid, workers, cached_only: bool = False):
+    """A ``simulate`` function for :func:`analysis.validate.validate_model` that keeps its results
+    (with ``cached_only``, one that returns None for a reference not cached instead of simulating it)."""
     from analysis.montecarlo import run_direct, summarise_trials
     from transition_builder.noise import parse_noise
 
@@ -148,6 +149,8 @@ def reference_cache(scene, trials, grid, workers):
             with np.load(path) as z:
                 return summarise_trials(np.asarray(seq), sc.actions, z["poses"], z["status"], grid, seed,
                                         parse_noise(noise))
+        if cached_only:
+            return None
         t = time.perf_counter()
         res = run_direct(sc, seq, m, seed=seed, workers=workers, grid=grid, noise=noise)
         stats["simulated_seconds"] += time.perf_counter() - t

@@ -142,7 +142,39 @@ def _experiment_a_lines(held: dict, mc: dict, rate: float) -> list[str]:
         out.append(f"| {v['description']} | {total:.0f} | {direct_s / total:.0f}x | {m:,.0f} | "
                    f"{d_mean:.3f} / {d_max:.2f} | "
                    f"{v['mean_abs_error_bits']:.3f} / {v['max_abs_error_bits']:.2f} | {'yes' if met else 'no'} |")
-    return out
+    return out + _side_by_side_lines()
+
+
+def _side_by_side_lines() -> list[str]:
+    """The default model's experiment A timed beside direct simulation in one run
+    (``python -m benchmarks experiment_a``, its results file), if it has been run."""
+    from benchmarks.bench_builder import RESULTS
+
+    path = RESULTS / "experiment_a.json"
+    if not path.exists():
+        return []
+    res = json.loads(path.read_text())
+    rounds = res["rounds"]
+    each = "; ".join(
+        f"round {r['round']}: direct {r['rate_before']:.0f} / {r['rate_after']:.0f} tilts/s before / after, build "
+        f"{r['build_seconds']:.0f} s + A {r['experiment_a_seconds']:.1f} s, **{r['speedup']:.0f}x** "
+        f"({r['speedup_range'][1]:.0f}-{r['speedup_range'][0]:.0f}x at either rate)"
+        + (f", direct at equal time M = {r['direct_trials_at_equal_time']:.0f}: "
+           f"{r['direct_error_at_equal_time']['mean']:.3f} / {r['direct_error_at_equal_time']['max']:.2f}, "
+           f"target {'met' if r['target_met'] else 'not met'}" if "target_met" in r else "")
+        for r in rounds)
+    same = [r["same_model_as_round_1"] for r in rounds[1:]]
+    lines = ["", "**Side by side.** The table above divides a build timed by the builder benchmark by a tilt rate "
+                 "timed in this run, and the machine's speed drifts between runs (the rate sample ran at 541 and "
+                 "at 699 tilts/s on one day). `python -m benchmarks experiment_a` times both in one run: the "
+                 "default model built from scratch and experiment A from it, between two timings of the same "
+                 f"direct-simulation sample ({len(rounds)} round(s); {each})."]
+    if same:
+        lines[-1] += f" Every round built the same model array for array: {'yes' if all(same) else 'NO'}."
+    if "mean_abs_error_bits" in res:
+        lines[-1] += (f" The model's error on the held-out set: {res['mean_abs_error_bits']:.3f} / "
+                      f"{res['max_abs_error_bits']:.2f} bits (mean / max).")
+    return lines
 
 
 def _time_step_lines(held: dict, trials: int) -> list[str]:

@@ -142,6 +142,7 @@ def test_neighbour_counts_match_a_periodic_ball_query_on_tight_clusters():
     pts = centres[which] + rng.normal(0, 0.02, (3000, 3))
     pts[:, 2] = np.mod(pts[:, 2], period)
     pts[1:600:2], which[1:600:2] = pts[0:600:2], which[0:600:2]     # exact duplicates
+    pts[600:640], which[600:640] = pts[0:40], which[0:40] + 1         # ... and the same points in other groups
     pts[-50:] = np.column_stack([rng.uniform(10, 50, 50), rng.uniform(10, 50, 50), rng.uniform(0, period, 50)])
     group = which % 3                                    # clusters of three groups share places
     got = neighbour_counts(pts, group, r, period)

@@ -5,6 +5,9 @@ Deterministic landings pile up: on the allen key about 570,000 landings fall int
 visits some 10^9 pairs one by one and took 39 s of a 7-minute build while the workers waited. The
 same count is a sweep over the points sorted along x inside each group (a pair within the radius is
 within it along x), compiled with Numba: the pairs are visited once each, at about a nanosecond.
+Exact duplicates (59% of the key's landings: a part that slides into a corner stops at the same
+pose, bit for bit, from many starts) are swept once with their number as a weight, a third of the
+time again (0.55 s instead of 1.85 s per recentring round on the key).
 """
 
 from __future__ import annotations
@@ -14,9 +17,9 @@ from numba import njit, prange
 
 
 @njit(cache=True, parallel=True)
-def _sweep_counts(x, y, th, start, period, r2, r):       # pragma: no cover - compiled
+def _sweep_counts(x, y, th, weight, start, period, r2, r):       # pragma: no cover - compiled
     n = x.shape[0]
-    counts = np.ones(n, dtype=np.int64)                   # every point is its own neighbour
+    counts = weight.copy()                                # every point is its own neighbour
     half = 0.5 * period
     for g in prange(start.shape[0] - 1):                  # groups are independent: threads
         lo, hi = start[g], start[g + 1]
@@ -30,8 +33,8 @@ def _sweep_counts(x, y, th, start, period, r2, r):       # pragma: no cover - co
                 if dt > half:
                     dt = period - dt
                 if dx * dx + dy * dy + dt * dt <= r2:
-                    counts[i] += 1
-                    counts[j] += 1
+                    counts[i] += weight[j]
+                    counts[j] += weight[i]
     return counts
 
 
@@ -63,12 +66,18 @@ def neighbour_counts(points: np.ndarray, group: np.ndarray, radius: float, perio
         raise ValueError("neighbour_counts needs radius >= 0 and period > 0")
     if len(p) == 0:
         return np.zeros(0, dtype=np.int64)
-    order = np.lexsort((p[:, 0], g))
-    gs = g[order]
+    # exact duplicates (over half of the key's landings) are swept once, weighted by their number:
+    # sorted by group, then x (then y, theta, which makes duplicates adjacent)
+    order = np.lexsort((p[:, 2], p[:, 1], p[:, 0], g))
+    q, gs = p[order], g[order]
+    new = np.r_[True, (gs[1:] != gs[:-1]) | np.any(q[1:] != q[:-1], axis=1)]
+    first = np.flatnonzero(new)
+    weight = np.diff(np.r_[first, len(q)]).astype(np.int64)
+    q, gs = q[first], gs[first]
     start = np.flatnonzero(np.r_[True, gs[1:] != gs[:-1], True]).astype(np.int64)
-    q = p[order]
     c = _sweep_counts(np.ascontiguousarray(q[:, 0]), np.ascontiguousarray(q[:, 1]),
-                      np.ascontiguousarray(q[:, 2]), start, float(period), float(radius) ** 2, float(radius))
-    out = np.empty_like(c)
-    out[order] = c
+                      np.ascontiguousarray(q[:, 2]), weight, start, float(period), float(radius) ** 2,
+                      float(radius))
+    out = np.empty(len(p), dtype=np.int64)
+    out[order] = c[np.cumsum(new) - 1]
     return out

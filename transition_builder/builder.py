@@ -58,6 +58,7 @@ from scipy.spatial import cKDTree
 
 from kruskal_markov.model import TransitionModel, atomic_savez
 from transition_builder._density import neighbour_counts
+from transition_builder._propagation import max_probability_along
 from transition_builder.executors import make_executor, simulator_for
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_pose
@@ -77,6 +78,7 @@ STATE_START, STATE_REST, STATE_UNEXPLORED = 0, 1, 2
 _START_STREAM = 11          # seed stream of the start poses
 _KEY_START, _KEY_ORBIT, _KEY_REFINE, _KEY_PROBE = 1, 2, 3, 4   # first key of a sampled tilt's noise stream
 _CHUNK = 48                 # tilts per executor task
+_PARALLEL_QUERY = 100_000   # landings from which a k-d tree query runs on every core (_query_workers)
 _CHECKPOINT_FORMAT = 5
 #: status of a sample slot not drawn (yet); adaptive builds draw fewer samples for light rows.
 NOT_DRAWN = -1
@@ -626,7 +628,8 @@ class _Exploration:
 # the build
 # ------------------------------------------------------------------------------------------------
 
-def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.ndarray) -> int:
+def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.ndarray,
+           embedded: np.ndarray | None = None) -> int:
     """Offer landings (in order, already rotated as needed) to the index; found new orbits.
 
     A landing with no representative within tolerance (same cell and contacts) founds an orbit:
@@ -635,16 +638,16 @@ def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.n
     a landing is checked against every representative there was before the call (one vectorised
     query) and against the rotations of every landing that founded an orbit before it in this
     call (neighbour lists among the call's misses, then one pass in order). The builder offers a
-    whole batch at once.
+    whole batch at once. ``embedded``: ``index.embed(landings)[0]`` when the caller has it already.
     """
     ok = np.all(np.isfinite(landings), axis=1)
     cand = landings[ok]
     if len(cand) == 0:
         return 0
-    q, _ = index.embed(cand)
+    q = index.embed(cand)[0] if embedded is None else embedded[ok]
     if len(q) > 64:
         index.compact()                                  # many queries: all through the tree
-    hit, _ = index.nearest_embedded(q)
+    hit, _ = index.nearest_embedded(q, _query_workers(len(q)))
     miss = np.flatnonzero(hit < 0)
     if len(miss) == 0:
         return 0
@@ -660,6 +663,13 @@ def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.n
         index.add(rot[founds].reshape(-1, 3))
         ex.add_orbits(cand[miss[founds]])
     return int(founds.sum())
+
+
+def _query_workers(n: int) -> int:
+    """Threads for a k-d tree query of ``n`` landings: every core for the large ones (all landings
+    at once, between phases, while the simulation workers wait), one otherwise (the offers made
+    while the workers run, which would take cores from them)."""
+    return -1 if n >= _PARALLEL_QUERY else 1
 
 
 def _with_rotations(sym: TraySymmetry, poses: np.ndarray) -> np.ndarray:
@@ -693,16 +703,7 @@ def _orbit_weights(scene, settings, sym, grid, index, ex, reps, key) -> tuple[np
     n_start = int(np.sum(model.extras["state_kind"] == STATE_START))
     rng = np.random.default_rng([settings.seed, _WEIGHT_STREAM])
     seqs = rng.integers(0, model.n_actions, size=(_WEIGHT_SEQUENCES, _WEIGHT_LENGTH))
-    # all sequences at once: column s of ``dist`` is sequence s's distribution after each step
-    transposed = [P.T.tocsr() for P in model.matrices]
-    dist = np.asfortranarray(np.repeat(model.initial[:, None], _WEIGHT_SEQUENCES, axis=1))
-    weight = dist.max(axis=1)
-    for t in range(_WEIGHT_LENGTH):
-        for a in range(model.n_actions):
-            cols = np.flatnonzero(seqs[:, t] == a)
-            if len(cols):
-                dist[:, cols] = transposed[a] @ dist[:, cols]
-        np.maximum(weight, dist.max(axis=1), out=weight)
+    weight = max_probability_along(model.matrices, model.initial, seqs)
     first = np.zeros(model.n_states, dtype=bool)
     for P in model.matrices:
         first[P[:n_start].indices] = True
@@ -741,8 +742,9 @@ def _heavy_orbits(scene, settings, sym, grid, index, ex, reps, key) -> np.ndarra
 
 def _members(ex: _Exploration, index: PoseIndex, sym: TraySymmetry):
     """Every landing so far (start and explored, every rotation) that lies within tolerance of a
-    representative: ``(landing, orbit, member, distance)``, where ``member`` is the landing turned
-    back into its orbit's frame and ``distance`` its distance to the state in tolerance units."""
+    representative: ``(landing, orbit, member, distance, embedded)``, where ``member`` is the
+    landing turned back into its orbit's frame, ``distance`` its distance to the state in tolerance
+    units and ``embedded`` the landing's query coordinates (:meth:`PoseIndex.embed`)."""
     G = sym.order
     pools = [sym.rotate_poses(ex.start_land[b], j) for b in range(len(ex.start_land)) for j in range(G)]
     done = np.flatnonzero(ex.explored[:ex.n_orbits])
@@ -752,21 +754,21 @@ def _members(ex: _Exploration, index: PoseIndex, sym: TraySymmetry):
     land = land[np.all(np.isfinite(land), axis=1)]
     q, _ = index.embed(land)
     index.compact()                                      # many queries: all through the tree
-    tgt, dist = index.nearest_embedded(q)
+    tgt, dist = index.nearest_embedded(q, _query_workers(len(q)))
     keep = tgt >= 0
-    land, tgt, dist = land[keep], tgt[keep], dist[keep]
+    land, tgt, dist, q = land[keep], tgt[keep], dist[keep], q[keep]
     orbit, rot = tgt // G, tgt % G
     members = np.empty_like(land)
     for j in range(G):
         sel = rot == j
         members[sel] = sym.rotate_poses(land[sel], -j)
-    return land, orbit, members, dist
+    return land, orbit, members, dist, q
 
 
 def _snap_spread(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> tuple[float, float]:
     """Root-mean-square offset of the snapped landings from their representatives, per coordinate:
     ``(mm in x and y, degrees in theta)`` (theta modulo the shape's symmetry)."""
-    _, orbit, members, _ = _members(ex, index, sym)
+    _, orbit, members, _, _ = _members(ex, index, sym)
     if len(orbit) == 0:
         return 0.0, 0.0
     d = members - ex.orbit_poses[orbit]
@@ -797,7 +799,7 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     representative within tolerance found new orbits (so every landing stays covered).
     """
     G = sym.order
-    land, orbit, members, _ = _members(ex, index, sym)
+    land, orbit, members, _, land_q = _members(ex, index, sym)
     mq, _ = index.embed(members)
     density = neighbour_counts(mq[:, :3], orbit, _RECENTER_RADIUS, index.box[2])   # within one orbit
     order = np.lexsort((np.arange(len(orbit)), -density, orbit))
@@ -814,14 +816,14 @@ def _recenter(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> int:
     ex.land[o] = np.nan
     ex.status[o] = NOT_DRAWN
     index.move((o[:, None] * G + np.arange(G)).reshape(-1), _with_rotations(sym, p))
-    _offer(index, ex, sym, land)                        # landings left uncovered found new orbits
+    _offer(index, ex, sym, land, land_q)                # landings left uncovered found new orbits
     return len(first)
 
 
 def _refinement_candidates(ex: _Exploration, index: PoseIndex, sym: TraySymmetry, min_dist: float) -> np.ndarray:
     """For every explored orbit, its farthest member (a landing snapped to one of its states, rotated
     back to the orbit's frame) if farther than ``min_dist`` (normalised units); rows (orbit, x, y, theta)."""
-    _, orbit, members, dist = _members(ex, index, sym)
+    _, orbit, members, dist, _ = _members(ex, index, sym)
     keep = dist > min_dist
     orbit, members, dist = orbit[keep], members[keep], dist[keep]
     # farthest member per orbit (ties: first in offering order)
@@ -1027,7 +1029,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             nonlocal tilts
             w, _ = _orbit_weights(scene, settings, sym, grid, index, ex, reps, key)
             heavy = np.flatnonzero((w >= settings.probe_weight) & ex.explored[:ex.n_orbits])
-            _, orbit, members, _ = _members(ex, index, sym)
+            _, orbit, members, _, _ = _members(ex, index, sym)
             rng = np.random.default_rng([settings.seed, _PROBE_STREAM])
             by_orbit = np.argsort(orbit, kind="stable")
             bounds = np.searchsorted(orbit[by_orbit], np.stack([heavy, heavy + 1]))

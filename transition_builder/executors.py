@@ -87,15 +87,28 @@ def _default_factory(scene):
 
 
 def _simulator_key(scene, factory) -> str:
-    """A key identifying (scene, simulator factory) across processes."""
+    """A key identifying (scene, simulator factory) across processes.
+
+    Every task brings its own unpickled copy of the scene, and a content hash costs about a
+    millisecond (thousands of tasks in a build), so keys are remembered per thread by the pickle
+    of the pair: an equal pickle is an equal scene (a scene that pickles otherwise is only hashed
+    again)."""
     last = getattr(_LOCAL, "last_key", None)
     if last is not None and last[0] is scene and last[1] is factory:
         return last[2]
-    h = hashlib.sha256()
-    content_hash = getattr(scene, "content_hash", None)
-    h.update(content_hash().encode() if callable(content_hash) else pickle.dumps(scene))
-    h.update(pickle.dumps(factory))
-    key = h.hexdigest()
+    blob = pickle.dumps((scene, factory))
+    memo = getattr(_LOCAL, "key_memo", None)
+    if memo is None:
+        memo = _LOCAL.key_memo = OrderedDict()
+    key = memo.get(blob)
+    if key is None:
+        h = hashlib.sha256()
+        content_hash = getattr(scene, "content_hash", None)
+        h.update(content_hash().encode() if callable(content_hash) else pickle.dumps(scene))
+        h.update(pickle.dumps(factory))
+        key = memo[blob] = h.hexdigest()
+        while len(memo) > 4 * SIM_CACHE_SIZE:
+            memo.popitem(last=False)
     _LOCAL.last_key = (scene, factory, key)
     return key
 

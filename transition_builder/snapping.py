@@ -154,14 +154,15 @@ class PoseIndex:
         self._tree = cKDTree(self._points.copy(), boxsize=self.box) if self._n else None
         self._tree_n = self._n
 
-    def nearest_embedded(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def nearest_embedded(self, q: np.ndarray, workers: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Nearest representative within tolerance of query coordinates ``q`` (from :meth:`embed`):
-        ``(index or -1, distance in tolerance units or inf)``."""
+        ``(index or -1, distance in tolerance units or inf)``. ``workers``: threads of the k-d tree
+        query (scipy's argument; -1: every core), the same answer for any number."""
         n = len(q)
         best = np.full(n, -1, dtype=np.int64)
         dist = np.full(n, np.inf)
         if self._tree is not None and n:
-            d, i = self._tree.query(q, k=1, distance_upper_bound=1.0 + 1e-12)
+            d, i = self._tree.query(q, k=1, distance_upper_bound=1.0 + 1e-12, workers=workers)
             hit = np.isfinite(d)
             best[hit] = i[hit]
             dist[hit] = d[hit]

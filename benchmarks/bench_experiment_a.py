@@ -1,0 +1,134 @@
+"""Experiment A's speed-up, measured side by side: the default model against direct simulation in one run.
+
+The machine's speed drifts: the same direct-simulation sample (experiment A's first sequence, 400
+trials, 2 workers) ran at 699 tilts/s in one benchmark run and at 541 tilts/s in another on the same
+day. A build timed in one run and a tilt rate timed in another therefore do not make a ratio. Here
+every round times them together:
+
+1. direct simulation of the rate sample (``bench_pareto._direct_rate``): rate before;
+2. the default allen-key model built from scratch on 2 workers (``build_model``, no cache), then
+   experiment A from it (43 random 50-tilt sequences, seed 0: ``entropy_trajectory`` each);
+3. the rate sample again: rate after.
+
+Direct experiment A with 10,000 trials per sequence (43 x 10,000 x 50 tilts) is extrapolated at the
+mean of the two rates; the speed-up is that time over the model's (build + A). The spread of the two
+rates is reported beside it, and the ratio at each. Every round's model must be the same, array for
+array (a build is reproducible; a difference is reported as a failure).
+
+The model's error is judged on the held-out references of ``bench_builder`` (cached there) and set
+beside direct simulation's error at equal time: M = model time x rate / (43 x 50) trials per
+sequence, read off the subsample curve of ``bench_pareto``. ``KRUSKAL_BENCH_A_ROUNDS`` (default 2)
+sets the number of rounds. Writes ``benchmarks/results/experiment_a.json``, which
+``python -m benchmarks pareto`` puts into ``reports/full/pareto.md``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+
+import numpy as np
+
+ROUNDS = int(os.environ.get("KRUSKAL_BENCH_A_ROUNDS", "2"))
+
+
+def _same_model(a, b) -> bool:
+    """True when two models have the same states, initial distribution, matrices and extras."""
+    if a.n_states != b.n_states or not np.array_equal(a.initial, b.initial, equal_nan=True):
+        return False
+    if any((x != y).nnz for x, y in zip(a.matrices, b.matrices)):
+        return False
+    return all(np.array_equal(a.extras[k], b.extras[k], equal_nan=a.extras[k].dtype.kind == "f") for k in a.extras)
+
+
+def _experiment_a_seconds(model) -> float:
+    """Experiment A from ``model``: the entropy of 43 random 50-tilt sequences (seed 0), timed."""
+    from analysis.sequences import random_sequences_for
+    from benchmarks.bench_pareto import A_LENGTH, A_SEQUENCES
+    from kruskal_markov.entropy import entropy_trajectory
+
+    t = time.perf_counter()
+    for seq in random_sequences_for(model.n_actions, A_SEQUENCES, A_LENGTH, 0):
+        entropy_trajectory(model, seq)
+    return time.perf_counter() - t
+
+
+def _judge(model) -> dict | None:
+    """The model's error on the held-out references, and direct simulation's at given M (None when
+    the references are not cached: run ``python -m benchmarks builder`` first)."""
+    from analysis.sequences import random_sequences_for
+    from analysis.validate import model_grid, reference_seed, validate_model
+    from benchmarks.bench_builder import HELD_OUT_SEED, LENGTH, SEQUENCES, TRIALS, reference_cache
+    from benchmarks.bench_pareto import _subsample_errors
+    from transition_builder.scene import scene_from_options
+
+    scene = scene_from_options("allen-key")
+    grid = model_grid(model)
+    simulate, _ = reference_cache(scene, TRIALS, grid, 2, cached_only=True)
+    seqs = random_sequences_for(len(scene.actions), SEQUENCES, LENGTH, HELD_OUT_SEED)
+    refs = [simulate(scene, s, TRIALS, reference_seed(HELD_OUT_SEED, i), "none") for i, s in enumerate(seqs)]
+    if any(r is None for r in refs):
+        return None
+    val = validate_model(model, SEQUENCES, TRIALS, HELD_OUT_SEED, LENGTH, spread=False, bands=40,
+                         simulate=lambda sc, seq, m, seed, noise: simulate(scene, seq, m, seed, noise))
+    mc = _subsample_errors(refs, tuple(scene.actions), grid, seqs)
+    return {"mean_abs_error_bits": float(val["mean_abs_error_bits"]), "max_abs_error_bits": float(val["max_abs_error_bits"]),
+            "judge": f"{SEQUENCES} held-out {LENGTH}-tilt sequences (seed {HELD_OUT_SEED}), M = {TRIALS:,}",
+            "direct_subsample_errors": {str(m): e for m, e in mc.items()}}
+
+
+def main() -> None:
+    from benchmarks.bench_builder import RESULTS
+    from benchmarks.bench_pareto import A_LENGTH, A_SEQUENCES, A_TRIALS, _direct_error_at, _direct_rate
+    from transition_builder.builder import BuildSettings, build_model
+    from transition_builder.scene import scene_from_options
+
+    scene = scene_from_options("allen-key")
+    direct_tilts = A_SEQUENCES * A_TRIALS * A_LENGTH
+    rounds, first = [], None
+    for r in range(ROUNDS):
+        before = _direct_rate(scene)
+        t = time.perf_counter()
+        result = build_model(scene, BuildSettings(), workers=2, progress=None)
+        build_s = time.perf_counter() - t
+        a_s = _experiment_a_seconds(result.model)
+        after = _direct_rate(scene)
+        rate = 0.5 * (before + after)
+        total = build_s + a_s
+        row = {"round": r + 1, "rate_before": before, "rate_after": after, "build_seconds": build_s,
+               "experiment_a_seconds": a_s, "total_seconds": total, "tilts": result.stats["tilts_simulated"],
+               "states": result.stats["states"], "direct_seconds": direct_tilts / rate,
+               "speedup": direct_tilts / rate / total,
+               "speedup_range": [direct_tilts / min(before, after) / total, direct_tilts / max(before, after) / total]}
+        if first is None:
+            first = result.model
+        else:
+            row["same_model_as_round_1"] = _same_model(first, result.model)
+        rounds.append(row)
+        print(f"round {r + 1}: direct {before:.0f} / {after:.0f} tilts/s (before / after); build {build_s:.0f} s "
+              f"+ experiment A {a_s:.1f} s; direct A {row['direct_seconds']:,.0f} s; speed-up "
+              f"{row['speedup']:.0f}x ({row['speedup_range'][1]:.0f}-{row['speedup_range'][0]:.0f}x)", flush=True)
+    out = {"rounds": rounds, "machine": f"{platform.machine()}, {os.cpu_count()} cores",
+           "load_average": os.getloadavg()[0], "direct_tilts": direct_tilts}
+    judged = _judge(first)
+    if judged is None:
+        print("held-out references not cached: the error part is left out (run `python -m benchmarks builder`)")
+    else:
+        mc = {int(m): e for m, e in judged["direct_subsample_errors"].items()}
+        for row in rounds:
+            m = row["total_seconds"] * 0.5 * (row["rate_before"] + row["rate_after"]) / (A_SEQUENCES * A_LENGTH)
+            row["direct_trials_at_equal_time"] = m
+            row["direct_error_at_equal_time"] = {"mean": _direct_error_at(mc, m, "mean"),
+                                                 "max": _direct_error_at(mc, m, "max")}
+            row["target_met"] = bool(row["speedup"] >= 100
+                                     and judged["mean_abs_error_bits"] <= row["direct_error_at_equal_time"]["mean"]
+                                     and judged["max_abs_error_bits"] <= row["direct_error_at_equal_time"]["max"])
+            print(f"round {row['round']}: direct at equal time M = {m:.0f}: {row['direct_error_at_equal_time']['mean']:.3f}"
+                  f" / {row['direct_error_at_equal_time']['max']:.2f} bits; model {judged['mean_abs_error_bits']:.3f} / "
+                  f"{judged['max_abs_error_bits']:.2f}; target met: {row['target_met']}", flush=True)
+        out.update(judged)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    from kruskal_markov.model import atomic_write_text
+
+    atomic_write_text(RESULTS / "experiment_a.json", json.dumps(out, indent=1))
