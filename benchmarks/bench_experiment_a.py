@@ -111,6 +111,10 @@ def main() -> None:
               f"{row['speedup']:.0f}x ({row['speedup_range'][1]:.0f}-{row['speedup_range'][0]:.0f}x)", flush=True)
     out = {"rounds": rounds, "machine": f"{platform.machine()}, {os.cpu_count()} cores",
            "load_average": os.getloadavg()[0], "direct_tilts": direct_tilts}
+    from kruskal_markov.model import atomic_write_text
+
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(RESULTS / "experiment_a.json", json.dumps(out, indent=1))   # the timings, judged or not
     judged = _judge(first)
     if judged is None:
         print("held-out references not cached: the error part is left out (run `python -m benchmarks builder`)")
@@ -128,7 +132,4 @@ def main() -> None:
                   f" / {row['direct_error_at_equal_time']['max']:.2f} bits; model {judged['mean_abs_error_bits']:.3f} / "
                   f"{judged['max_abs_error_bits']:.2f}; target met: {row['target_met']}", flush=True)
         out.update(judged)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    from kruskal_markov.model import atomic_write_text
-
-    atomic_write_text(RESULTS / "experiment_a.json", json.dumps(out, indent=1))
+        atomic_write_text(RESULTS / "experiment_a.json", json.dumps(out, indent=1))
