@@ -1,4 +1,4 @@
-"""Experiment A's speed-up, measured side by side: the default model against direct simulation in one run.
+"""Experiment A's speed-up, measured side by side: a model's build against direct simulation in one run.
 
 The machine's speed drifts: the same direct-simulation sample (experiment A's first sequence, 400
 trials, 2 workers) ran at 699 tilts/s in one benchmark run and at 541 tilts/s in another on the same
@@ -6,9 +6,11 @@ day. A build timed in one run and a tilt rate timed in another therefore do not 
 every round times them together:
 
 1. direct simulation of the rate sample (``bench_pareto._direct_rate``): rate before;
-2. the default allen-key model built from scratch on 2 workers (``build_model``, no cache), then
+2. the allen-key model of the design built from scratch on 2 workers (``build_model``, no cache), then
    experiment A from it (43 random 50-tilt sequences, seed 0: ``entropy_trajectory`` each);
 3. the rate sample again: rate after.
+
+(The worker pool is started before the first timing.)
 
 Direct experiment A with 10,000 trials per sequence (43 x 10,000 x 50 tilts) is extrapolated at the
 mean of the two rates; the speed-up is that time over the model's (build + A). The spread of the two
@@ -18,8 +20,10 @@ array (a build is reproducible; a difference is reported as a failure).
 The model's error is judged on the held-out references of ``bench_builder`` (cached there) and set
 beside direct simulation's error at equal time: M = model time x rate / (43 x 50) trials per
 sequence, read off the subsample curve of ``bench_pareto``. ``KRUSKAL_BENCH_A_ROUNDS`` (default 2)
-sets the number of rounds. Writes ``benchmarks/results/experiment_a.json``, which
-``python -m benchmarks pareto`` puts into ``reports/full/pareto.md``.
+sets the number of rounds, ``KRUSKAL_BENCH_A_DESIGN`` (default ``det``, the default settings) the
+design: a variant of ``bench_builder.VARIANTS``. Writes the design's entry of
+``benchmarks/results/experiment_a.json``, which ``python -m benchmarks pareto`` puts into
+``reports/full/pareto.md``.
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ import time
 import numpy as np
 
 ROUNDS = int(os.environ.get("KRUSKAL_BENCH_A_ROUNDS", "2"))
+DESIGN = os.environ.get("KRUSKAL_BENCH_A_DESIGN", "det")
 
 
 def _same_model(a, b) -> bool:
@@ -40,6 +45,14 @@ def _same_model(a, b) -> bool:
     if any((x != y).nnz for x, y in zip(a.matrices, b.matrices)):
         return False
     return all(np.array_equal(a.extras[k], b.extras[k], equal_nan=a.extras[k].dtype.kind == "f") for k in a.extras)
+
+
+def _warm_up(scene) -> None:
+    """Start the worker pool (about a second) before anything is timed: direct simulation of
+    experiment A would pay it once in 8 hours."""
+    from analysis.montecarlo import run_direct
+
+    run_direct(scene, [0, 1], 32, seed=1, workers=2)
 
 
 def _experiment_a_seconds(model) -> float:
@@ -79,18 +92,26 @@ def _judge(model) -> dict | None:
 
 
 def main() -> None:
-    from benchmarks.bench_builder import RESULTS
+    from benchmarks.bench_builder import RESULTS, VARIANTS
     from benchmarks.bench_pareto import A_LENGTH, A_SEQUENCES, A_TRIALS, _direct_error_at, _direct_rate
     from transition_builder.builder import BuildSettings, build_model
     from transition_builder.scene import scene_from_options
 
+    if DESIGN not in VARIANTS:
+        raise SystemExit(f"KRUSKAL_BENCH_A_DESIGN={DESIGN!r} is not a builder variant ({', '.join(VARIANTS)})")
+    changes, description = VARIANTS[DESIGN]
+    changes = dict(changes)
+    if "scene" in changes:
+        raise SystemExit(f"variant {DESIGN!r} changes the simulator; experiment A is judged at the default one")
+    settings = BuildSettings(**changes)
     scene = scene_from_options("allen-key")
     direct_tilts = A_SEQUENCES * A_TRIALS * A_LENGTH
     rounds, first = [], None
+    _warm_up(scene)
     for r in range(ROUNDS):
         before = _direct_rate(scene)
         t = time.perf_counter()
-        result = build_model(scene, BuildSettings(), workers=2, progress=None)
+        result = build_model(scene, settings, workers=2, progress=None)
         build_s = time.perf_counter() - t
         a_s = _experiment_a_seconds(result.model)
         after = _direct_rate(scene)
@@ -109,12 +130,10 @@ def main() -> None:
         print(f"round {r + 1}: direct {before:.0f} / {after:.0f} tilts/s (before / after); build {build_s:.0f} s "
               f"+ experiment A {a_s:.1f} s; direct A {row['direct_seconds']:,.0f} s; speed-up "
               f"{row['speedup']:.0f}x ({row['speedup_range'][1]:.0f}-{row['speedup_range'][0]:.0f}x)", flush=True)
-    out = {"rounds": rounds, "machine": f"{platform.machine()}, {os.cpu_count()} cores",
-           "load_average": os.getloadavg()[0], "direct_tilts": direct_tilts}
-    from kruskal_markov.model import atomic_write_text
-
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(RESULTS / "experiment_a.json", json.dumps(out, indent=1))   # the timings, judged or not
+    out = {"design": DESIGN, "description": description, "rounds": rounds,
+           "machine": f"{platform.machine()}, {os.cpu_count()} cores", "load_average": os.getloadavg()[0],
+           "direct_tilts": direct_tilts}
+    _save(RESULTS / "experiment_a.json", out)                    # the timings, judged or not
     judged = _judge(first)
     if judged is None:
         print("held-out references not cached: the error part is left out (run `python -m benchmarks builder`)")
@@ -132,4 +151,14 @@ def main() -> None:
                   f" / {row['direct_error_at_equal_time']['max']:.2f} bits; model {judged['mean_abs_error_bits']:.3f} / "
                   f"{judged['max_abs_error_bits']:.2f}; target met: {row['target_met']}", flush=True)
         out.update(judged)
-        atomic_write_text(RESULTS / "experiment_a.json", json.dumps(out, indent=1))
+        _save(RESULTS / "experiment_a.json", out)
+
+
+def _save(path, entry: dict) -> None:
+    """Write ``entry`` as the entry of its design in the results file (other designs kept)."""
+    from kruskal_markov.model import atomic_write_text
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    designs = json.loads(path.read_text()).get("designs", {}) if path.exists() else {}
+    designs[entry["design"]] = entry
+    atomic_write_text(path, json.dumps({"designs": designs}, indent=1))
