@@ -34,19 +34,9 @@ import os
 import platform
 import time
 
-import numpy as np
 
 ROUNDS = int(os.environ.get("KRUSKAL_BENCH_A_ROUNDS", "2"))
 DESIGN = os.environ.get("KRUSKAL_BENCH_A_DESIGN", "det")
-
-
-def _same_model(a, b) -> bool:
-    """True when two models have the same states, initial distribution, matrices and extras."""
-    if a.n_states != b.n_states or not np.array_equal(a.initial, b.initial, equal_nan=True):
-        return False
-    if any((x != y).nnz for x, y in zip(a.matrices, b.matrices)):
-        return False
-    return all(np.array_equal(a.extras[k], b.extras[k], equal_nan=a.extras[k].dtype.kind == "f") for k in a.extras)
 
 
 def _warm_up(scene) -> None:
@@ -138,12 +128,6 @@ def _rejudge(settings) -> None:
     model = TransitionModel.load(str(model_path))
     if model.metadata.get("build_key") != build_key(scene_from_options("allen-key"), settings):
         raise SystemExit(f"{model_path} was not built with the settings of {DESIGN!r}")
-    entry.pop("mean_abs_error_bits", None), entry.pop("max_abs_error_bits", None)
-    for key in ("judge", "direct_subsample_errors"):
-        entry.pop(key, None)
-    for row in entry["rounds"]:
-        for key in ("direct_error_at_equal_time", "target_met"):
-            row.pop(key, None)
     _judge_rounds(entry, model)
     _save(path, entry)
 
@@ -185,7 +169,7 @@ def main() -> None:
         if first is None:
             first = result.model
         else:
-            row["same_model_as_round_1"] = _same_model(first, result.model)
+            row["same_model_as_round_1"] = first.same_arrays(result.model)
         rounds.append(row)
         print(f"round {r + 1}: direct {before:.0f} / {after:.0f} tilts/s (before / after); build {build_s:.0f} s "
               f"+ experiment A {a_s:.1f} s; direct A {row['direct_seconds']:,.0f} s; speed-up "

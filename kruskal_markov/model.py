@@ -402,6 +402,22 @@ class TransitionModel:
             self._cache["packed"] = (indptr, indices, data)
         return self._cache["packed"]
 
+    def same_arrays(self, other: "TransitionModel") -> bool:
+        """True when ``other`` holds exactly the same model, array for array: actions, initial
+        distribution, partition, every matrix entry and every extra array (NaN equal to NaN).
+        Metadata (timings, settings) is not compared. For checking that a build is reproducible."""
+        def equal(x, y) -> bool:
+            if x is None or y is None:
+                return x is None and y is None
+            x, y = np.asarray(x), np.asarray(y)
+            return x.shape == y.shape and np.array_equal(x, y, equal_nan=x.dtype.kind == "f" and y.dtype.kind == "f")
+
+        return (self.actions == other.actions and self.n_states == other.n_states
+                and equal(self.initial, other.initial) and equal(self.partition, other.partition)
+                and all((x != y).nnz == 0 for x, y in zip(self.matrices, other.matrices))
+                and self.extras.keys() == other.extras.keys()
+                and all(equal(self.extras[k], other.extras[k]) for k in self.extras))
+
     def with_initial(self, initial) -> "TransitionModel":
         """A copy of this model with another initial distribution."""
         return TransitionModel(self.actions, self.matrices, initial=initial, partition=self.partition,

@@ -32,17 +32,6 @@ def _square_scene():
     return scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0))
 
 
-def _same_model(a: TransitionModel, b: TransitionModel) -> bool:
-    if a.n_states != b.n_states or not np.array_equal(a.initial, b.initial):
-        return False
-    if not np.array_equal(a.partition, b.partition):
-        return False
-    if not all((ma != mb).nnz == 0 for ma, mb in zip(a.matrices, b.matrices)):
-        return False
-    pa, pb_ = a.extras.get("state_poses"), b.extras.get("state_poses")
-    return (pa is None) == (pb_ is None) and (pa is None or np.array_equal(pa, pb_, equal_nan=True))
-
-
 @pytest.fixture(scope="module")
 def square_build():
     settings = BuildSettings(start_samples=150, max_states=1200, seed=3)
@@ -151,12 +140,12 @@ def test_zero_noise_is_bit_identical_and_noise_is_seeded():
     base = dict(start_samples=60, max_states=160, seed=5)
     none = build_model(scene, BuildSettings(noise="none", **base), executor=SerialExecutor()).model
     zero = build_model(scene, BuildSettings(noise="pose:0,0", **base), executor=SerialExecutor()).model
-    assert _same_model(none, zero)
+    assert none.same_arrays(zero)
     s = BuildSettings(noise="pose:0.5,0.5", samples=3, **base)
     a = build_model(scene, s, executor=SerialExecutor()).model
     b = build_model(scene, s, executor=SerialExecutor()).model
-    assert _same_model(a, b)
-    assert not _same_model(a, none)
+    assert a.same_arrays(b)
+    assert not a.same_arrays(none)
     # noisy rows are estimated from several samples, so some are genuinely stochastic
     assert any(np.any(mat.data < 1) for mat in a.matrices)
     assert build_key(scene, s) != build_key(scene, BuildSettings(noise="none", **base))
@@ -172,12 +161,12 @@ def test_local_pool_and_dask_give_identical_models():
     serial = build_model(scene, s, executor=SerialExecutor()).model
     pool = make_executor(2)
     local = build_model(scene, s, executor=pool).model
-    assert _same_model(serial, local)
+    assert serial.same_arrays(local)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl:
         from transition_builder.executors import DaskExecutor
         with DaskExecutor(cl.scheduler_address) as ex:
             dask = build_model(scene, s, executor=ex).model
-    assert _same_model(serial, dask)
+    assert serial.same_arrays(dask)
 
 
 _RESUME_SCRIPT = textwrap.dedent("""
@@ -226,7 +215,7 @@ def test_resume_after_sigkill(tmp_path):
     fresh = build_model(scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)),
                         BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor(),
                         batch_tilts=160).model          # the same task grouping as the killed build
-    assert _same_model(TransitionModel.load(out), fresh)
+    assert TransitionModel.load(out).same_arrays(fresh)
 
 
 def test_cache_reuse_and_corrupt_file(tmp_path, recwarn):
@@ -237,7 +226,7 @@ def test_cache_reuse_and_corrupt_file(tmp_path, recwarn):
     r1, p1, c1 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
     r2, p2, c2 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
     assert (c1, c2) == (False, True) and p1 == p2
-    assert _same_model(r1.model, r2.model)
+    assert r1.model.same_arrays(r2.model)
     # another scene never reuses it
     other = scene.with_settings(solver_iterations=90)
     _, p3, c3 = cached_build(other, s, directory=str(tmp_path), executor=SerialExecutor())
@@ -248,7 +237,7 @@ def test_cache_reuse_and_corrupt_file(tmp_path, recwarn):
     r4, _, c4 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
     assert not c4
     assert any("rebuilding" in str(w.message) for w in recwarn.list)
-    assert _same_model(r1.model, r4.model)
+    assert r1.model.same_arrays(r4.model)
 
 
 def test_build_and_validate_end_to_end(tmp_path):
@@ -421,9 +410,9 @@ def test_snap_compensation_subtracts_the_snapping_offset_from_the_noise():
     assert build_key(scene, s) != build_key(scene, replace(s, snap_compensation=False))
     a = build_model(scene, s, executor=SerialExecutor())
     b = build_model(scene, s, executor=SerialExecutor())
-    assert _same_model(a.model, b.model)
+    assert a.model.same_arrays(b.model)
     plain = build_model(scene, replace(s, snap_compensation=False), executor=SerialExecutor())
-    assert not _same_model(a.model, plain.model)
+    assert not a.model.same_arrays(plain.model)
     st = a.stats
     assert 0 < st["snap_spread_mm"] < s.tol_mm and 0 < st["snap_spread_deg"] < s.tol_deg
     added = compensated_noise(NoiseSpec("pose", 0.5, 0.5), st["snap_spread_mm"], st["snap_spread_deg"])
@@ -447,7 +436,7 @@ def test_confirm_samples_tops_up_only_the_rows_whose_samples_disagree():
     with pytest.raises(ValueError, match="weighted exploration"):
         BuildSettings(noise="pose:0.5,0.5", samples=6, confirm_samples=3, explore_weight=0.0)
     r = build_model(scene, s, executor=SerialExecutor())
-    assert _same_model(r.model, build_model(scene, s, executor=SerialExecutor()).model)
+    assert r.model.same_arrays(build_model(scene, s, executor=SerialExecutor()).model)
     m = r.model
     assert r.stats["confirm_samples"] == 3
     rest = m.extras["state_kind"] == STATE_REST
@@ -576,7 +565,7 @@ def test_max_samples_gives_heavy_rows_samples_in_proportion_to_their_weight():
     assert BuildSettings(noise="pose:0.5,0.5", samples=8, confirm_samples=4).max_samples == 0
     r = build_model(scene, s, executor=SerialExecutor())
     m = r.model
-    assert _same_model(m, build_model(scene, s, executor=SerialExecutor()).model)
+    assert m.same_arrays(build_model(scene, s, executor=SerialExecutor()).model)
     # the weights, as the builder computes them, on the finished model
     rng = np.random.default_rng([s.seed, _WEIGHT_STREAM])
     seqs = rng.integers(0, m.n_actions, size=(_WEIGHT_SEQUENCES, _WEIGHT_LENGTH))

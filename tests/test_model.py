@@ -271,3 +271,28 @@ def test_with_initial(small_model):
     m2 = small_model.with_initial(p)
     np.testing.assert_array_equal(m2.initial, p)
     assert m2.matrices[0] is small_model.matrices[0] or (m2.matrices[0] != small_model.matrices[0]).nnz == 0
+
+
+def test_same_arrays_compares_every_array_and_treats_nan_as_equal(tmp_path, small_model):
+    """``same_arrays`` (the builder's reproducibility check): a saved and loaded copy is the same,
+    NaN poses included; one changed matrix entry, initial distribution, partition or extra is not."""
+    poses = np.full((6, 3), np.nan)
+    poses[3:] = 1.5
+    model = TransitionModel(small_model.actions, small_model.matrices, initial=small_model.initial,
+                            partition=small_model.partition, extras={"state_poses": poses})
+    model.save(tmp_path / "m.npz")
+    assert model.same_arrays(TransitionModel.load(tmp_path / "m.npz"))
+    other_matrix = [m.copy() for m in model.matrices]
+    other_matrix[1] = sp.csr_matrix(random_stochastic(np.random.default_rng(9), 6, dense=True))
+    other_poses = poses.copy()
+    other_poses[4, 2] = 1.25
+    other_init = np.roll(model.initial, 1)
+    changed = [TransitionModel(model.actions, other_matrix, initial=model.initial, partition=model.partition,
+                               extras=model.extras),
+               model.with_initial(other_init),
+               TransitionModel(model.actions, model.matrices, initial=model.initial, partition=[0, 1, 1, 1, 2, 2],
+                               extras=model.extras),
+               TransitionModel(model.actions, model.matrices, initial=model.initial, partition=model.partition,
+                               extras={"state_poses": other_poses}),
+               TransitionModel(model.actions, model.matrices, initial=model.initial, partition=model.partition)]
+    assert not any(model.same_arrays(c) for c in changed)
