@@ -20,7 +20,12 @@ variant's settings (checked by its build key) and reports its recorded build tim
 same scene and settings built under an earlier simulator version is accepted when
 ``KRUSKAL_BENCH_BUILDER_MODEL_SIMULATOR`` names that version (the table then says which simulator
 built it and which judged it).
-Writes ``benchmarks/results/builder.json`` and the markdown table ``benchmarks/BUILDER_RESULTS.md``.
+Writes ``benchmarks/results/builder.json`` (one row per variant, simulator version, M and set: a
+variant measured again replaces its row) and the markdown tables of every row there,
+``benchmarks/results/builder-latest.md`` (other sets: ``results/builder-seed<SEED>.md``). The
+committed ``benchmarks/BUILDER_RESULTS.md`` is the record of every measurement as it was made,
+rows that later runs replaced included; a run adds its rows there as a new section (by hand: a
+rewrite from ``builder.json`` would drop the replaced rows that docs/builder.md cites).
 """
 from __future__ import annotations
 
@@ -317,7 +322,8 @@ def _per_sequence_lines(rows: list) -> str:
 
 
 def write_markdown(done: dict) -> None:
-    """``BUILDER_RESULTS.md`` from every row of ``builder.json``: the held-out table, then the tuning runs."""
+    """The tables of every row of ``builder.json`` (the held-out table, the second held-out set, then
+    the tuning runs) in ``results/builder-latest.md``; never the committed record (module docstring)."""
     main_seed = SEED if SEED not in (1, SECOND_HELD_OUT_SEED) else HELD_OUT_SEED
     rows = [v for k, v in done.items() if k.endswith(f"@{main_seed}")]
     rows.sort(key=lambda r: r.get("trials", TRIALS))
@@ -341,6 +347,6 @@ def write_markdown(done: dict) -> None:
     if main_seed == HELD_OUT_SEED and tuning:
         text += ("\n## Tuning runs (seed 1)\n\n" + _TUNING_NOTE + "\n\n"
                  + _table(tuning) + "\n" + _per_sequence_lines(tuning))
-    target = "BUILDER_RESULTS.md" if main_seed == HELD_OUT_SEED else f"results/builder-seed{SEED}.md"
+    target = "results/builder-latest.md" if main_seed == HELD_OUT_SEED else f"results/builder-seed{SEED}.md"
     (HERE / target).write_text(text)
     print(text)
