@@ -140,6 +140,10 @@ VARIANTS = {
     "det-0.3": ({"tol_mm": 0.3, "tol_deg": 0.3, "probes": 4, "probe_distance": 1.0 / 0.3},
                 "deterministic, 0.3 mm / 0.3 deg, 3 recentring rounds, flush side, member probes (4 members, "
                 "distance 1 mm / 1 deg as the default's)"),
+    "det-recenter-flush-starts-10000": ({"probes": 0, "tol_mm": 0.5, "tol_deg": 0.5, "recenter_rounds": 3,
+                                         "flush_side": True, "start_samples": 10000},
+                                        "deterministic, 0.5 / 0.5, 3 recentring rounds, flush side, 10,000 uniform "
+                                        "start poses instead of 5,000"),
 }
 DEFAULT_SELECTION = "det"
 
