@@ -144,6 +144,9 @@ VARIANTS = {
                                          "flush_side": True, "start_samples": 10000},
                                         "deterministic, 0.5 / 0.5, 3 recentring rounds, flush side, 10,000 uniform "
                                         "start poses instead of 5,000"),
+    "det-probe-weight-0.1": ({"probe_weight": 0.1},
+                             "deterministic, the defaults with member probes only for representatives of weight "
+                             "0.1 or more (0.05 by default)"),
 }
 DEFAULT_SELECTION = "det"
 
