@@ -135,8 +135,6 @@ VARIANTS = {
                                   "members, distance 4)"),
     "det-starts-2500": ({"start_samples": 2500},
                         "deterministic, the defaults with 2,500 uniform start poses instead of 5,000"),
-    "det-starts-1500": ({"start_samples": 1500},
-                        "deterministic, the defaults with 1,500 uniform start poses instead of 5,000"),
     "det-0.3": ({"tol_mm": 0.3, "tol_deg": 0.3, "probes": 4, "probe_distance": 1.0 / 0.3},
                 "deterministic, 0.3 mm / 0.3 deg, 3 recentring rounds, flush side, member probes (4 members, "
                 "distance 1 mm / 1 deg as the default's)"),

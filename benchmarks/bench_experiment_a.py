@@ -110,7 +110,14 @@ def _judge_rounds(out: dict, model) -> None:
     """Judge ``model`` on both held-out sets and say, per round and set, whether the target is met:
     at least 100x, with neither the mean nor the max error above direct simulation's at equal time."""
     from benchmarks.bench_builder import HELD_OUT_SEED, SECOND_HELD_OUT_SEED
-    from benchmarks.bench_pareto import A_LENGTH, A_SEQUENCES, _direct_error_at
+    from benchmarks.bench_pareto import A_LENGTH, A_SEQUENCES, _direct_error_at, missed_target
+
+    def at_equal_time(judged: dict, row: dict, m: float) -> dict:
+        """Direct simulation's error at ``m`` trials per sequence under one judge, and the verdict."""
+        mc = {int(k): e for k, e in judged["direct_subsample_errors"].items()}
+        direct = {"mean": _direct_error_at(mc, m, "mean"), "max": _direct_error_at(mc, m, "max")}
+        return {"direct_error_at_equal_time": direct,
+                "target_met": not missed_target(row["speedup"], judged, direct)}
 
     out["judged"] = {}
     for seed in (HELD_OUT_SEED, SECOND_HELD_OUT_SEED):
@@ -119,28 +126,22 @@ def _judge_rounds(out: dict, model) -> None:
             print(f"held-out set {seed}: references not cached, not judged")
             continue
         out["judged"][str(seed)] = judged
-        mc = {int(m): e for m, e in judged["direct_subsample_errors"].items()}
         finer = judged.get("finer_simulator")
-        mc_finer = {int(m): e for m, e in finer["direct_subsample_errors"].items()} if finer else None
         for row in out["rounds"]:
             m = row["total_seconds"] * 0.5 * (row["rate_before"] + row["rate_after"]) / (A_SEQUENCES * A_LENGTH)
-            direct = {"mean": _direct_error_at(mc, m, "mean"), "max": _direct_error_at(mc, m, "max")}
-            met = bool(row["speedup"] >= 100 and judged["mean_abs_error_bits"] <= direct["mean"]
-                       and judged["max_abs_error_bits"] <= direct["max"])
             row["direct_trials_at_equal_time"] = m
-            entry = {"direct_error_at_equal_time": direct, "target_met": met}
-            print(f"round {row['round']}, set {seed}: direct at equal time M = {m:.0f}: {direct['mean']:.3f} / "
-                  f"{direct['max']:.2f} bits; model {judged['mean_abs_error_bits']:.3f} / "
-                  f"{judged['max_abs_error_bits']:.2f}; target met: {met}", flush=True)
-            if mc_finer:
-                d2 = {"mean": _direct_error_at(mc_finer, m, "mean"), "max": _direct_error_at(mc_finer, m, "max")}
-                met2 = bool(row["speedup"] >= 100 and finer["mean_abs_error_bits"] <= d2["mean"]
-                            and finer["max_abs_error_bits"] <= d2["max"])
-                entry["finer_simulator"] = {"direct_error_at_equal_time": d2, "target_met": met2}
-                print(f"    against the half-step simulator: direct {d2['mean']:.3f} / {d2['max']:.2f} bits; "
-                      f"model {finer['mean_abs_error_bits']:.3f} / {finer['max_abs_error_bits']:.2f}; "
-                      f"met: {met2}", flush=True)
+            entry = at_equal_time(judged, row, m)
+            if finer:
+                entry["finer_simulator"] = at_equal_time(finer, row, m)
             row.setdefault("by_set", {})[str(seed)] = entry
+            head = f"round {row['round']}, set {seed}: "
+            for label, j, e in ((head, judged, entry),
+                                ("    against the half-step simulator: ", finer, entry.get("finer_simulator"))):
+                if e:
+                    d = e["direct_error_at_equal_time"]
+                    print(f"{label}direct at equal time M = {m:.0f}: {d['mean']:.3f} / {d['max']:.2f} bits; model "
+                          f"{j['mean_abs_error_bits']:.3f} / {j['max_abs_error_bits']:.2f}; target met: "
+                          f"{e['target_met']}", flush=True)
 
 
 def _rejudge(settings) -> None:

@@ -207,12 +207,18 @@ def _side_by_side_lines() -> list[str]:
     return lines
 
 
+def missed_target(speedup: float, model: dict, direct: dict) -> list[str]:
+    """What misses the experiment-A target for one round and judge: ``speed`` (below 100x), ``mean``
+    or ``max`` (the model's error above direct simulation's at equal time, ``direct``); empty when
+    it is met."""
+    return [what for what, bad in (("speed", speedup < 100),
+                                   ("mean", model["mean_abs_error_bits"] > direct["mean"]),
+                                   ("max", model["max_abs_error_bits"] > direct["max"])) if bad]
+
+
 def _verdict(speedup: float, model: dict, direct: dict) -> str:
-    """The experiment-A target for one round and judge: ``yes``, or ``no`` with what misses it (the
-    speed-up below 100, the model's mean or max error above direct simulation's at equal time)."""
-    missed = [what for what, bad in (("speed", speedup < 100),
-                                     ("mean", model["mean_abs_error_bits"] > direct["mean"]),
-                                     ("max", model["max_abs_error_bits"] > direct["max"])) if bad]
+    """The target column: ``yes``, or ``no`` with what misses it (:func:`missed_target`)."""
+    missed = missed_target(speedup, model, direct)
     return "yes" if not missed else "no: " + ", ".join(missed)
 
 
