@@ -12,6 +12,7 @@ from transition_builder._propagation import max_probability_along
 from transition_builder.builder.assembly import STATE_START, _assemble
 from transition_builder.builder.state import NOT_DRAWN, _Exploration
 from transition_builder.grid import ReportGrid
+from transition_builder.status import OK
 
 _WEIGHT_SEQUENCES = 200     # random sequences that weigh the rows of an adaptive build
 _WEIGHT_LENGTH = 30
