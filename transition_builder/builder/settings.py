@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
+from kruskal_markov._checks import check_int, check_number, is_number
 from kruskal_markov.model import TransitionModel
 from transition_builder.grid import parse_grid
 from transition_builder.noise import NoiseSpec, parse_noise
@@ -187,120 +187,19 @@ class BuildSettings:
     probe_distance: float | None = None
 
     def __post_init__(self):
-        deterministic = parse_noise(self.noise).is_zero
-        for name in ("tol_mm", "tol_deg"):
-            if getattr(self, name) is None:
-                object.__setattr__(self, name, _DEFAULT_TOL_DETERMINISTIC if deterministic else _DEFAULT_TOL_NOISY)
-        for name in ("tol_mm", "tol_deg", "contact_tol_mm"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise ValueError(f"build setting {name} must be a positive number, got {v!r}")
-            object.__setattr__(self, name, float(v))
-        for name in ("start_samples", "max_states"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"build setting {name} must be a positive integer, got {v!r}")
-            object.__setattr__(self, name, int(v))
-        f = self.samples_first
-        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
-            raise ValueError(f"build setting samples_first must be a positive integer, got {f!r}")
-        object.__setattr__(self, "samples_first", int(f))
-        object.__setattr__(self, "adaptive", bool(self.adaptive))
-        c = self.confirm_samples
-        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 0:
-            raise ValueError(f"build setting confirm_samples must be a non-negative integer, got {c!r}")
-        object.__setattr__(self, "confirm_samples", int(c))
-        object.__setattr__(self, "snap_compensation", bool(self.snap_compensation))
-        fs = self.flush_side
-        if fs is None:
-            fs = parse_noise(self.noise).is_zero      # on for deterministic builds
-        if not isinstance(fs, (bool, np.bool_)):
-            raise ValueError(f"build setting flush_side must be true, false or None, got {fs!r}")
-        object.__setattr__(self, "flush_side", bool(fs))
-        rc = self.recenter_rounds
-        if isinstance(rc, bool) or not isinstance(rc, (int, np.integer)) or not 0 <= rc <= 20:
-            raise ValueError(f"build setting recenter_rounds must be an integer in 0..20, got {rc!r}")
-        object.__setattr__(self, "recenter_rounds", int(rc))
-        ew = self.explore_weight
-        if ew is None:
-            ew = 0.0 if parse_noise(self.noise).is_zero else _DEFAULT_NOISY_EXPLORE_WEIGHT
-        if isinstance(ew, bool) or not isinstance(ew, (int, float)) or not 0 <= ew < 1:
-            raise ValueError(f"build setting explore_weight must be in [0, 1), got {ew!r}")
-        object.__setattr__(self, "explore_weight", float(ew))
-        r = self.refine_rounds
-        if isinstance(r, bool) or not isinstance(r, (int, np.integer)) or not 0 <= r <= 20:
-            raise ValueError(f"build setting refine_rounds must be an integer in 0..20, got {r!r}")
-        object.__setattr__(self, "refine_rounds", int(r))
-        d = self.refine_min_distance
-        if isinstance(d, bool) or not isinstance(d, (int, float)) or not 0 <= d <= 1:
-            raise ValueError(f"build setting refine_min_distance must be in [0, 1], got {d!r}")
-        object.__setattr__(self, "refine_min_distance", float(d))
-        if self.max_states > 50_000_000:
-            raise ValueError(f"max_states {self.max_states} is beyond what this machine can hold")
-        if self.start_samples > 10_000_000:
-            raise ValueError(f"start_samples {self.start_samples} is too many (at most 10,000,000)")
         noise = parse_noise(self.noise)
         object.__setattr__(self, "noise", str(noise))
-        k = self.samples
-        if k is None:
-            k = 1 if noise.is_zero else _DEFAULT_NOISY_SAMPLES
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1 or k > 10_000:
-            raise ValueError(f"samples per row must be an integer in 1..10000, got {self.samples!r}")
+        for name, rule in _CHECKS.items():
+            value = getattr(self, name)
+            if value is None and name in _AUTO:
+                value = _AUTO[name](self, noise.is_zero)
+            object.__setattr__(self, name, _check(name, value, rule))
         if noise.is_zero:
-            k = 1       # deterministic physics: every extra sample would repeat the first
-        object.__setattr__(self, "samples", int(k))
-        if self.confirm_samples and k > 1:
-            if not self.samples_first < self.confirm_samples < k:
-                raise ValueError(f"confirm_samples must lie between samples_first ({self.samples_first}) and "
-                                 f"samples ({k}), got {self.confirm_samples}")
-            if ew == 0 or not self.adaptive:
-                raise ValueError("confirm_samples needs adaptive sampling with weighted exploration "
-                                 "(explore_weight > 0)")
-        weighted_noisy = not noise.is_zero and ew > 0 and not self.confirm_samples
-        ms = self.max_samples
-        if ms is None:
-            ms = _DEFAULT_NOISY_MAX_SAMPLES if weighted_noisy and k < _DEFAULT_NOISY_MAX_SAMPLES else 0
-        if isinstance(ms, bool) or not isinstance(ms, (int, np.integer)) or not 0 <= ms <= 10_000:
-            raise ValueError(f"build setting max_samples must be an integer in 0..10000, got {ms!r}")
-        object.__setattr__(self, "max_samples", int(ms))
-        hw = self.heavy_weight
-        if hw is None:
-            hw = _DEFAULT_NOISY_HEAVY_WEIGHT
-        if isinstance(hw, bool) or not isinstance(hw, (int, float)) or not 0 < hw <= 1:
-            raise ValueError(f"build setting heavy_weight must be in (0, 1], got {hw!r}")
-        object.__setattr__(self, "heavy_weight", float(hw))
-        if self.max_samples:
-            if noise.is_zero or ew == 0:
-                raise ValueError("max_samples needs process noise and weighted exploration (explore_weight > 0)")
-            if self.max_samples <= k:
-                raise ValueError(f"max_samples must exceed samples ({k}), got {self.max_samples}")
-            if self.confirm_samples:
-                raise ValueError("max_samples and confirm_samples cannot be combined")
-        pr = self.probes
-        if pr is None:
-            fine = max(self.tol_mm, self.tol_deg) <= _DEFAULT_TOL_DETERMINISTIC
-            pr = _DEFAULT_PROBES if noise.is_zero and ew == 0 and fine else 0
-        if isinstance(pr, bool) or not isinstance(pr, (int, np.integer)) or not 0 <= pr <= 64:
-            raise ValueError(f"build setting probes must be an integer in 0..64, got {pr!r}")
-        object.__setattr__(self, "probes", int(pr))
-        pw = _DEFAULT_PROBE_WEIGHT if self.probe_weight is None else self.probe_weight
-        if isinstance(pw, bool) or not isinstance(pw, (int, float)) or not 0 < pw <= 1:
-            raise ValueError(f"build setting probe_weight must be in (0, 1], got {pw!r}")
-        object.__setattr__(self, "probe_weight", float(pw))
-        pd = self.probe_distance
-        if pd is None:
-            pd = _DEFAULT_PROBE_DISTANCE if pr else 0.0
-        if isinstance(pd, bool) or not isinstance(pd, (int, float)) or not (0 <= pd < math.inf):
-            raise ValueError(f"build setting probe_distance must be a finite number >= 0, got {pd!r}")
-        object.__setattr__(self, "probe_distance", float(pd))
-        if self.probes and (not noise.is_zero or ew > 0):
-            raise ValueError("probes are for deterministic builds that explore everything (no noise, "
-                             "explore_weight 0)")
+            object.__setattr__(self, "samples", 1)  # deterministic physics: every extra sample would repeat the first
+        _check_combinations(self, noise.is_zero)
         parse_grid(self.grid)
-        if self.theta_offset is not None and not math.isfinite(self.theta_offset):
+        if self.theta_offset is not None and not is_number(self.theta_offset):
             raise ValueError("theta_offset must be finite")
-        if not isinstance(self.seed, (int, np.integer)) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
 
     @property
     def noise_spec(self) -> NoiseSpec:
@@ -316,6 +215,86 @@ class BuildSettings:
         if unknown:
             raise ValueError(f"unknown build setting(s) {', '.join(unknown)}")
         return cls(**data)
+
+
+#: None -> the builder's choice, given the settings checked so far (in ``_CHECKS`` order) and
+#: whether the build is deterministic (no process noise)
+_AUTO = {
+    "tol_mm": lambda s, det: _DEFAULT_TOL_DETERMINISTIC if det else _DEFAULT_TOL_NOISY,
+    "tol_deg": lambda s, det: _DEFAULT_TOL_DETERMINISTIC if det else _DEFAULT_TOL_NOISY,
+    "flush_side": lambda s, det: det,                        # on for deterministic builds
+    "explore_weight": lambda s, det: 0.0 if det else _DEFAULT_NOISY_EXPLORE_WEIGHT,
+    "samples": lambda s, det: 1 if det else _DEFAULT_NOISY_SAMPLES,
+    "max_samples": lambda s, det: (_DEFAULT_NOISY_MAX_SAMPLES if not det and s.explore_weight > 0
+                                   and not s.confirm_samples and s.samples < _DEFAULT_NOISY_MAX_SAMPLES else 0),
+    "heavy_weight": lambda s, det: _DEFAULT_NOISY_HEAVY_WEIGHT,
+    "probes": lambda s, det: (_DEFAULT_PROBES if det and s.explore_weight == 0
+                              and max(s.tol_mm, s.tol_deg) <= _DEFAULT_TOL_DETERMINISTIC else 0),
+    "probe_weight": lambda s, det: _DEFAULT_PROBE_WEIGHT,
+    "probe_distance": lambda s, det: _DEFAULT_PROBE_DISTANCE if s.probes else 0.0,
+}
+
+#: every checked setting, in the order its default may depend on the ones before it:
+#: ("int", lo, hi) an integer (not a bool) in lo..hi; ("number", lo, hi, lo_open, hi_open) a finite
+#: number; ("bool",) anything, taken as a bool; ("flag",) true or false, no other value
+_CHECKS = {
+    "tol_mm": ("number", 0, None, True, False),
+    "tol_deg": ("number", 0, None, True, False),
+    "contact_tol_mm": ("number", 0, None, True, False),
+    "start_samples": ("int", 1, 10_000_000),
+    "max_states": ("int", 1, 50_000_000),
+    "samples_first": ("int", 1, None),
+    "adaptive": ("bool",),
+    "confirm_samples": ("int", 0, None),
+    "snap_compensation": ("bool",),
+    "flush_side": ("flag",),
+    "recenter_rounds": ("int", 0, 20),
+    "explore_weight": ("number", 0, 1, False, True),
+    "refine_rounds": ("int", 0, 20),
+    "refine_min_distance": ("number", 0, 1, False, False),
+    "samples": ("int", 1, 10_000),
+    "max_samples": ("int", 0, 10_000),
+    "heavy_weight": ("number", 0, 1, True, False),
+    "probes": ("int", 0, 64),
+    "probe_weight": ("number", 0, 1, True, False),
+    "probe_distance": ("number", 0, None, False, False),
+    "seed": ("int", 0, None),
+}
+
+
+def _check(name: str, value, rule: tuple):
+    """``value`` of the setting ``name`` checked by its ``_CHECKS`` rule and normalised."""
+    kind = rule[0]
+    label = f"build setting {name}"
+    if kind == "int":
+        return check_int(value, label, lo=rule[1], hi=rule[2])
+    if kind == "number":
+        return check_number(value, label, lo=rule[1], hi=rule[2], lo_open=rule[3], hi_open=rule[4])
+    if kind == "flag" and not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{label} must be true, false or None, got {value!r}")
+    return bool(value)
+
+
+def _check_combinations(s: "BuildSettings", deterministic: bool) -> None:
+    """The settings that only make sense together (a one-line ValueError naming them)."""
+    k, ew = s.samples, s.explore_weight
+    if s.confirm_samples and k > 1:
+        if not s.samples_first < s.confirm_samples < k:
+            raise ValueError(f"confirm_samples must lie between samples_first ({s.samples_first}) and "
+                             f"samples ({k}), got {s.confirm_samples}")
+        if ew == 0 or not s.adaptive:
+            raise ValueError("confirm_samples needs adaptive sampling with weighted exploration "
+                             "(explore_weight > 0)")
+    if s.max_samples:
+        if deterministic or ew == 0:
+            raise ValueError("max_samples needs process noise and weighted exploration (explore_weight > 0)")
+        if s.max_samples <= k:
+            raise ValueError(f"max_samples must exceed samples ({k}), got {s.max_samples}")
+        if s.confirm_samples:
+            raise ValueError("max_samples and confirm_samples cannot be combined")
+    if s.probes and (not deterministic or ew > 0):
+        raise ValueError("probes are for deterministic builds that explore everything (no noise, "
+                         "explore_weight 0)")
 
 
 def _package_version() -> str:
