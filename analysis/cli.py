@@ -13,6 +13,7 @@ import json
 import math
 import sys
 import time
+import warnings
 
 from analysis.commands import COMMANDS, InputError
 
@@ -67,6 +68,16 @@ def _format_text(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _one_line_warning(command: str):
+    """A ``warnings.showwarning`` that writes ``kruskal COMMAND: warning: ...`` as one line (no
+    file name, line number or source line, which mean nothing to a user of the command)."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = str(message).strip()
+        text = text.splitlines()[0] if text else category.__name__
+        sys.stderr.write(f"kruskal {command}: warning: {text}\n")
+    return show
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM, turned into the same clean unwinding as Ctrl-C (workers shut down, files left whole)."""
 
@@ -92,7 +103,9 @@ def main(argv: list[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else 2
     start = time.perf_counter()
     try:
-        result = args._module.run(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning(args.command)
+            result = args._module.run(args)
     except (InputError, ValueError, OSError) as exc:
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         sys.stderr.write(f"kruskal {args.command}: error: {message}\n")

@@ -40,7 +40,7 @@ from transition_builder.executors import (
     simulator_for,
 )
 from transition_builder.grid import ReportGrid, parse_grid
-from transition_builder.noise import NoiseSpec, noise_rng, parse_noise, perturb_poses
+from transition_builder.noise import NoiseSpec, check_noise_for_tray, noise_rng, perturb_poses
 from transition_builder.sampling import sample_start_poses
 from transition_builder.status import INVALID, OK, STATUS_NAMES
 
@@ -313,7 +313,7 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
         check_memory(float(trials) * (seq.size + 1) * 26 * 2, f"{trials:,} trials of {seq.size:,} tilts",
                      "use fewer --trials or a shorter sequence")
     rgrid = report_grid_for(scene, grid, theta_offset)
-    noise = parse_noise(noise)
+    noise = check_noise_for_tray(noise, scene.tray_x_mm, scene.tray_y_mm)
     noise_seed = 0 if seed is None else seed
     if not noise.is_zero and (isinstance(noise_seed, bool) or not isinstance(noise_seed, (int, np.integer))
                               or noise_seed < 0):

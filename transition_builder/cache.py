@@ -4,8 +4,9 @@ A model is filed under :func:`transition_builder.builder.build_key` — the hash
 (shape, tray, friction, tilt, actions, every solver setting, simulator and PyBullet versions), the
 build settings (resolution, samples, noise, seed...) and the builder and package versions — so a
 cached model is never reused for a different scene or setting. A file that does not load (corrupt,
-foreign, truncated) is rebuilt with a warning, never used. The in-progress checkpoint of a build
-lives beside it (``<key>.ckpt.npz``), so a killed build resumes when started again.
+foreign, truncated) is rebuilt with a one-line warning, never used. The in-progress checkpoint of a
+build lives beside it (``<key>.ckpt.npz``), so a killed build resumes when started again; with
+``use_cache=False`` nothing is reused, neither a cached model nor a checkpoint.
 
 The directory is ``$KRUSKAL_CACHE`` if set, else ``~/.cache/kruskal/models``.
 """
@@ -17,14 +18,20 @@ import tempfile
 import warnings
 
 from kruskal_markov.model import ModelError, TransitionModel
-from transition_builder.builder import BuildResult, BuildSettings, build_key, build_model
+from transition_builder.builder import BuildResult, BuildSettings, BuildWarning, build_key, build_model
 from transition_builder.scene import Scene
 
 __all__ = ["cache_dir", "cached_build"]
 
 
 def cache_dir() -> str:
-    """The model cache directory (created on demand)."""
+    """The model cache directory, created on demand.
+
+    Returns
+    -------
+    str
+        ``$KRUSKAL_CACHE`` if set, else ``~/.cache/kruskal/models``.
+    """
     d = os.environ.get("KRUSKAL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "kruskal", "models")
     os.makedirs(d, exist_ok=True)
     return d
@@ -48,8 +55,31 @@ def cached_build(scene: Scene, settings: BuildSettings | None = None, out: str |
                  use_cache: bool = True, directory: str | None = None, **build_kwargs) -> tuple[BuildResult, str, bool]:
     """Build ``scene`` or reuse the cached model of the same key.
 
-    Returns ``(result, path, cached)``: ``path`` is ``out`` if given (the model is copied there) or the
-    cache file. ``build_kwargs`` go to :func:`build_model` (executor, workers, scheduler, progress).
+    Parameters
+    ----------
+    scene : Scene
+        What to build.
+    settings : BuildSettings, optional
+        Build settings (default ``BuildSettings()``).
+    out : str, optional
+        Also copy the model here (atomically).
+    use_cache : bool, default True
+        Reuse a cached model of the same key and resume its checkpoint; False: build from scratch
+        (no reuse of any kind) and file the result in the cache.
+    directory : str, optional
+        The cache directory (default :func:`cache_dir`).
+    **build_kwargs
+        Passed to :func:`~transition_builder.builder.build_model` (executor, workers, scheduler,
+        progress).
+
+    Returns
+    -------
+    result : BuildResult
+        The model and its statistics (those recorded when it was built, for a cached model).
+    path : str
+        ``out`` if given, else the cache file.
+    cached : bool
+        Whether a cached model was reused.
     """
     settings = settings or BuildSettings()
     key = build_key(scene, settings)
@@ -61,15 +91,17 @@ def cached_build(scene: Scene, settings: BuildSettings | None = None, out: str |
             model = TransitionModel.load(path)
             if model.metadata.get("build_key") != key:
                 raise ModelError("its key does not match")
-        except ModelError as exc:
-            warnings.warn(f"cached model {path} is unusable ({exc}); rebuilding", stacklevel=2)
+        except ModelError:
+            warnings.warn(f"cached model {path} is damaged or not a kruskal model; rebuilding it", BuildWarning,
+                          stacklevel=2)
             os.unlink(path)
         else:
             if out:
                 _copy_atomic(path, out)
             stats = dict(model.metadata.get("stats", {}))
             return BuildResult(model, stats), (out or path), True
-    result = build_model(scene, settings, checkpoint=os.path.join(d, f"{key}.ckpt.npz"), **build_kwargs)
+    result = build_model(scene, settings, checkpoint=os.path.join(d, f"{key}.ckpt.npz"), resume=use_cache,
+                         **build_kwargs)
     result.model.save(path)
     if out:
         _copy_atomic(path, out)

@@ -40,6 +40,7 @@ __all__ = [
     "DaskExecutor",
     "Executor",
     "LocalExecutor",
+    "SchedulerLost",
     "SerialExecutor",
     "default_workers",
     "make_executor",
@@ -388,6 +389,23 @@ def _probe_scheduler(address: str, timeout_s: float) -> None:
         raise ValueError(f"cannot connect to the Dask scheduler at {address!r}: {why}")
 
 
+class SchedulerLost(ConnectionError):
+    """The Dask scheduler went away while tasks were running (one line, naming its address)."""
+
+
+def _lost_scheduler(exc: BaseException, client) -> bool:
+    """Whether ``exc``, raised while waiting for results, means the scheduler (not a task) failed."""
+    import asyncio
+    import concurrent.futures
+
+    names = {cls.__name__ for cls in type(exc).__mro__}
+    if names & {"FutureCancelledError", "CancelledError", "CommClosedError", "StreamClosedError"}:
+        return True
+    if isinstance(exc, (asyncio.CancelledError, concurrent.futures.CancelledError)):
+        return True
+    return getattr(client, "status", "running") not in ("running", "connecting")
+
+
 class DaskExecutor(Executor):
     """Runs tasks on a Dask ``distributed`` cluster.
 
@@ -427,11 +445,18 @@ class DaskExecutor(Executor):
     def map(self, fn, tasks):
         import distributed
 
-        futures = [self._client.submit(fn, *tuple(t), pure=False) for t in tasks]
-        index = {fut.key: i for i, fut in enumerate(futures)}
+        futures = []
         try:
+            futures = [self._client.submit(fn, *tuple(t), pure=False) for t in tasks]
+            index = {fut.key: i for i, fut in enumerate(futures)}
             for fut in distributed.as_completed(futures, loop=self._client.loop):
                 yield index[fut.key], fut.result()
+        except Exception as exc:
+            with contextlib.suppress(Exception):  # the client may be gone already
+                self._client.cancel(futures)
+            if _lost_scheduler(exc, self._client):
+                raise SchedulerLost(f"lost the Dask scheduler at {self.address} ({type(exc).__name__})") from None
+            raise
         except BaseException:
             with contextlib.suppress(Exception):  # the client may be gone already
                 self._client.cancel(futures)
@@ -440,7 +465,8 @@ class DaskExecutor(Executor):
     def close(self) -> None:
         client = getattr(self, "_client", None)
         if client is not None and client.status not in ("closed", "closing"):
-            client.close()
+            with contextlib.suppress(Exception):    # a lost scheduler: nothing left to close politely
+                client.close(timeout=5)
 
     def __repr__(self):
         return f"DaskExecutor({self.address!r})"

@@ -41,6 +41,7 @@ __all__ = [
     "penetration_mm",
     "perturb_pose",
     "perturb_poses",
+    "check_noise_for_tray",
 ]
 
 #: first entry of every noise generator's seed sequence (other streams use other numbers).
@@ -141,6 +142,49 @@ def parse_noise(spec) -> NoiseSpec:
     if not all(math.isfinite(v) and v >= 0 for v in (sigma_mm, sigma_deg)):
         raise ValueError(f"bad noise spec {spec!r}: expected {_FORMATS}")
     return NoiseSpec("pose", sigma_mm, sigma_deg)
+
+
+#: the largest noise a tray takes: a standard deviation of a quarter of the tray's shorter side in
+#: x and y (beyond it most nudges would push the part into a wall and be dropped, so the noise
+#: would silently do nothing) and half a turn in theta (beyond it the turn is uniform anyway).
+MAX_SIGMA_TRAY_SHARE = 0.25
+MAX_SIGMA_DEG = 180.0
+
+
+def check_noise_for_tray(noise, tray_x_mm: float, tray_y_mm: float) -> NoiseSpec:
+    """``noise`` parsed, if the tray can carry it out; else a one-line ValueError with the bound.
+
+    Parameters
+    ----------
+    noise : NoiseSpec or str
+        The process noise.
+    tray_x_mm, tray_y_mm : float
+        The tray's inner size (mm).
+
+    Returns
+    -------
+    NoiseSpec
+        The parsed noise.
+
+    Examples
+    --------
+    >>> str(check_noise_for_tray("pose:0.5,1", 200.0, 200.0))
+    'pose:0.5,1'
+    >>> check_noise_for_tray("pose:1e5,0", 200.0, 200.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: noise pose:100000,0 is too large for this tray: sigma_mm must be at most 50 mm, a quarter of its shorter side (200 mm)
+    """
+    spec = parse_noise(noise)
+    side = min(float(tray_x_mm), float(tray_y_mm))
+    bound_mm = MAX_SIGMA_TRAY_SHARE * side
+    if spec.sigma_mm > bound_mm:
+        raise ValueError(f"noise {spec} is too large for this tray: sigma_mm must be at most {_short(bound_mm)} mm, "
+                         f"a quarter of its shorter side ({_short(side)} mm)")
+    if spec.sigma_deg > MAX_SIGMA_DEG:
+        raise ValueError(f"noise {spec} is too large: sigma_deg must be at most {_short(MAX_SIGMA_DEG)} degrees "
+                         "(half a turn)")
+    return spec
 
 
 def noise_rng(seed, *keys) -> np.random.Generator:

@@ -82,9 +82,13 @@ def parse_resolution(text: str) -> tuple[float, float]:
 def check_writable_file(path: str | None, option: str) -> None:
     """Fail before any work if ``path`` (the value of ``option``) cannot be written as a file.
 
-    None means the option was not given; an empty string, a directory, or a path whose directory
-    does not exist or is not writable is an :class:`InputError`.
+    None means the option was not given; an empty string, a directory, a path whose directory does
+    not exist, or one where a probe file cannot be created (or an existing file opened for
+    writing) is an :class:`InputError` naming the option. The probe really writes: permission bits
+    alone say nothing for root, read-only mounts or pseudo file systems.
     """
+    import tempfile
+
     if path is None:
         return
     if not path.strip():
@@ -94,8 +98,23 @@ def check_writable_file(path: str | None, option: str) -> None:
     directory = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(directory):
         raise InputError(f"{option} {path!r}: directory {directory} does not exist")
-    if not os.access(directory, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
-        raise InputError(f"{option} {path!r} is not writable")
+    try:
+        if os.path.exists(path):
+            with open(path, "ab"):
+                pass
+        fd, probe = tempfile.mkstemp(prefix=".kruskal-probe-", dir=directory)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(f"{option} {path!r} is not writable ({exc.strerror or type(exc).__name__})") from None
+
+
+def check_positive(value: int, option: str) -> int:
+    """``value`` if it is at least 1, else an :class:`InputError` naming ``option`` (one rule for
+    ``--length``, ``--count``, ``--trials``, ``--sequences`` and ``--workers`` of every command)."""
+    if value < 1:
+        raise InputError(f"{option} must be at least 1, got {value}")
+    return value
 
 
 def positive_float(text: str) -> float:

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from analysis.commands import InputError
-from analysis.commands._common import add_seed, check_writable_file, parse_resolution
+from analysis.commands._common import add_seed, check_positive, check_writable_file, parse_resolution
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,7 +64,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-states", type=int, default=400_000, help="stop exploring beyond this many states")
     add_seed(parser)
     parser.add_argument("--out", metavar="PATH", help="write the model here (default: the cache file)")
-    parser.add_argument("--no-cache", action="store_true", help="rebuild even if a cached model exists")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="build from scratch: reuse neither a cached model nor a checkpoint")
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask distributed scheduler")
     parser.add_argument("--progress", action="store_true", help="progress bar on standard error")
@@ -85,8 +85,8 @@ def run(args: argparse.Namespace) -> dict:
     from transition_builder.builder import BuildSettings
     from transition_builder.cache import cached_build
 
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
+    if args.workers is not None:
+        check_positive(args.workers, "--workers")
     check_writable_file(args.out, "--out")
     scene = scene_for(args)
     mm, deg = parse_resolution(args.resolution) if args.resolution is not None else (None, None)
@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> dict:
                                         workers=args.workers, scheduler=args.scheduler,
                                         progress=True if args.progress else None)
     stats = dict(result.stats)
-    out = {"model": path, "states": stats.get("states"), "voxels_total": stats.get("voxels_total"),
+    out = {"model": path, "key": result.model.metadata.get("build_key"), "states": stats.get("states"), "voxels_total": stats.get("voxels_total"),
            "tilts_simulated": 0 if cached else stats.get("tilts_simulated"),
            "fault_rate": stats.get("fault_rate"), "cached": cached, "shape": scene.shape.name,
            "friction": str(scene.friction), "noise": settings.noise}

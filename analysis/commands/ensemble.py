@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from analysis.commands import InputError
-from analysis.commands._common import add_model_source, add_seed, load_model_source, parse_weights
+from analysis.commands._common import add_model_source, add_seed, check_positive, load_model_source, parse_weights
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -28,12 +27,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> dict:
     from kruskal_markov.ensemble import run_ensemble
 
-    if args.count < 1:
-        raise InputError(f"--count must be at least 1, got {args.count}")
-    if args.length < 0:
-        raise InputError(f"--length must be >= 0, got {args.length}")
-    if args.threads is not None and args.threads < 1:
-        raise InputError(f"--threads must be at least 1, got {args.threads}")
+    check_positive(args.count, "--count")
+    check_positive(args.length, "--length")
+    if args.threads is not None:
+        check_positive(args.threads, "--threads")
     model = load_model_source(args)
     weights = parse_weights(args.weights, model.actions)
     res = run_ensemble(model, args.count, args.length, seed=args.seed, epsilon=args.epsilon,

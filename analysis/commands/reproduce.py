@@ -10,8 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from analysis.commands import InputError
-from analysis.commands._common import add_seed, check_writable_dir
+from analysis.commands._common import add_seed, check_positive, check_writable_dir
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -26,8 +25,8 @@ def run(args: argparse.Namespace) -> dict:
     from analysis.report import write_report
     from analysis.reproduce import ReproduceSettings, reproduce
 
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
+    if args.workers is not None:
+        check_positive(args.workers, "--workers")
     check_writable_dir(args.out, "--out")
     settings = (ReproduceSettings.quick_settings(args.seed) if args.quick
                 else ReproduceSettings.full(args.seed))

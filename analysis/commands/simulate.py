@@ -10,9 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from analysis.commands import InputError
-from analysis.commands._common import (add_seed, check_writable_file, parse_sequence, scene_from_args,
-                                       sequence_rng)
+from analysis.commands._common import (add_seed, check_positive, check_writable_file, parse_sequence,
+                                       scene_from_args, sequence_rng)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -54,10 +53,9 @@ def run(args: argparse.Namespace) -> dict:
     from transition_builder.noise import parse_noise
 
     noise = parse_noise(args.noise)
-    if args.trials < 1:
-        raise InputError(f"--trials must be at least 1, got {args.trials}")
-    if args.workers is not None and args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
+    check_positive(args.trials, "--trials")
+    if args.workers is not None:
+        check_positive(args.workers, "--workers")
     check_writable_file(args.poses, "--poses")
     scene = scene_from_args(args)
     rng = sequence_rng(args.seed)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed
+from analysis.commands._common import add_seed, check_positive
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -32,8 +32,7 @@ def run(args: argparse.Namespace) -> dict:
     from kruskal_markov.model import TransitionModel
 
     for name in ("sequences", "trials", "length"):
-        if getattr(args, name) < 1:
-            raise InputError(f"--{name} must be at least 1, got {getattr(args, name)}")
+        check_positive(getattr(args, name), f"--{name}")
     if args.trials < 2:
         raise InputError("--trials must be at least 2 (the reference's noise is a bootstrap)")
     model = TransitionModel.load(args.model)

@@ -46,7 +46,7 @@ from __future__ import annotations
 
 from transition_builder.builder.assembly import (_BORROW_RADIUS, STATE_REST, STATE_START, STATE_UNEXPLORED,  # noqa: F401
                                                  _aligned, _assemble, _check_snapped, _noise_stats)
-from transition_builder.builder.driver import (_MAX_WEIGHT_ROUNDS, _PROBE_STREAM, _START_STREAM,  # noqa: F401
+from transition_builder.builder.driver import (BuildWarning, _MAX_WEIGHT_ROUNDS, _PROBE_STREAM, _START_STREAM,  # noqa: F401
                                                _TOPUP_ROUNDS, build_model)
 from transition_builder.builder.representatives import (_PARALLEL_QUERY, _RECENTER_RADIUS, _members, _offer,  # noqa: F401
                                                         _query_workers, _recenter, _refinement_candidates,
@@ -65,5 +65,5 @@ from transition_builder.builder.weights import (_WEIGHT_LENGTH, _WEIGHT_SEQUENCE
                                                 _WEIGHT_THRESHOLD, _disputed_pairs, _heavy_orbits,
                                                 _orbit_weights, _proportional_samples)
 
-__all__ = ["BUILDER_VERSION", "BuildSettings", "BuildResult", "build_model", "build_key",
+__all__ = ["BUILDER_VERSION", "BuildSettings", "BuildResult", "BuildWarning", "build_model", "build_key",
            "STATE_START", "STATE_REST", "STATE_UNEXPLORED"]

@@ -49,6 +49,8 @@ class _BuildContext:
         A tqdm progress bar, or None.
     tilts : int
         Tilts simulated by this run.
+    tilts_before : int
+        Tilts simulated by earlier runs up to the checkpoint this run resumed from.
     capped : bool
         The state cap (``max_states``) stopped exploration.
     """
@@ -73,6 +75,7 @@ class _BuildContext:
     ex: _Exploration | None = None
     batch: int = 1
     tilts: int = 0
+    tilts_before: int = 0
     capped: bool = False
     last_ckpt: float = field(default_factory=time.perf_counter)
 
@@ -90,6 +93,7 @@ class _BuildContext:
     def maybe_checkpoint(self, force: bool = False) -> None:
         """Save the state if a checkpoint is kept and ``force`` or the interval has passed."""
         if self.checkpoint and (force or time.perf_counter() - self.last_ckpt >= self.checkpoint_interval_s):
+            self.ex.tilts_done = self.tilts_before + self.tilts
             self.ex.save(self.checkpoint, self.key)
             self.last_ckpt = time.perf_counter()
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+import warnings
 
 import numpy as np
 
@@ -20,17 +21,23 @@ from transition_builder.builder.exploration import _MAX_WEIGHT_ROUNDS, _START_ST
 from transition_builder.builder.refinement import _PROBE_STREAM  # noqa: F401
 from transition_builder.builder.representatives import _with_rotations
 from transition_builder.builder.settings import BuildResult, BuildSettings, build_key
-from transition_builder.builder.state import _Exploration
-from transition_builder.executors import make_executor
+from transition_builder.builder.state import CheckpointError, _Exploration
+from transition_builder.executors import SchedulerLost, make_executor
+from transition_builder.status import OK
 from transition_builder.grid import ReportGrid, parse_grid
+from transition_builder.noise import check_noise_for_tray
 from transition_builder.scene import Scene
 from transition_builder.snapping import PoseIndex
 from transition_builder.symmetry import tray_symmetry
 
 
+class BuildWarning(UserWarning):
+    """Something a build recovered from (a checkpoint set aside, a cached model rebuilt)."""
+
+
 def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor=None, workers=None,
                 scheduler=None, checkpoint: str | None = None, checkpoint_interval_s: float = 30.0,
-                progress: bool | None = False, batch_tilts: int = 3000) -> BuildResult:
+                progress: bool | None = False, batch_tilts: int = 3000, resume: bool = True) -> BuildResult:
     """Sample the physics engine into a :class:`TransitionModel` of ``scene`` (see the module docstring).
 
     Parameters
@@ -42,7 +49,13 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
     checkpoint : str, optional
         Path of a checkpoint file: written atomically every ``checkpoint_interval_s`` seconds
         and after the start phase; a build started again with the same scene and settings resumes
-        from it (a checkpoint of another build is ignored). Removed when the build finishes.
+        from it. A checkpoint that cannot be resumed (unreadable, of another build, or holding a
+        landing none of its representatives covers) is set aside as ``<checkpoint>.rejected`` with
+        a one-line :class:`BuildWarning`, and the build starts from scratch. Removed when the build
+        finishes; kept when it stops (interrupted, or the Dask scheduler lost).
+    resume : bool, default True
+        Resume from ``checkpoint`` if it exists; False: start from scratch (the checkpoint is
+        overwritten), as ``kruskal build --no-cache`` does.
     progress : bool or None
         A tqdm bar on standard error (tilts, states, rate); None: only on a terminal.
     batch_tilts : int
@@ -61,8 +74,13 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
     if not isinstance(scene, Scene):
         raise ValueError(f"build_model needs a Scene, got {type(scene).__name__}")
     settings = settings or BuildSettings()
+    check_noise_for_tray(settings.noise, scene.tray_x_mm, scene.tray_y_mm)
     t0 = time.perf_counter()
     c = _context(scene, settings, executor, batch_tilts, checkpoint, checkpoint_interval_s)
+    if resume and checkpoint and os.path.exists(checkpoint):
+        c.ex = _resume(c, checkpoint)
+        if c.ex is None:
+            c = _context(scene, settings, executor, batch_tilts, checkpoint, checkpoint_interval_s)
     resumed = c.ex is not None
     own_executor = executor is None
     if own_executor:
@@ -75,13 +93,13 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
     try:
         if c.ex is None:
             _explore.start_phase(c)
-        else:
-            # the index is exactly the representatives saved (every founding decision up to the
-            # checkpoint is in them), so continuing gives the same model as an uninterrupted build
-            c.index.add(_with_rotations(c.sym, c.ex.orbit_poses))
         if settings.explore_weight > 0:
             _explore.weighted_exploration(c)
         _run_phases(c)
+    except SchedulerLost as exc:
+        kept = f"; checkpoint {checkpoint} kept, run the same build again to resume" \
+            if checkpoint and os.path.exists(checkpoint) else ""
+        raise SchedulerLost(f"{exc}{kept}") from None
     finally:
         if c.bar is not None:
             c.bar.close()
@@ -94,9 +112,39 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
     return BuildResult(model, stats)
 
 
+def _resume(c: _BuildContext, checkpoint: str) -> _Exploration | None:
+    """The state saved in ``checkpoint``, its representatives added to the snapping index, if it
+    belongs to this build and replays (every landing it holds lies within tolerance of one of its
+    representatives, as after every phase of a build); else None, the checkpoint set aside as
+    ``<checkpoint>.rejected`` with a one-line warning naming it."""
+    try:
+        ex = _Exploration.read(checkpoint, c.key, c.n_act, c.K)
+    except CheckpointError as why:
+        return _set_aside(checkpoint, str(why))
+    # the index is exactly the representatives saved (every founding decision up to the
+    # checkpoint is in them), so continuing gives the same model as an uninterrupted build
+    c.index.add(_with_rotations(c.sym, ex.orbit_poses))
+    c.index.compact()
+    done = np.flatnonzero(ex.explored[:ex.n_orbits])
+    landings = [ex.start_land[ex.start_status == OK], ex.land[done][ex.status[done] == OK],
+                ex.more_land[ex.more_status == OK]]
+    for land in landings:
+        if len(land) and np.any(c.index.snap(_with_rotations(c.sym, land)) < 0):
+            return _set_aside(checkpoint, "a landing in it has no representative within tolerance")
+    c.tilts_before = ex.tilts_done
+    return ex
+
+
+def _set_aside(checkpoint: str, why: str) -> None:
+    aside = checkpoint + ".rejected"
+    os.replace(checkpoint, aside)
+    warnings.warn(f"checkpoint {checkpoint} cannot be resumed: {why}; set aside as {aside}, building from scratch",
+                  BuildWarning, stacklevel=4)
+    return None
+
+
 def _context(scene, settings, executor, batch_tilts, checkpoint, checkpoint_interval_s) -> _BuildContext:
-    """The build's context: derived sample counts, symmetry, grid, snapping index, and the state
-    resumed from ``checkpoint`` if it belongs to this build (else ``ex`` is None)."""
+    """The build's context: derived sample counts, symmetry, grid and an empty snapping index."""
     key = build_key(scene, settings)
     K = settings.samples
     n_act = len(scene.actions)
@@ -108,12 +156,11 @@ def _context(scene, settings, executor, batch_tilts, checkpoint, checkpoint_inte
     K0 = min(K, settings.samples_first) if (K > 1 and settings.adaptive) else K
     # agreement-staged top-up: heavy rows to K1 samples, the disputed (row, action) pairs on to K
     K1 = settings.confirm_samples if (K0 < K and settings.confirm_samples) else K
-    ex = _Exploration.load(checkpoint, key, n_act, K) if checkpoint and os.path.exists(checkpoint) else None
     return _BuildContext(scene=scene, settings=settings, key=key, K=K, K0=K0, K1=K1, n_act=n_act, sym=sym,
                          grid=grid, index=index, reps=sym.action_orbit_representatives(), executor=executor,
                          batch_tilts=batch_tilts,
                          compensate=settings.snap_compensation and not settings.noise_spec.is_zero,
-                         checkpoint=checkpoint, checkpoint_interval_s=checkpoint_interval_s, ex=ex,
+                         checkpoint=checkpoint, checkpoint_interval_s=checkpoint_interval_s,
                          batch=max(1, int(batch_tilts) // (n_act * K)))
 
 
@@ -152,7 +199,7 @@ def _run_stats(c: _BuildContext, resumed: bool, seconds: float) -> dict:
     ex, settings, K, K0, K1 = c.ex, c.settings, c.K, c.K0, c.K1
     weighted = settings.explore_weight > 0
     return {
-        "tilts_simulated": c.tilts, "resumed": resumed, "simulation_seconds": seconds,
+        "tilts_simulated": c.tilts_before + c.tilts, "tilts_this_run": c.tilts, "resumed": resumed, "simulation_seconds": seconds,
         "refinement_rounds": ex.phase[1] if (K == 1 and not weighted) else 0,
         "representatives_split": ex.splits, "refinement_tilts": ex.refine_tilts,
         "adaptive_rounds": ex.phase[1] if (K0 < K and not weighted) else 0,

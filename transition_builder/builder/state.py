@@ -16,6 +16,10 @@ NOT_DRAWN = -1
 _PHASES = ("explore", "refine", "topup", "done")
 
 
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be resumed: unreadable, of another build, or not replaying."""
+
+
 class _Exploration:
     """Representatives found so far, the landings of the explored ones, and where the build is.
 
@@ -44,6 +48,7 @@ class _Exploration:
         self.moved = 0              # representatives moved by recentring
         self.probed = 0             # 1 once the member probes are done
         self.probe_tilts = 0
+        self.tilts_done = 0         # tilts simulated up to the checkpoint, by every run so far
         # samples beyond ``samples`` (max_samples): one row per tilt, (orbit, action, k) in ``more_src``
         self.more_src = np.zeros((0, 3), dtype=np.int64)
         self.more_land = np.zeros((0, 3))
@@ -86,16 +91,28 @@ class _Exploration:
                   "candidates": self.candidates, "counters": np.array([self.cand_done, self.splits,
                                                                        self.refine_tilts, self.topup_tilts,
                                                                        self.recentered, self.moved,
-                                                                       self.probed, self.probe_tilts])}
+                                                                       self.probed, self.probe_tilts]),
+                  "tilts_done": np.array(self.tilts_done)}
         atomic_savez(path, arrays, prefix=".ckpt-")
 
     @classmethod
     def load(cls, path: str, key: str, n_actions: int, samples: int) -> "_Exploration | None":
         """The checkpoint at ``path`` if it belongs to this build (``key``), else None."""
         try:
+            return cls.read(path, key, n_actions, samples)
+        except CheckpointError:
+            return None
+
+    @classmethod
+    def read(cls, path: str, key: str, n_actions: int, samples: int) -> "_Exploration":
+        """The checkpoint at ``path``; :class:`CheckpointError` (one line, why) if it is unreadable,
+        of another format or build (``key``), or of other dimensions."""
+        try:
             with np.load(path, allow_pickle=False) as z:
-                if int(z["format"]) != _CHECKPOINT_FORMAT or z["key"].tobytes().decode() != key:
-                    return None
+                if int(z["format"]) != _CHECKPOINT_FORMAT:
+                    raise CheckpointError(f"it has format {int(z['format'])}, not {_CHECKPOINT_FORMAT}")
+                if z["key"].tobytes().decode() != key:
+                    raise CheckpointError("it belongs to another build")
                 ex = cls(n_actions, samples)
                 ex.orbit_poses = np.array(z["orbit_poses"])
                 ex.explored = np.array(z["explored"], dtype=bool)
@@ -113,9 +130,12 @@ class _Exploration:
                 ex.more_status = np.array(z["more_status"], dtype=np.int8)
                 (ex.cand_done, ex.splits, ex.refine_tilts, ex.topup_tilts, ex.recentered,
                  ex.moved, ex.probed, ex.probe_tilts) = (int(v) for v in z["counters"])
+                ex.tilts_done = int(z["tilts_done"]) if "tilts_done" in z.files else 0
+        except CheckpointError:
+            raise
         except Exception:
-            return None
+            raise CheckpointError("it does not read as a checkpoint (damaged or truncated)") from None
         n = ex.n_orbits
         if ex.land.shape != (n, n_actions, samples, 3) or len(ex.explored) != n or len(ex.split_from) != n:
-            return None
+            raise CheckpointError("its arrays do not fit together")
         return ex
