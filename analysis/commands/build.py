@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands._common import add_seed, check_positive, check_writable_file, parse_resolution
+from transition_builder.builder.options import BUILD_OPTIONS
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,46 +23,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", default=None, metavar="MM,DEG",
                         help="snapping tolerance of representative rest poses, mm and degrees "
                              "(default 0.25,0.25 without noise, 0.75,0.75 with noise)")
-    parser.add_argument("--samples", type=int, default=None, metavar="K",
-                        help="samples per state and action (default 1 without noise, 4 with noise)")
-    parser.add_argument("--start-samples", type=int, default=5000,
-                        help="uniform start poses for the first tilt (default 5000)")
-    parser.add_argument("--grid", default="4x4x4", help="report grid AxBxG (default 4x4x4)")
-    parser.add_argument("--theta-offset", type=float, default=None, metavar="RAD",
-                        help="theta bin offset of the report grid (default half a bin)")
-    parser.add_argument("--refine-rounds", type=int, default=None, metavar="R",
-                        help="adaptive refinement rounds of a deterministic build (default: the builder's)")
-    parser.add_argument("--recenter-rounds", type=int, default=None, metavar="R",
-                        help="recentring rounds of a deterministic build (default: the builder's)")
-    parser.add_argument("--explore-weight", type=float, default=None, metavar="W",
-                        help="expand only states that hold probability >= W on some random sequence "
-                             "(default 0 = everything without noise, 1e-3 with noise)")
-    parser.add_argument("--confirm-samples", type=int, default=None, metavar="K1",
-                        help="noisy builds: top heavy rows up to K1 samples first, and only those whose "
-                             "samples disagree on the report cell up to K (default: the builder's)")
-    parser.add_argument("--max-samples", type=int, default=None, metavar="KMAX",
-                        help="noisy builds: rows of weight w >= --heavy-weight get K * w / heavy-weight "
-                             "samples, up to KMAX (default: the builder's)")
-    parser.add_argument("--heavy-weight", type=float, default=None, metavar="W",
-                        help="the weight from which --max-samples adds samples (default: the builder's)")
-    parser.add_argument("--probes", type=int, default=None, metavar="M",
-                        help="deterministic builds: representatives of weight >= --probe-weight tilt up to M of "
-                             "their members; where one lands in another report cell the row becomes the "
-                             "members' landings (default: 4 without noise at the default tolerance or finer, 0 "
-                             "with noise, weighted exploration or a coarser tolerance)")
-    parser.add_argument("--probe-weight", type=float, default=None, metavar="W",
-                        help="the weight from which --probes probes a representative (default: the builder's)")
-    parser.add_argument("--probe-distance", type=float, default=None, metavar="D",
-                        help="with --probes, a member landing in the representative's report cell but more than "
-                             "D tolerance balls from its landing also makes the row sensitive (default: 4 "
-                             "with --probes, 0 without)")
-    parser.add_argument("--flush-side", action=argparse.BooleanOptionalAction, default=None,
-                        help="snap only between poses resting on the same end of an edge flush with a wall "
-                             "(default: on without noise, off with noise)")
+    for option in BUILD_OPTIONS:        # each defined once, in transition_builder.builder.settings
+        if option.type is bool:
+            parser.add_argument(option.flag, action=argparse.BooleanOptionalAction, default=None, help=option.help)
+        else:
+            parser.add_argument(option.flag, type=option.type, default=None, metavar=option.metavar,
+                                help=option.help)
     parser.add_argument("--no-symmetry", action="store_true", help="do not use the tray's rotation symmetry")
     parser.add_argument("--support-points", type=int, default=None,
                         help="simulator floor contact: 1 sphere (default) or K legs")
-    parser.add_argument("--max-states", type=int, default=400_000, help="stop exploring beyond this many states")
     add_seed(parser)
     parser.add_argument("--out", metavar="PATH", help="write the model here (default: the cache file)")
     parser.add_argument("--no-cache", action="store_true",
@@ -90,19 +60,9 @@ def run(args: argparse.Namespace) -> dict:
     check_writable_file(args.out, "--out")
     scene = scene_for(args)
     mm, deg = parse_resolution(args.resolution) if args.resolution is not None else (None, None)
-    settings = BuildSettings(tol_mm=mm, tol_deg=deg, start_samples=args.start_samples, samples=args.samples,
-                             grid=args.grid, theta_offset=args.theta_offset, symmetry=not args.no_symmetry,
-                             max_states=args.max_states, noise=args.noise, seed=args.seed,
-                             explore_weight=args.explore_weight,
-                             **({} if args.confirm_samples is None else {"confirm_samples": args.confirm_samples}),
-                             **({} if args.flush_side is None else {"flush_side": args.flush_side}),
-                             **({} if args.max_samples is None else {"max_samples": args.max_samples}),
-                             **({} if args.heavy_weight is None else {"heavy_weight": args.heavy_weight}),
-                             **({} if args.probes is None else {"probes": args.probes}),
-                             **({} if args.probe_weight is None else {"probe_weight": args.probe_weight}),
-                             **({} if args.probe_distance is None else {"probe_distance": args.probe_distance}),
-                             **({} if args.refine_rounds is None else {"refine_rounds": args.refine_rounds}),
-                             **({} if args.recenter_rounds is None else {"recenter_rounds": args.recenter_rounds}))
+    chosen = {o.name: getattr(args, o.name) for o in BUILD_OPTIONS if getattr(args, o.name) is not None}
+    settings = BuildSettings(tol_mm=mm, tol_deg=deg, symmetry=not args.no_symmetry, noise=args.noise, seed=args.seed,
+                             **chosen)
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,
                                         workers=args.workers, scheduler=args.scheduler,
                                         progress=True if args.progress else None)

@@ -44,26 +44,81 @@ order in this process, so the model is the same for any executor and number of w
 """
 from __future__ import annotations
 
-from transition_builder.builder.assembly import (_BORROW_RADIUS, STATE_REST, STATE_START, STATE_UNEXPLORED,  # noqa: F401
-                                                 _aligned, _assemble, _check_snapped, _noise_stats)
-from transition_builder.builder.driver import (BuildWarning, _MAX_WEIGHT_ROUNDS, _PROBE_STREAM, _START_STREAM,  # noqa: F401
-                                               _TOPUP_ROUNDS, build_model)
-from transition_builder.builder.representatives import (_PARALLEL_QUERY, _RECENTER_RADIUS, _members, _offer,  # noqa: F401
-                                                        _query_workers, _recenter, _refinement_candidates,
-                                                        _snap_spread, _with_rotations, compensated_noise)
-from transition_builder.builder.settings import (_DEFAULT_NOISY_EXPLORE_WEIGHT, _DEFAULT_NOISY_HEAVY_WEIGHT,  # noqa: F401
-                                                 _DEFAULT_NOISY_MAX_SAMPLES, _DEFAULT_NOISY_SAMPLES,
-                                                 _DEFAULT_PROBE_DISTANCE, _DEFAULT_PROBE_WEIGHT,
-                                                 _DEFAULT_PROBES, _DEFAULT_TOL_DETERMINISTIC,
-                                                 _DEFAULT_TOL_NOISY, _LATER_OPTIONS, _SERVING_OPTIONS,
-                                                 _WEIGHTED_DESIGN, BUILDER_VERSION, BuildResult,
-                                                 BuildSettings, _package_version, build_key, settings_design)
-from transition_builder.builder.state import (_CHECKPOINT_FORMAT, _PHASES, NOT_DRAWN, _Exploration)  # noqa: F401
-from transition_builder.builder.tasks import (_CHUNK, _KEY_ORBIT, _KEY_PROBE, _KEY_REFINE, _KEY_START,  # noqa: F401
-                                              _orbit_jobs, _run_tilts, _stream_tilts, tilt_chunk)
-from transition_builder.builder.weights import (_WEIGHT_LENGTH, _WEIGHT_SEQUENCES, _WEIGHT_STREAM,  # noqa: F401
-                                                _WEIGHT_THRESHOLD, _disputed_pairs, _heavy_orbits,
-                                                _orbit_weights, _proportional_samples)
+from kruskal_markov.lazy import lazy_exports
 
+#: name -> the phase module that defines it (imported on first use, PEP 562; private names are here
+#: for the tests and benchmarks that import them from the package)
+_EXPORTS = {
+    "STATE_REST": "assembly",
+    "STATE_START": "assembly",
+    "STATE_UNEXPLORED": "assembly",
+    "_BORROW_RADIUS": "assembly",
+    "_aligned": "assembly",
+    "_assemble": "assembly",
+    "_check_snapped": "assembly",
+    "_noise_stats": "assembly",
+    "BuildWarning": "driver",
+    "_MAX_WEIGHT_ROUNDS": "driver",
+    "_PROBE_STREAM": "driver",
+    "_START_STREAM": "driver",
+    "_TOPUP_ROUNDS": "driver",
+    "build_model": "driver",
+    "BUILD_OPTIONS": "options",
+    "BuildOption": "options",
+    "options_markdown": "options",
+    "_PARALLEL_QUERY": "representatives",
+    "_RECENTER_RADIUS": "representatives",
+    "_members": "representatives",
+    "_offer": "representatives",
+    "_query_workers": "representatives",
+    "_recenter": "representatives",
+    "_refinement_candidates": "representatives",
+    "_snap_spread": "representatives",
+    "_with_rotations": "representatives",
+    "compensated_noise": "representatives",
+    "BUILDER_VERSION": "settings",
+    "BuildResult": "settings",
+    "BuildSettings": "settings",
+    "_DEFAULT_NOISY_EXPLORE_WEIGHT": "settings",
+    "_DEFAULT_NOISY_HEAVY_WEIGHT": "settings",
+    "_DEFAULT_NOISY_MAX_SAMPLES": "settings",
+    "_DEFAULT_NOISY_SAMPLES": "settings",
+    "_DEFAULT_PROBES": "settings",
+    "_DEFAULT_PROBE_DISTANCE": "settings",
+    "_DEFAULT_PROBE_WEIGHT": "settings",
+    "_DEFAULT_TOL_DETERMINISTIC": "settings",
+    "_DEFAULT_TOL_NOISY": "settings",
+    "_LATER_OPTIONS": "settings",
+    "_SERVING_OPTIONS": "settings",
+    "_WEIGHTED_DESIGN": "settings",
+    "_package_version": "settings",
+    "build_key": "settings",
+    "settings_design": "settings",
+    "CheckpointError": "state",
+    "NOT_DRAWN": "state",
+    "_CHECKPOINT_FORMAT": "state",
+    "_Exploration": "state",
+    "_PHASES": "state",
+    "_CHUNK": "tasks",
+    "_KEY_ORBIT": "tasks",
+    "_KEY_PROBE": "tasks",
+    "_KEY_REFINE": "tasks",
+    "_KEY_START": "tasks",
+    "_orbit_jobs": "tasks",
+    "_run_tilts": "tasks",
+    "_stream_tilts": "tasks",
+    "tilt_chunk": "tasks",
+    "_WEIGHT_LENGTH": "weights",
+    "_WEIGHT_SEQUENCES": "weights",
+    "_WEIGHT_STREAM": "weights",
+    "_WEIGHT_THRESHOLD": "weights",
+    "_disputed_pairs": "weights",
+    "_heavy_orbits": "weights",
+    "_orbit_weights": "weights",
+    "_proportional_samples": "weights",
+}
 __all__ = ["BUILDER_VERSION", "BuildSettings", "BuildResult", "BuildWarning", "build_model", "build_key",
-           "STATE_START", "STATE_REST", "STATE_UNEXPLORED"]
+           "settings_design", "compensated_noise", "tilt_chunk", "BUILD_OPTIONS", "BuildOption",
+           "options_markdown", "STATE_START", "STATE_REST", "STATE_UNEXPLORED", "NOT_DRAWN"]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
