@@ -57,6 +57,17 @@ def parse_friction(spec, base_mu: float = DEFAULT_MU) -> FrictionSpec:
     """Parse a friction spec (a number or ``map:LEVEL:SEED``); one-line :class:`ValueError` if malformed.
 
     ``base_mu`` is the mean coefficient of a map.
+
+    Parameters
+    ----------
+    spec : float, str or FrictionSpec
+        A Coulomb coefficient (``0.3``) or ``map:low|medium|high:SEED``.
+    base_mu : float, default 0.3
+        The mean coefficient of a map.
+
+    Returns
+    -------
+    FrictionSpec
     """
     if isinstance(spec, FrictionSpec):
         return spec

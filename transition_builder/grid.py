@@ -38,6 +38,18 @@ _EDGE_TOL = 1e-6
 def parse_grid(text: str) -> tuple[int, int, int]:
     """Parse ``"AxBxG"`` (e.g. ``"4x4x4"``) into three positive bin counts.
 
+    Parameters
+    ----------
+    text : str
+        ``AxBxG``: bins in x, in y and in theta.
+
+    Returns
+    -------
+    tuple of int
+        ``(A, B, G)``; a one-line ValueError on anything else.
+
+    Examples
+    --------
     >>> parse_grid("4x4x4")
     (4, 4, 4)
     """

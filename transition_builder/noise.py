@@ -116,6 +116,16 @@ def parse_noise(spec) -> NoiseSpec:
     """Parse a noise spec: None or ``"none"`` (no noise), ``"pose:SIGMA_MM,SIGMA_DEG"``, or a NoiseSpec.
 
     Raises a one-line ValueError naming the accepted formats.
+    Parameters
+    ----------
+    spec : str, NoiseSpec or None
+        The spec.
+
+    Returns
+    -------
+    NoiseSpec
+        ``pose:0,0`` parses to a zero noise (``is_zero``), printed as ``none``.
+
 
     Examples
     --------

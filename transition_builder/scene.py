@@ -279,6 +279,27 @@ def scene_from_options(shape_spec, friction_spec=DEFAULT_MU, tilt_deg: float = D
     ``shape_spec`` is a shape spec string or a :class:`Shape`; ``friction_spec`` a number or
     ``map:LEVEL:SEED``; ``actions`` ``None`` (all eight), a list of names or ``"N,E,S"``;
     extra keyword arguments change :class:`SimSettings` fields. Raises a one-line ValueError on bad input.
+
+    Parameters
+    ----------
+    shape_spec : str or Shape
+        See :func:`~transition_builder.shapes.parse_shape`.
+    friction_spec : float or str, default 0.3
+        See :func:`~transition_builder.friction.parse_friction`.
+    tilt_deg : float, default 30
+        Tilt angle of every action.
+    actions : None, str or list of str
+        The action set (default all eight compass directions).
+    tray_mm : (float, float), default (200, 200)
+        Inner size of the tray.
+    wall_mu : float, optional
+        Friction of the walls (default: the floor's).
+    settings : SimSettings, optional
+        Simulator settings; ``**setting_changes`` change its fields.
+
+    Returns
+    -------
+    Scene
     """
     shape = shape_spec if isinstance(shape_spec, Shape) else parse_shape(shape_spec)
     settings = settings or SimSettings()

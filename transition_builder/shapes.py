@@ -384,6 +384,22 @@ def make_shape(vertices, name: str = "polygon", thickness_mm: float = DEFAULT_TH
 
     The vertices are normalised to counter-clockwise order, repeated and collinear vertices are
     dropped, and the polygon is translated so that its area centroid is the origin.
+
+    Parameters
+    ----------
+    vertices : array_like (n, 2)
+        The polygon's vertices in mm, either orientation, not closed.
+    name : str, default "polygon"
+        The shape's name.
+    thickness_mm : float, default 5
+        Thickness of the part.
+    density_kg_m3 : float, default 7850
+        Density (steel).
+
+    Returns
+    -------
+    Shape
+        Raises a one-line ValueError for a polygon that is not simple or has no area.
     """
     for label, val in (("thickness_mm", thickness_mm), ("density_kg_m3", density_kg_m3)):
         try:
@@ -416,6 +432,23 @@ def allen_key(arm_width_mm: float = 6.0, thickness_mm: float = DEFAULT_THICKNESS
     Modelled as a flat L of constant arm width (default 6 mm, a 5-6 mm hex key seen from above) and
     thickness (default 5 mm), steel (7850 kg/m^3): area 594 mm^2, mass about 23 g. The long arm lies
     along the body x axis, the short arm along +y at its west end.
+
+    Parameters
+    ----------
+    arm_width_mm : float, default 6
+        Width of both arms.
+    thickness_mm : float, default 5
+        Thickness of the part.
+    long_mm, short_mm : float, default 77.5 and 27.5
+        Outer length of the long and the short arm.
+    density_kg_m3 : float, default 7850
+        Density (steel).
+    name : str, default "allen-key"
+        The shape's name.
+
+    Returns
+    -------
+    Shape
     """
     w = float(arm_width_mm)
     if not (math.isfinite(w) and 0 < w < min(long_mm, short_mm)):
@@ -426,7 +459,23 @@ def allen_key(arm_width_mm: float = 6.0, thickness_mm: float = DEFAULT_THICKNESS
 
 def rectangle(width_mm: float, height_mm: float, thickness_mm: float = DEFAULT_THICKNESS_MM,
               density_kg_m3: float = STEEL_DENSITY_KG_M3, name: str | None = None) -> Shape:
-    """A ``width_mm`` x ``height_mm`` rectangle (width along the body x axis)."""
+    """A ``width_mm`` x ``height_mm`` rectangle (width along the body x axis).
+
+    Parameters
+    ----------
+    width_mm, height_mm : float
+        Side lengths (positive).
+    thickness_mm : float, default 5
+        Thickness of the part.
+    density_kg_m3 : float, default 7850
+        Density (steel).
+    name : str, optional
+        Default ``rectangle:WxH``.
+
+    Returns
+    -------
+    Shape
+    """
     w, h = float(width_mm), float(height_mm)
     if not (math.isfinite(w) and math.isfinite(h) and w > 0 and h > 0):
         raise ValueError(f"rectangle: width and height must be positive finite numbers, got {width_mm} x {height_mm}")
@@ -456,6 +505,20 @@ def random_triangle(seed: int, thickness_mm: float = DEFAULT_THICKNESS_MM,
 
     Same thickness (5 mm) and density (steel, 7850 kg/m^3) as the key by default. The same seed
     always gives the same triangle.
+
+    Parameters
+    ----------
+    seed : int
+        Non-negative; the same seed gives the same triangle.
+    thickness_mm : float, default 5
+        Thickness of the part.
+    density_kg_m3 : float, default 7850
+        Density (steel).
+
+    Returns
+    -------
+    Shape
+        Named ``triangle:SEED``.
     """
     try:
         seed_int = int(seed)
@@ -504,6 +567,19 @@ def _parse_keywords(text: str, allowed: dict, spec: str) -> dict:
 def parse_shape(spec: str) -> Shape:
     """Build a :class:`Shape` from a ``--shape`` spec (see the module docstring).
 
+    Parameters
+    ----------
+    spec : str
+        ``allen-key``, ``triangle:SEED``, ``rectangle:WxH``, ``polygon:x1,y1;x2,y2;...`` or the path of
+        a ``.json`` file holding ``{"vertices": [[x, y], ...]}``.
+
+    Returns
+    -------
+    Shape
+        Raises a one-line ValueError naming the accepted forms on a bad spec.
+
+    Examples
+    --------
     >>> parse_shape("rectangle:40x20").symmetry_order
     2
     >>> parse_shape("polygon:0,0;30,0;30,30;0,30").area_mm2

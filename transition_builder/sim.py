@@ -263,6 +263,22 @@ def simulate(scene: Scene, poses, action) -> tuple[np.ndarray, np.ndarray]:
 
     Convenience form of :meth:`TraySimulator.tilt` that keeps the last few simulators of this
     process alive (keyed by the scene's content hash). Faulted trials have NaN poses.
+
+    Parameters
+    ----------
+    scene : Scene
+        Shape, tray, friction, tilt and simulator settings.
+    poses : array_like (n, 3)
+        Start poses ``(x_mm, y_mm, theta_rad)``.
+    action : str or int
+        Action name or index into ``scene.actions``.
+
+    Returns
+    -------
+    rest : ndarray (n, 3)
+        Rest poses (NaN where a trial faulted).
+    status : ndarray (n,) of int8
+        Fault codes (:mod:`transition_builder.status`; 0 is OK).
     """
     if not isinstance(scene, Scene):
         raise ValueError(f"simulate needs a Scene, got {type(scene).__name__}")

@@ -334,7 +334,16 @@ def build_key(scene: Scene, settings: BuildSettings) -> str:
 
 @dataclass(frozen=True)
 class BuildResult:
-    """A built model and what it cost (``stats``: the JSON keys of ``kruskal build``)."""
+    """A built model and what it cost (``stats``: the JSON keys of ``kruskal build``).
+
+    Attributes
+    ----------
+    model : kruskal_markov.model.TransitionModel
+        The built model (its ``metadata`` records the scene, the settings, the key and ``stats``).
+    stats : dict
+        What the build did and cost: states, tilts simulated (over every run of a resumed build),
+        faults, seconds, and the phase counters (the JSON keys of ``kruskal build``).
+    """
 
     model: TransitionModel
     stats: dict
