@@ -179,6 +179,13 @@ class DirectResult:
         return [self.action_names[i] for i in self.sequence]
 
     def to_json(self) -> dict:
+        """Deprecated alias of :meth:`to_dict` (every result serialises with ``to_dict``)."""
+        import warnings
+
+        warnings.warn("DirectResult.to_json is deprecated; use to_dict", DeprecationWarning, stacklevel=2)
+        return self.to_dict()
+
+    def to_dict(self) -> dict:
         """The ``kruskal simulate`` JSON keys (without ``seconds``)."""
         return {
             "entropy_bits": [float(h) for h in self.entropy_bits],
@@ -423,6 +430,18 @@ def write_poses_csv(path, result: DirectResult) -> str:
     Columns ``trial,step,x_mm,y_mm,theta_rad,status``; step 0 is the start pose; status is a name
     (``ok, tipped, escaped, unsettled, invalid``). A faulted trial has one row at its faulting step
     with empty pose fields, and no rows after it. Returns the path.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Where to write.
+    result : DirectResult
+        A direct simulation run (:func:`run_direct`; every trial's poses are kept).
+
+    Returns
+    -------
+    str
+        ``path``.
     """
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
@@ -476,6 +495,15 @@ def read_poses_csv(path) -> PoseRecords:
     ignored); ``status`` is optional (default ``ok``). Raises :class:`ValueError` naming the line
     and the problem: a missing column, a non-integer trial or step, a non-number coordinate, an
     unknown status, a repeated (trial, step), or an ``ok`` row without a finite pose.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The CSV file.
+
+    Returns
+    -------
+    PoseRecords
     """
     path = os.fspath(path)
     if not os.path.isfile(path):
@@ -537,7 +565,20 @@ def read_poses_csv(path) -> PoseRecords:
 
 
 def entropy_by_step(records: PoseRecords, grid: ReportGrid) -> np.ndarray:
-    """Report-grid entropy (bits) of the ``ok`` poses at every step 0..max step of ``records``."""
+    """Report-grid entropy (bits) of the ``ok`` poses at every step 0..max step of ``records``.
+
+    Parameters
+    ----------
+    records : PoseRecords
+        Poses by trial and step (:func:`read_poses_csv`).
+    grid : ReportGrid
+        The report grid.
+
+    Returns
+    -------
+    ndarray
+        Entropy in bits at steps 0, 1, ...
+    """
     check_memory(records.n_steps * 8.0 * 4, f"poses with steps up to {records.n_steps - 1:,}",
                  "the step column counts tilts from 0")
     out = np.zeros(records.n_steps)

@@ -42,6 +42,28 @@ class PartMetrics:
     automaton. A mean over the finished runs alone would be biased low, so with any censored run
     the mean is None and ``random_tilts_lower`` / ``random_sync_lower`` (each censored run counted
     at the tilts it ran: a lower bound) is what is known; without censoring they equal the means.
+
+    Attributes
+    ----------
+    states : int
+        States of the model.
+    sync_word, sync_length, sync_exact, sync_lower_bound, sync_method
+        The shortest synchronizing word found (action names; None if none), its length, whether it is
+        proven shortest, a proven lower bound and the search that found it.
+    random_tilts, random_tilts_ci95, random_tilts_censored, random_tilts_lower
+        Random tilts until entropy <= ``epsilon``: mean, 95% interval, censored runs, lower bound.
+    random_sync_length, random_sync_ci95, random_sync_censored, random_sync_lower
+        The same for merging every start state of the support automaton.
+    mean_entropy_10, mean_entropy_50 : float
+        Mean entropy (bits) after 10 and 50 random tilts.
+    converging_share_50 : float
+        Share of random 50-tilt sequences that reach ``epsilon``.
+    initial_entropy : float
+        Entropy of the start distribution (bits).
+    epsilon : float
+        The convergence threshold (bits).
+    seconds : float
+        Time taken.
     """
 
     states: int
@@ -65,9 +87,16 @@ class PartMetrics:
     epsilon: float
     seconds: float
 
-    def as_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Plain JSON-ready dictionary of the fields."""
         return dataclasses.asdict(self)
+
+    def as_dict(self) -> dict:
+        """Deprecated alias of :meth:`to_dict` (every result serialises with ``to_dict``)."""
+        import warnings
+
+        warnings.warn("PartMetrics.as_dict is deprecated; use to_dict", DeprecationWarning, stacklevel=2)
+        return self.to_dict()
 
 
 def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, runs: int = 500,
@@ -94,12 +123,22 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     threads : int, optional
         Numba threads of the ensemble.
 
+    Returns
+    -------
+    PartMetrics
+
     Notes
     -----
     The shortest word is searched from the support of the initial distribution (every pose a part
     can come to rest in after its first tilt, plus the start cells), i.e. the ``kruskal sync
     --start initial`` question: it orients a part placed anywhere. Searches: Kisielewicz, Kowalski
     and Szykula (2015) bidirectional BFS, Eppstein (1990) greedy fallback (``kruskal_markov.sync``).
+
+    References
+    ----------
+    .. [1] A. Kisielewicz, J. Kowalski, M. Szykula, "Computing the shortest reset words of
+       synchronizing automata", J. Comb. Optim. 29 (2015).
+    .. [2] D. Eppstein, "Reset sequences for monotonic automata", SIAM J. Comput. 19 (1990).
     """
     from kruskal_markov.convergence import (
         monte_carlo_entropy_tilts,
@@ -190,6 +229,16 @@ def rank_parts(metrics: dict[str, PartMetrics]) -> list[dict]:
     >>> c = dataclasses.replace(a, sync_length=None, sync_word=None)
     >>> [(r["shape"], r["decided_by"]) for r in rank_parts({"c": c, "b": b})]
     [('b', 'synchronizable'), ('c', None)]
+
+    Parameters
+    ----------
+    metrics : dict of str to PartMetrics
+        Shape name -> its metrics (:func:`part_metrics`).
+
+    Returns
+    -------
+    list of dict
+        One per part, best first.
     """
     order = sorted(metrics, key=lambda name: (_sort_key(metrics[name]), name))
     out = []
@@ -198,5 +247,5 @@ def rank_parts(metrics: dict[str, PartMetrics]) -> list[dict]:
         if i + 1 < len(order):
             k1, k2 = _sort_key(metrics[name]), _sort_key(metrics[order[i + 1]])
             decided = next((RANK_ORDER[j].split(" ")[0] for j in range(len(k1)) if k1[j] != k2[j]), "name")
-        out.append({"shape": name, "rank": i + 1, "decided_by": decided, **metrics[name].as_dict()})
+        out.append({"shape": name, "rank": i + 1, "decided_by": decided, **metrics[name].to_dict()})
     return out

@@ -401,7 +401,20 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
 
 
 def write_report(result: dict, out_dir: str) -> dict:
-    """Write ``index.md``, the figures and ``results.json`` into ``out_dir``; return the paths."""
+    """Write ``index.md``, the figures and ``results.json`` into ``out_dir``; return the paths.
+
+    Parameters
+    ----------
+    result : dict
+        What :func:`analysis.reproduce.reproduce` returned.
+    out_dir : str
+        The report directory (created if missing).
+
+    Returns
+    -------
+    dict
+        ``report``: the path of ``index.md``; ``figures``: the figures written.
+    """
     os.makedirs(out_dir, exist_ok=True)
     figures = _figures(result, out_dir)
     text = _markdown(result, figures, out_dir)

@@ -49,6 +49,31 @@ class ReproduceSettings:
     other contact models of ``compare_support_points`` (None: ``key_build``, so that both contact
     models are compared at the same resolution); ``parts`` are the B shape specs and ``maps`` the C
     friction specs; ``tray_mm`` the tray of every scene.
+
+    Attributes
+    ----------
+    quick : bool
+        The quick settings (:meth:`quick_settings`).
+    seed : int
+        Seed of every random choice.
+    shape, tray_mm, friction
+        The key's shape spec, the tray of every scene and the floor friction (None: the default).
+    length, a_sequences, ensemble_count
+        Experiment A: tilts per sequence, sequences, and random sequences of the ensemble.
+    parts, maps
+        Experiment B's shape specs and experiment C's friction specs.
+    key_build, part_build, contact_build : dict
+        ``BuildSettings`` changes of the key's, the B parts' and the contact-model comparison's models.
+    a_check_trials, b_trials, c_trials, replay_trials
+        Direct-simulation trials of the checks, of B and C, and of the plan's replay.
+    validate_sequences, validate_trials, validate_length
+        The key model's validation against direct simulation.
+    metrics_count, metrics_runs, sync_time_budget, part_sync_time_budget
+        Orientability metrics: ensemble size, Monte Carlo runs, and exact-search budgets in seconds.
+    compare_support_points, contact_ensemble_count
+        The other contact models compared, and their ensemble size.
+    epsilon : float
+        The convergence threshold (bits).
     """
 
     quick: bool = False
@@ -234,7 +259,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     _log(progress, "the key's shortest synchronizing word and expected random lengths")
     km = part_metrics(key, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
                       sync_time_budget=s.sync_time_budget)
-    out["key_metrics"] = km.as_dict()
+    out["key_metrics"] = km.to_dict()
     if km.sync_word:
         model_curve = entropy_trajectory(key, km.sync_word).entropy_bits
         _log(progress, f"sync word ({km.sync_length} tilts) replayed with {s.replay_trials} trials")
@@ -264,7 +289,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         direct = direct_summary(scene, best, s.b_trials, s.seed, workers)
         parts[spec] = {"model": info, "entropy_bits": curve.tolist(), "converged_at": first_at_most(curve, eps),
                        "direct": direct, "direct_zero_at": first_at_most(direct["entropy_bits"], 0.0),
-                       "metrics": metrics.as_dict()}
+                       "metrics": metrics.to_dict()}
     curves = np.array([p["entropy_bits"] for p in parts.values()]) if parts else np.zeros((0, s.length + 1))
     out["B"] = {"parts": parts, "converged": sum(p["converged_at"] is not None for p in parts.values()),
                 "converged_direct": sum(p["direct_zero_at"] is not None for p in parts.values()),

@@ -21,5 +21,19 @@ def random_sequences_for(n_actions: int, count: int, length: int, seed: int) -> 
 
     >>> random_sequences_for(8, 2, 5, seed=1).shape
     (2, 5)
+
+    Parameters
+    ----------
+    n_actions : int
+        Number of actions.
+    count, length : int
+        Sequences and actions per sequence.
+    seed : int
+        The seed.
+
+    Returns
+    -------
+    ndarray (count, length) of int
+        Action indices.
     """
     return sequence_rng(seed).integers(0, n_actions, size=(count, length)).astype(np.int64)

@@ -104,6 +104,30 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
     :func:`analysis.montecarlo.run_direct` (e.g. a benchmark that caches references shared by
     several models). Returns the ``kruskal validate`` JSON keys (without ``seconds``).
+
+    Parameters
+    ----------
+    model : TransitionModel
+        A built model (its metadata holds the scene and the noise).
+    sequences, trials, length : int
+        Random sequences, direct-simulation trials per sequence, and tilts per sequence.
+    seed : int
+        Seed of the sequences and of the simulation.
+    spread : bool
+        Also simulate at half the time step: the simulator's own spread beside the error.
+    bands : int
+        Posterior draws of the model's rows for the error band (0: none).
+    workers, scheduler
+        Where the simulation runs (:func:`transition_builder.executors.make_executor`).
+    progress : bool or None
+        A progress bar (None: on a terminal).
+    simulate : callable, optional
+        Replaces the direct simulation.
+
+    Returns
+    -------
+    dict
+        The ``kruskal validate`` JSON keys.
     """
     if simulate is None:
         def simulate(sc, sq, m, sd, nz):

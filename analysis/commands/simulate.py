@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> dict:
     result = run_direct(scene, sequence, args.trials, seed=args.seed, workers=args.workers,
                         progress=progress, grid=args.grid, theta_offset=args.theta_offset, noise=noise,
                         scheduler=args.scheduler)
-    out = result.to_json()
+    out = result.to_dict()
     out["shape"] = scene.shape.name
     out["friction"] = str(scene.friction)
     out["scene_hash"] = scene.content_hash()
