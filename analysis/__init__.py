@@ -1,4 +1,17 @@
-"""What users run: the ``kruskal`` command line, direct simulation, experiments, figures and reports."""
+"""What users run: the ``kruskal`` command line, direct simulation, experiments, figures and reports.
+
+The API by topic
+----------------
+Direct simulation, the ground truth
+    :func:`run_direct` (:class:`DirectResult`), :func:`write_poses_csv`, :func:`read_poses_csv`,
+    :func:`entropy_by_step`, :func:`random_sequences_for`.
+Models against the physics
+    :func:`validate_model`.
+Orientability
+    :func:`part_metrics` (:class:`PartMetrics`), :func:`rank_parts`.
+The paper's experiments
+    :func:`reproduce` (:class:`ReproduceSettings`), :func:`write_report`.
+"""
 from kruskal_markov.lazy import lazy_exports
 
 #: public name -> the module that defines it (imported on first use, so that ``import analysis`` and

@@ -1,6 +1,31 @@
 """Pure mathematics of the tray model: transition models, entropy, ensembles, synchronization.
 
 Imports numpy, scipy and numba only -- never pybullet, ``transition_builder`` or ``analysis``.
+
+The API by topic
+----------------
+Models
+    :class:`TransitionModel` (one row-stochastic CSR matrix per action, initial distribution,
+    partition; ``save``/``load``, ``to_networkx``), :class:`ModelError`, :func:`model_from_automaton`,
+    :func:`automaton_from_model`, :func:`load_automaton_dict`, :func:`atomic_savez`,
+    :func:`atomic_write_text`.
+Entropy along sequences
+    :func:`entropy_trajectory` (:class:`EntropyTrajectory`), :func:`propagate`,
+    :func:`batch_entropy` (:class:`BatchEntropy`), :func:`distribution_entropy_bits`,
+    :func:`partition_entropy_bits`, :func:`histogram_entropy_bits`.
+Random-sequence ensembles
+    :func:`run_ensemble` (:class:`EnsembleResult`), :func:`random_sequences`.
+Structure
+    :func:`analyze_structure` (:class:`StructureReport`): can the entropy reach zero at all?
+Synchronization
+    :func:`support_automaton` (:class:`SyncAutomaton`), :func:`start_set`,
+    :func:`shortest_synchronizing_word`, :func:`greedy_synchronizing_word`,
+    :func:`epsilon_synchronizing_word`, :func:`is_synchronizing_word` (:class:`SyncResult`).
+Expected length of random synchronizing sequences
+    :func:`expected_sync_length`, :func:`exact_expected_length`, :func:`monte_carlo_sync_length`,
+    :func:`pair_chain_bounds`, :func:`monte_carlo_entropy_tilts`, :func:`default_mc_steps`.
+Error bands
+    :func:`resample_model` (Dirichlet posterior of a built model's rows).
 """
 from kruskal_markov.lazy import lazy_exports
 

@@ -31,7 +31,20 @@ _KNOWN_KEYS = {"states", "actions", "initial", "partition", "cells", "metadata"}
 
 
 def load_automaton_dict(source) -> tuple[dict, str]:
-    """Return ``(dict, label)`` from a path, a JSON text or an already parsed dict."""
+    """Return ``(dict, label)`` from a path, a JSON text or an already parsed dict.
+
+    Parameters
+    ----------
+    source : str, path-like or dict
+        A file path, JSON text, or a parsed dict.
+
+    Returns
+    -------
+    data : dict
+        The automaton object.
+    label : str
+        Where it came from, for messages.
+    """
     if isinstance(source, dict):
         return source, "automaton"
     if isinstance(source, (str, os.PathLike)):
@@ -82,6 +95,11 @@ def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
     source : path, JSON string or dict
     tol : float
         Row-sum tolerance (docs/commands.md: 1e-9).
+    Returns
+    -------
+    TransitionModel
+        A :class:`~kruskal_markov.errors.ModelError` names what is wrong and where.
+
 
     Examples
     --------
@@ -163,6 +181,16 @@ def automaton_from_model(model: TransitionModel) -> dict:
     ``initial`` is written only when it is not uniform; ``partition``/``cells``/``metadata`` only
     when present. ``model_from_automaton(automaton_from_model(m))`` reproduces ``m`` exactly
     (floats are written with full precision by :mod:`json`).
+
+    Parameters
+    ----------
+    model : TransitionModel
+        Any model.
+
+    Returns
+    -------
+    dict
+        JSON-ready.
     """
     n = model.n_states
     out: dict = {"states": n, "actions": {}}

@@ -73,6 +73,27 @@ def exact_expected_length(aut: SyncAutomaton | TransitionModel, start=None, weig
     Returns ``(value, info)``: ``value`` is a float, ``math.inf`` (some reachable subset can never
     be synchronized, so ``T`` is infinite with positive probability) or None (more than
     ``max_subsets`` reachable subsets). ``info`` holds ``subsets`` (how many were enumerated).
+
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        The automaton (a model's support automaton).
+    start : array_like of int, optional
+        Start set (default every state).
+    weights : array_like, optional
+        Letter probabilities up to a factor (default uniform).
+    max_subsets : int, default 200000
+        Give up beyond this many reachable subsets.
+
+    Returns
+    -------
+    value : float, math.inf or None
+    info : dict
+
+    References
+    ----------
+    .. [1] J. G. Kemeny, J. L. Snell, "Finite Markov Chains", Van Nostrand (1960): expected absorption
+       times of an absorbing chain, ``(I - Q) t = 1``.
     """
     aut, start = as_automaton(aut, start)
     s = as_start(aut, start)
@@ -146,6 +167,25 @@ def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, we
     letters run)`` over all runs, an estimate of a lower bound of ``E[T]`` (equal to ``mean``
     when nothing is censored). Without a time budget the result depends only on the inputs and
     ``seed``; with one, censoring (and so the result) can depend on the machine's speed.
+
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        The automaton.
+    start : array_like of int, optional
+        Start set (default every state).
+    weights : array_like, optional
+        Letter probabilities up to a factor (default uniform).
+    runs, seed : int
+        Random words and their seed.
+    max_steps, chunk : int
+        Letters before a run is censored, and runs advanced together.
+    time_budget : float, optional
+        Seconds before the remaining runs are censored.
+
+    Returns
+    -------
+    dict
     """
     aut, start = as_automaton(aut, start)
     t0 = time.perf_counter()
@@ -190,6 +230,23 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
     (:func:`pair_chain_memory_mb`) exceed ``memory_budget_mb`` (``note`` says so; nothing is
     allocated). The pair chain is restricted to the pairs reachable in one or more steps from
     the start pairs; the expected merging times ``h`` solve ``(I - Q) h = 1``.
+
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        A deterministic automaton.
+    start : array_like of int, optional
+        Start set (default every state).
+    weights : array_like, optional
+        Letter probabilities up to a factor (default uniform).
+    max_iterations, time_budget, tol
+        Iterations, seconds and residual of the iterative solve.
+    memory_budget_mb : float, optional
+        Skip when the pair chain would need more.
+
+    Returns
+    -------
+    dict
     """
     aut, start = as_automaton(aut, start)
     t0 = time.perf_counter()
@@ -321,6 +378,15 @@ def default_mc_steps(n_states: int, runs: int) -> int:
 
     >>> default_mc_steps(2_000, 2_000), default_mc_steps(100_000, 2_000)
     (100000, 6397)
+
+    Parameters
+    ----------
+    n_states, runs : int
+        Size of the automaton and Monte Carlo runs.
+
+    Returns
+    -------
+    int
     """
     words = -(-int(n_states) // 64)
     return int(min(100_000, max(1_000, MC_WORD_OPERATIONS // (max(1, int(runs)) * words))))
@@ -343,6 +409,25 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
     Monte Carlo runs are censored after ``max_steps`` letters; None means
     :func:`default_mc_steps` (100,000, fewer on big automata, so that the phase's work is bounded
     without a clock and the seed alone fixes the answer). ``mc_max_steps`` says what was used.
+
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        The automaton (a model's support automaton).
+    start : array_like of int, optional
+        Start set (default every state).
+    weights : array_like, optional
+        Letter probabilities up to a factor (default uniform).
+    seed : int
+        Seed of the Monte Carlo runs.
+    runs, max_subsets, max_steps
+        Monte Carlo runs, the exact method's subset budget, and letters before a run is censored.
+    pair_time_budget, mc_time_budget, memory_budget_mb
+        Budgets of the pair chain, the Monte Carlo runs and memory.
+
+    Returns
+    -------
+    dict
     """
     aut, start = as_automaton(aut, start)
     out = {}
@@ -399,6 +484,25 @@ def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 5
     Returns ``dict(mean, ci95, runs, censored, std, lower)`` as :func:`monte_carlo_sync_length`
     does: with any run censored (not reached within ``max_steps``) only ``lower``, the mean of
     ``min(tilts, max_steps)``, is given.
+
+    Parameters
+    ----------
+    model : TransitionModel
+        The model.
+    epsilon : float
+        Entropy threshold (bits).
+    weights : array_like, optional
+        Action probabilities up to a factor (default uniform).
+    runs : int
+        Random runs.
+    seed : int
+        Their seed.
+    max_steps : int
+        Tilts before a run is censored.
+
+    Returns
+    -------
+    dict
     """
     epsilon = float(epsilon)
     if not epsilon >= 0:

@@ -32,6 +32,19 @@ def random_sequences(n_actions: int, count: int, length: int, seed=None, weights
 
     >>> random_sequences(8, 2, 3, seed=1).shape
     (2, 3)
+
+    Parameters
+    ----------
+    n_actions, count, length : int
+        Actions to draw from, sequences, and actions per sequence.
+    seed : int or None
+        Seed of ``numpy.random.default_rng``.
+    weights : array_like, optional
+        Action probabilities up to a factor (default uniform).
+
+    Returns
+    -------
+    ndarray (count, length)
     """
     for name, v in (("count", count), ("length", length), ("n_actions", n_actions)):
         if isinstance(v, bool) or int(v) != v or v < 0:
@@ -89,6 +102,31 @@ class EnsembleResult:
     """Statistics of a random-sequence ensemble (arrays of length N+1 are per step, index 0 = start).
 
     ``entropy`` (K x (N+1)) is kept only when asked for (``keep_entropy=True``).
+
+    Attributes
+    ----------
+    sequences : ndarray (K, N)
+        The random sequences (action indices).
+    mean, q25, q75 : ndarray (N+1,)
+        Mean and quartiles of the entropy (report partition) after every step.
+    mean_states : ndarray (N+1,)
+        Mean entropy on the states.
+    convergence_steps : ndarray (K,)
+        First step with entropy <= ``epsilon`` per sequence, -1 where never.
+    converged : int
+        Sequences that converged.
+    best_index : int
+        Index of the best sequence (first to converge; ties: lowest final entropy).
+    best_sequence : ndarray (N,)
+        That sequence.
+    best_entropy : ndarray (N+1,)
+        Its entropy after every step.
+    epsilon : float
+        The convergence threshold (bits).
+    max_mass_drift : float
+        Largest deviation of the total mass over all sequences.
+    entropy : ndarray (K, N+1) or None
+        Every entropy, kept with ``keep_entropy=True``.
     """
 
     sequences: np.ndarray
@@ -125,6 +163,10 @@ def run_ensemble(model: TransitionModel, count: int, length: int, seed=None, eps
         Start distribution (default the model's).
     keep_entropy : bool
         Keep the full K x (N+1) entropy array in the result.
+
+    Returns
+    -------
+    EnsembleResult
 
     Notes
     -----

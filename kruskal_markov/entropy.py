@@ -36,6 +36,15 @@ def histogram_entropy_bits(counts) -> float:
 
     >>> histogram_entropy_bits([5, 5, 0, 0])
     1.0
+
+    Parameters
+    ----------
+    counts : array_like
+        Non-negative counts.
+
+    Returns
+    -------
+    float
     """
     c = np.asarray(counts, dtype=np.float64).ravel()
     if c.size and (not np.all(np.isfinite(c)) or np.any(c < 0)):
@@ -64,6 +73,15 @@ def distribution_entropy_bits(p) -> float:
 
     >>> distribution_entropy_bits([0.25, 0.25, 0.5, 0.0])
     1.5
+
+    Parameters
+    ----------
+    p : array_like
+        Non-negative weights.
+
+    Returns
+    -------
+    float
     """
     p = np.asarray(p, dtype=np.float64).ravel()
     if p.size and (not np.all(np.isfinite(p)) or np.any(p < 0)):
@@ -75,7 +93,21 @@ def distribution_entropy_bits(p) -> float:
 
 
 def partition_entropy_bits(p, partition, n_cells: int | None = None) -> float:
-    """Entropy (bits) of the distribution ``p`` coarse-grained by ``partition`` (state -> cell)."""
+    """Entropy (bits) of the distribution ``p`` coarse-grained by ``partition`` (state -> cell).
+
+    Parameters
+    ----------
+    p : array_like (n,)
+        A distribution over states.
+    partition : array_like (n,) of int
+        State -> cell.
+    n_cells : int, optional
+        Number of cells (default ``max(partition) + 1``).
+
+    Returns
+    -------
+    float
+    """
     p = np.asarray(p, dtype=np.float64).ravel()
     partition = np.asarray(partition).ravel()
     if partition.shape != p.shape:
@@ -244,6 +276,11 @@ def entropy_trajectory(model: TransitionModel, sequence, initial=None, return_di
         Mass-conservative splitting of every row (see :mod:`kruskal_markov._entropy_kernels`);
         ``False`` gives the plain product ``p @ P``.
 
+    Returns
+    -------
+    EntropyTrajectory
+        Entropies after steps 0..N (report partition and states) and, if asked, the distributions.
+
     Notes
     -----
     Work per step is proportional to the non-zeros of the rows in the current support, not to
@@ -268,7 +305,21 @@ def entropy_trajectory(model: TransitionModel, sequence, initial=None, return_di
 
 
 def propagate(model: TransitionModel, sequence, initial=None) -> np.ndarray:
-    """The distributions after every step of ``sequence``: a dense ``(N+1) x n`` array."""
+    """The distributions after every step of ``sequence``: a dense ``(N+1) x n`` array.
+
+    Parameters
+    ----------
+    model : TransitionModel
+        The model.
+    sequence : sequence of action names or indices
+        Length N.
+    initial : array_like, optional
+        Start distribution (default ``model.initial``).
+
+    Returns
+    -------
+    ndarray (N+1, n)
+    """
     return entropy_trajectory(model, sequence, initial, return_distributions=True).distributions
 
 
@@ -278,6 +329,15 @@ class BatchEntropy:
 
     ``entropy_bits`` is on the report partition (the same array as ``entropy_bits_states`` when
     the model has no partition); ``mass_drift[s]`` is ``max_t |mass_t - mass_0|``.
+
+    Attributes
+    ----------
+    entropy_bits : ndarray (S, N+1)
+        Entropy on the report partition after every step.
+    entropy_bits_states : ndarray (S, N+1)
+        Entropy on the states.
+    mass_drift : ndarray (S,)
+        Largest deviation of the total mass from its start, per sequence.
     """
 
     entropy_bits: np.ndarray
@@ -357,6 +417,10 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         to round-off (~1e-14).
     chunk : int
         Sequences per task of the image engine (memory: 3 x largest image x chunk float64).
+
+    Returns
+    -------
+    BatchEntropy
 
     Notes
     -----

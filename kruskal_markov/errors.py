@@ -6,4 +6,10 @@ __all__ = ["ModelError"]
 
 
 class ModelError(ValueError):
-    """An invalid transition model, automaton or model file; the message says what and where."""
+    """An invalid transition model, automaton or model file; the message says what and where.
+
+    Parameters
+    ----------
+    message : str
+        One line: what is wrong and where (which action, which row, by how much).
+    """

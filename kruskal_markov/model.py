@@ -60,12 +60,40 @@ def _atomic_write(path, write, suffix: str, prefix: str = ".tmp-", binary: bool 
 
 def atomic_savez(path, arrays: dict, prefix: str = ".tmp-") -> str:
     """Write ``arrays`` to an uncompressed ``.npz`` at ``path`` atomically (temporary file in the same
-    directory, fsync, ``os.replace``): a reader sees the old file or the new one, never a part."""
+    directory, fsync, ``os.replace``): a reader sees the old file or the new one, never a part.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file written.
+    arrays : dict of str to array_like
+        Name -> array.
+    prefix : str, default ".tmp-"
+        Prefix of the temporary file.
+
+    Returns
+    -------
+    str
+        ``path``.
+    """
     return _atomic_write(path, lambda fh: np.savez(fh, **arrays), ".npz", prefix)
 
 
 def atomic_write_text(path, text: str) -> str:
-    """Write ``text`` (UTF-8) to ``path`` atomically, like :func:`atomic_savez`."""
+    """Write ``text`` (UTF-8) to ``path`` atomically, like :func:`atomic_savez`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file written.
+    text : str
+        Its content.
+
+    Returns
+    -------
+    str
+        ``path``.
+    """
     return _atomic_write(path, lambda fh: fh.write(text), os.path.splitext(os.fspath(path))[1], binary=False)
 
 
@@ -401,6 +429,43 @@ class TransitionModel:
                 arr.flags.writeable = False
             self._cache["packed"] = (indptr, indices, data)
         return self._cache["packed"]
+
+    def to_networkx(self, actions=None):
+        """The model's support graph as a :class:`networkx.MultiDiGraph`, to draw and explore.
+
+        Parameters
+        ----------
+        actions : sequence of str, optional
+            Only these actions' edges (default every action).
+
+        Returns
+        -------
+        networkx.MultiDiGraph
+            Nodes ``0..n-1`` (with ``cell``, the report cell, when the model has a partition); one
+            edge ``i -> j`` per action ``a`` with ``P_a[i, j] > 0``, keyed by the action name and
+            carrying ``action`` and ``probability``.
+
+        Examples
+        --------
+        >>> m = TransitionModel(["a", "b"], [[[0, 1], [0, 1]], [[1, 0], [0.5, 0.5]]])
+        >>> g = m.to_networkx()
+        >>> sorted(g.edges(keys=True))
+        [(0, 0, 'b'), (0, 1, 'a'), (1, 0, 'b'), (1, 1, 'a'), (1, 1, 'b')]
+        >>> g.edges[1, 0, "b"]["probability"]
+        0.5
+        """
+        import networkx as nx
+
+        names = list(self.actions) if actions is None else [self.actions[self.action_index(a)] for a in actions]
+        g = nx.MultiDiGraph()
+        for i in range(self.n_states):
+            g.add_node(i, **({} if self.partition is None else {"cell": int(self.partition[i])}))
+        for name in names:
+            P = self.matrices[self.action_index(name)].tocoo()
+            for i, j, p in zip(P.row.tolist(), P.col.tolist(), P.data.tolist()):
+                if p > 0:
+                    g.add_edge(i, j, key=name, action=name, probability=p)
+        return g
 
     def same_arrays(self, other: "TransitionModel") -> bool:
         """True when ``other`` holds exactly the same model, array for array: actions, initial

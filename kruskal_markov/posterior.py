@@ -50,6 +50,10 @@ def resample_model(model: TransitionModel, rng, prior: float = 0.5) -> Transitio
     rng : numpy.random.Generator or int
     prior : float
         Concentration added to every observed target (0.5: Jeffreys).
+    Returns
+    -------
+    TransitionModel
+
 
     Examples
     --------

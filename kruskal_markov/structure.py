@@ -135,6 +135,11 @@ def analyze_structure(model: TransitionModel, initial=None) -> StructureReport:
     model : TransitionModel
     initial : array_like, optional
         Start distribution (default ``model.initial``).
+
+    Returns
+    -------
+    StructureReport
+        The closed classes reachable from the start support, and whether entropy can reach zero.
     """
     p = model.initial if initial is None else distribution(initial, model.n_states, model.tol)
     graph = support_graph(model)

@@ -1,6 +1,20 @@
 """From physics to a transition model: scenes, shapes, the PyBullet tray-tilt simulator, grids.
 
 The only package that imports pybullet.
+
+The API by topic
+----------------
+Scenes and shapes
+    :class:`Scene`, :func:`scene_from_options`, :data:`ACTIONS`, :class:`Shape`,
+    :func:`parse_shape`, :func:`allen_key`, :func:`random_triangle`, :func:`rectangle`,
+    :func:`make_shape`, :func:`parse_friction`, :class:`SimSettings`.
+Simulation
+    :class:`TraySimulator`, :func:`simulate`, :func:`parse_noise` (process noise).
+Grids
+    :class:`ReportGrid`, :func:`parse_grid`.
+Building models
+    :func:`build_model`, :class:`BuildSettings`, :class:`BuildResult` (``transition_builder.builder``,
+    one module per phase), :func:`cached_build` (models under a content hash).
 """
 from kruskal_markov.lazy import lazy_exports
 
