@@ -78,10 +78,8 @@ def exact_expected_length(aut: SyncAutomaton | TransitionModel, start=None, weig
     ----------
     aut : SyncAutomaton or TransitionModel
         The automaton (a model's support automaton).
-    start : array_like of int, optional
-        Start set (default every state).
-    weights : array_like, optional
-        Letter probabilities up to a factor (default uniform).
+    start, weights : array_like, optional
+        Start set (default every state); letter probabilities up to a factor (default uniform).
     max_subsets : int, default 200000
         Give up beyond this many reachable subsets.
 
@@ -170,12 +168,8 @@ def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, we
 
     Parameters
     ----------
-    aut : SyncAutomaton or TransitionModel
-        The automaton.
-    start : array_like of int, optional
-        Start set (default every state).
-    weights : array_like, optional
-        Letter probabilities up to a factor (default uniform).
+    aut, start, weights
+        As for :func:`exact_expected_length`.
     runs, seed : int
         Random words and their seed.
     max_steps, chunk : int
@@ -233,12 +227,8 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
 
     Parameters
     ----------
-    aut : SyncAutomaton or TransitionModel
-        A deterministic automaton.
-    start : array_like of int, optional
-        Start set (default every state).
-    weights : array_like, optional
-        Letter probabilities up to a factor (default uniform).
+    aut, start, weights
+        As for :func:`exact_expected_length` (a deterministic automaton).
     max_iterations, time_budget, tol
         Iterations, seconds and residual of the iterative solve.
     memory_budget_mb : float, optional
@@ -412,12 +402,8 @@ def expected_sync_length(aut: SyncAutomaton | TransitionModel, start=None, weigh
 
     Parameters
     ----------
-    aut : SyncAutomaton or TransitionModel
-        The automaton (a model's support automaton).
-    start : array_like of int, optional
-        Start set (default every state).
-    weights : array_like, optional
-        Letter probabilities up to a factor (default uniform).
+    aut, start, weights
+        As for :func:`exact_expected_length`.
     seed : int
         Seed of the Monte Carlo runs.
     runs, max_subsets, max_steps

@@ -391,10 +391,8 @@ def make_shape(vertices, name: str = "polygon", thickness_mm: float = DEFAULT_TH
         The polygon's vertices in mm, either orientation, not closed.
     name : str, default "polygon"
         The shape's name.
-    thickness_mm : float, default 5
-        Thickness of the part.
-    density_kg_m3 : float, default 7850
-        Density (steel).
+    thickness_mm, density_kg_m3 : float, default 5 and 7850
+        Thickness of the part and its density (steel).
 
     Returns
     -------
@@ -465,10 +463,8 @@ def rectangle(width_mm: float, height_mm: float, thickness_mm: float = DEFAULT_T
     ----------
     width_mm, height_mm : float
         Side lengths (positive).
-    thickness_mm : float, default 5
-        Thickness of the part.
-    density_kg_m3 : float, default 7850
-        Density (steel).
+    thickness_mm, density_kg_m3 : float, default 5 and 7850
+        Thickness of the part and its density (steel).
     name : str, optional
         Default ``rectangle:WxH``.
 
@@ -510,10 +506,8 @@ def random_triangle(seed: int, thickness_mm: float = DEFAULT_THICKNESS_MM,
     ----------
     seed : int
         Non-negative; the same seed gives the same triangle.
-    thickness_mm : float, default 5
-        Thickness of the part.
-    density_kg_m3 : float, default 7850
-        Density (steel).
+    thickness_mm, density_kg_m3 : float, default 5 and 7850
+        Thickness of the part and its density (steel).
 
     Returns
     -------
