@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from kruskal_markov._checks import check_int, is_int
 from kruskal_markov.entropy import histogram_entropy_bits
 from kruskal_markov.limits import check_memory
 from kruskal_markov.validation import action_position
@@ -322,16 +323,14 @@ def run_direct(scene, sequence, trials: int, seed: int | None = 0, workers: int 
     rgrid = report_grid_for(scene, grid, theta_offset)
     noise = check_noise_for_tray(noise, scene.tray_x_mm, scene.tray_y_mm)
     noise_seed = 0 if seed is None else seed
-    if not noise.is_zero and (isinstance(noise_seed, bool) or not isinstance(noise_seed, (int, np.integer))
-                              or noise_seed < 0):
+    if not noise.is_zero and not (is_int(noise_seed) and noise_seed >= 0):
         raise ValueError(f"process noise needs a non-negative integer seed, got {seed!r}")
     if executor is not None and not isinstance(executor, Executor):
         raise ValueError(f"executor must be a transition_builder.executors.Executor, got {type(executor).__name__}")
     starts = _trial_starts(scene, trials, start_poses, seed)
     trials = len(starts)
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, (int, np.integer))
-                                or workers < 1):
-        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    if workers is not None:
+        check_int(workers, "workers", lo=1)
 
     seq_names = [names[i] for i in seq]
     size = _chunk_size(trials)
@@ -359,8 +358,7 @@ def _trial_starts(scene, trials, start_poses, seed) -> np.ndarray:
         if not np.all(np.isfinite(starts)):
             raise ValueError("start poses must be finite")
         return starts
-    if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials < 1:
-        raise ValueError(f"trials must be a positive integer, got {trials!r}")
+    check_int(trials, "trials", lo=1)
     a, b = _tray_size(scene)
     return sample_start_poses(scene.shape, a, b, int(trials), np.random.default_rng(seed))
 

@@ -29,6 +29,7 @@ import time
 
 import numpy as np
 
+from kruskal_markov._checks import check_int
 from analysis.montecarlo import run_direct
 from analysis.sequences import random_sequences_for
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
@@ -135,8 +136,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
                               grid=grid, noise=nz)
     for name, val, lo in (("sequences", sequences, 1), ("trials", trials, 2), ("length", length, 1),
                           ("bands", bands, 0)):
-        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < lo:
-            raise ValueError(f"{name} must be an integer >= {lo}, got {val!r}")
+        check_int(val, name, lo=lo)
     scene = model_scene(model)
     grid = model_grid(model)
     if model.partition is None or model.n_cells != grid.n_voxels:

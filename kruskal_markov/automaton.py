@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from kruskal_markov.model import ModelError, TransitionModel
+from kruskal_markov._checks import check_int
 
 __all__ = ["model_from_automaton", "automaton_from_model", "load_automaton_dict"]
 
@@ -112,8 +113,7 @@ def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
     if unknown:
         raise ModelError(f"{label}: unknown key(s) {sorted(unknown)}; expected {sorted(_KNOWN_KEYS)}")
     n = data.get("states")
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise ModelError(f"{label}: 'states' must be a positive integer, got {n!r}")
+    check_int(n, f"{label}: 'states'", lo=1, error=ModelError)
     actions = data.get("actions")
     if isinstance(actions, dict):
         from kruskal_markov.limits import check_memory

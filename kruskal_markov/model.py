@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import io
 import json
-import math
 import os
 import tempfile
 import zipfile
@@ -23,6 +22,7 @@ import scipy.sparse as sp
 
 from kruskal_markov.errors import ModelError
 from kruskal_markov.validation import action_position, beyond, distribution
+from kruskal_markov._checks import check_number
 
 __all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION", "atomic_savez", "atomic_write_text"]
 
@@ -104,9 +104,7 @@ MAX_FILE_TOL = 1e-6
 
 def _file_tolerance(header: dict) -> float:
     tol = header.get("tol", 1e-9)
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) or tol < 0:
-        raise ModelError(f"header tolerance must be a finite number >= 0, got {tol!r}")
-    return min(float(tol), MAX_FILE_TOL)
+    return min(check_number(tol, "header tolerance", lo=0, error=ModelError), MAX_FILE_TOL)
 
 
 def _json_default(value):

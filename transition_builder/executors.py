@@ -35,6 +35,7 @@ import time
 from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from kruskal_markov._checks import check_int
 
 __all__ = [
     "DaskExecutor",
@@ -156,9 +157,7 @@ def default_workers() -> int:
 
 
 def _check_workers(workers) -> int:
-    if isinstance(workers, bool) or not hasattr(workers, "__index__") or int(workers) < 1:
-        raise ValueError(f"workers must be a positive integer, got {workers!r}")
-    return int(workers)
+    return check_int(workers, "workers", lo=1)
 
 
 # ----------------------------------------------------------------------------------------------

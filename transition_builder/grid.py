@@ -25,6 +25,7 @@ import math
 import re
 
 import numpy as np
+from kruskal_markov._checks import check_int
 
 __all__ = ["DEFAULT_GRID", "ReportGrid", "parse_grid"]
 
@@ -88,8 +89,7 @@ class ReportGrid:
             if not (np.isscalar(val) and np.isfinite(val) and val > 0):
                 raise ValueError(f"{label} must be a positive number of mm, got {val!r}")
         for label, val in (("nx", nx), ("ny", ny), ("ntheta", ntheta), ("symmetry_order", symmetry_order)):
-            if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < 1:
-                raise ValueError(f"grid {label} must be a positive integer, got {val!r}")
+            check_int(val, f"grid {label}", lo=1)
         self.tray_x_mm = float(tray_x_mm)
         self.tray_y_mm = float(tray_y_mm)
         self.nx, self.ny, self.ntheta = int(nx), int(ny), int(ntheta)

@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from kruskal_markov._checks import check_number, is_int
 
 __all__ = [
     "CONTACT_TOLERANCE_MM",
@@ -87,10 +88,7 @@ class NoiseSpec:
             raise ValueError(f"unknown noise kind {self.kind!r}; expected {_FORMATS}")
         for name in ("sigma_mm", "sigma_deg"):
             v = getattr(self, name)
-            if (isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating))
-                    or not math.isfinite(v) or v < 0):
-                raise ValueError(f"noise {name} must be a non-negative finite number, got {v!r}")
-            object.__setattr__(self, name, float(v))
+            object.__setattr__(self, name, check_number(v, f"noise {name}", lo=0))
         if self.kind == "none" and (self.sigma_mm or self.sigma_deg):
             raise ValueError("noise kind 'none' takes no sigmas; use pose:SIGMA_MM,SIGMA_DEG")
 
@@ -205,7 +203,7 @@ def noise_rng(seed, *keys) -> np.random.Generator:
     """
     out = [NOISE_STREAM]
     for k in (seed, *keys):
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
+        if not is_int(k) or k < 0:
             raise ValueError(f"noise seed and keys must be non-negative integers, got {k!r}")
         out.append(int(k))
     return np.random.default_rng(out)

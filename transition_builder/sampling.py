@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from transition_builder.shapes import Shape, check_fits
+from kruskal_markov._checks import check_int
 
 __all__ = ["is_collision_free", "sample_start_poses"]
 
@@ -66,8 +67,7 @@ def sample_start_poses(shape: Shape, tray_x_mm: float, tray_y_mm: float, n: int,
     ValueError
         If the shape does not fit in the tray, or if the acceptance rate is practically zero.
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-        raise ValueError(f"number of poses must be a non-negative integer, got {n!r}")
+    check_int(n, "number of poses", lo=0)
     if not (np.isscalar(margin_mm) and math.isfinite(margin_mm) and margin_mm >= 0):
         raise ValueError(f"margin must be a non-negative number of mm, got {margin_mm!r}")
     check_fits(shape, tray_x_mm, tray_y_mm)
