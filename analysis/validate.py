@@ -99,12 +99,14 @@ def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
 
 def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 1000, seed: int = 0,
                    length: int = 50, spread: bool = False, bands: int = 40, workers=None, scheduler=None,
-                   progress: bool | None = False, simulate=None) -> dict:
+                   progress: bool | None = False, simulate=None, contact: str | None = None) -> dict:
     """Compare ``model`` with direct simulation on ``sequences`` random sequences (see module docstring).
 
     ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
     :func:`analysis.montecarlo.run_direct` (e.g. a benchmark that caches references shared by
-    several models). Returns the ``kruskal validate`` JSON keys (without ``seconds``).
+    several models). ``contact`` (a :func:`transition_builder.settings.parse_contact` spec) simulates
+    the reference under another floor contact than the model's own. Returns the ``kruskal validate``
+    JSON keys (without ``seconds``); ``contact`` is the reference's, ``model_contact`` the model's.
 
     Parameters
     ----------
@@ -124,6 +126,8 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         A progress bar (None: on a terminal).
     simulate : callable, optional
         Replaces the direct simulation.
+    contact : str, optional
+        The reference's floor contact (default the model's).
 
     Returns
     -------
@@ -138,6 +142,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
                           ("bands", bands, 0)):
         check_int(val, name, lo=lo)
     scene = model_scene(model)
+    model_contact = scene.settings.contact
+    if contact is not None:
+        scene = scene.with_settings(contact=contact)
     grid = model_grid(model)
     if model.partition is None or model.n_cells != grid.n_voxels:
         raise ModelError("the model's partition is not on its report grid")
@@ -226,6 +233,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         "model_seconds": model_seconds,
         "simulation_seconds": sim_seconds,
         "states": model.n_states,
+        "contact": scene.settings.contact, "model_contact": model_contact,
     }
     if spread:
         d = np.concatenate(spread_diffs)
