@@ -41,7 +41,7 @@ def _describe(kind: str, lo, hi, lo_open: bool, hi_open: bool) -> str:
         return f"a number in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
     if lo is not None:
         if lo == 0:
-            return "a positive number" if lo_open else "a finite number >= 0"
+            return "a positive number" if lo_open else "a non-negative finite number"
         return f"a number {'>' if lo_open else '>='} {lo:g}"
     if hi is not None:
         return f"a number {'<' if hi_open else '<='} {hi:g}"
