@@ -4,6 +4,7 @@ absurd noise, a lost Dask scheduler, a checkpoint that does not replay, unwritab
 warnings, and ``--no-cache`` meaning no reuse of any kind."""
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import warnings
@@ -94,29 +95,30 @@ def test_a_lost_dask_scheduler_ends_in_one_line_naming_it_and_keeps_the_checkpoi
     distributed = pytest.importorskip("distributed")
     from transition_builder.executors import DaskExecutor, SchedulerLost
 
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
-        address = cluster.scheduler_address
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None)
+    address = cluster.scheduler_address
 
-        class ClosingDask(DaskExecutor):
-            """The real client; the scheduler is closed once exploration has begun."""
-            results = 0
+    class ClosingDask(DaskExecutor):
+        """The real client; the scheduler is closed once exploration has begun."""
+        results = 0
 
-            def map(self, fn, tasks):
-                for item in super().map(fn, tasks):
-                    yield item
-                    ClosingDask.results += 1
-                    if ClosingDask.results == 12:
-                        cluster.sync(cluster.scheduler.close)
+        def map(self, fn, tasks):
+            for item in super().map(fn, tasks):
+                yield item
+                ClosingDask.results += 1
+                if ClosingDask.results == 3:        # the start tilts done, exploration begun
+                    cluster.sync(cluster.scheduler.close)
 
-        executor = ClosingDask(address)
-        ckpt = str(tmp_path / "c.ckpt.npz")
-        try:
-            with pytest.raises(SchedulerLost) as info:
-                build_model(_square(), _SETTINGS, executor=executor, checkpoint=ckpt, checkpoint_interval_s=0.0,
-                            batch_tilts=160)
-        finally:
-            executor.close()
+    executor = ClosingDask(address)
+    ckpt = str(tmp_path / "c.ckpt.npz")
+    try:
+        with pytest.raises(SchedulerLost) as info:
+            build_model(_square(), BuildSettings(start_samples=48, max_states=1200, seed=3), executor=executor,
+                        checkpoint=ckpt, checkpoint_interval_s=0.0, batch_tilts=160)
+    finally:
+        executor.close()
+        with contextlib.suppress(Exception):        # its scheduler is gone: do not wait for it
+            cluster.close(timeout=1)
     message = str(info.value)
     assert "\n" not in message and address in message
     assert f"checkpoint {ckpt} kept" in message and os.path.exists(ckpt)
