@@ -65,16 +65,23 @@ from kruskal_markov.sync.pairs import (
     pair_check_memory_mb,
     synchronizability,
 )
+from kruskal_markov.sync.plan import PlanResult, random_word_success, shortest_plan
 from kruskal_markov.sync.result import SyncResult
+from kruskal_markov.sync.targets import Target, parse_target
 
 __all__ = [
+    "PlanResult",
     "SyncAutomaton",
     "SyncResult",
+    "Target",
     "as_automaton",
     "epsilon_synchronizing_word",
     "greedy_synchronizing_word",
     "is_synchronizing_word",
     "pair_check_memory_mb",
+    "parse_target",
+    "random_word_success",
+    "shortest_plan",
     "shortest_synchronizing_word",
     "start_set",
     "support_automaton",
