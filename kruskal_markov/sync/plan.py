@@ -431,10 +431,19 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
             w = [int(x) for x in word[:st[0]]]
             return result(w, True, len(w), "ida*", nodes)
         if st[2] == 0 and ub_word is None:
-            return result(None, True, None, "ida*", nodes, witness={
-                "kind": "exhaustive",
-                "reason": f"every reachable image was expanded ({int(tstate[0])} distinct) and none meets "
-                          f"the target {name}" + (" under every model" if prob.M > 1 else "")})
+            witness = {"kind": "exhaustive",
+                       "reason": f"every reachable image was expanded ({int(tstate[0])} distinct) and none "
+                                 f"meets the target {name}" + (" under every model" if prob.M > 1 else "")}
+            if prob.M > 1:
+                alone = [shortest_plan(m, target, None if cells is None else [cells[i]], node_budget,
+                                       None, memory_budget_mb, beam_width, max_length, threshold)
+                         for i, m in enumerate(models)]
+                witness["per_model_lengths"] = [r.length for r in alone]
+                missing = [i for i, r in enumerate(alone) if r.word is None]
+                witness["reason"] += (f"; model(s) {missing} alone have no plan" if missing else
+                                      "; every model alone has a plan "
+                                      f"(lengths {[r.length for r in alone]}), but no one word serves all")
+            return result(None, True, None, "ida*", nodes, witness=witness)
         D += 1
     if ub_word is not None:
         return result(ub_word, True, len(ub_word), "beam+ida*", nodes)
