@@ -228,3 +228,39 @@ def test_cli_plan_bad_input_exit_2(capsys, cerny_file, argv):
     assert main(argv + ["--json"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err and "error" in err
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_sync_memory_bound_switches_to_depth_first_and_stays_exact(seed):
+    """A memory budget too small for the breadth-first stores: the search goes depth-first and still
+    proves the same shortest length as an unconstrained run."""
+    from kruskal_markov.sync import SyncAutomaton
+
+    rng = np.random.default_rng(seed)
+    n = 60
+    table = rng.integers(0, n, size=(2, n))
+    aut = SyncAutomaton.from_table(table)
+    free = shortest_synchronizing_word(aut, time_budget=None, node_budget=10**7)
+    tight = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=10**8)
+    assert free.method == "bidirectional-bfs" and tight.method == "bidirectional-bfs+dfs"
+    assert free.exact and tight.exact and free.length == tight.length
+    assert len({_apply(table, q, tight.word) for q in range(n)}) == 1
+
+
+def _apply(table, q, word):
+    for a in word:
+        q = int(table[a][q])
+    return q
+
+
+def test_sync_node_budget_stop_lower_bound_is_proven():
+    from kruskal_markov.sync import SyncAutomaton
+
+    rng = np.random.default_rng(5)
+    n = 24
+    aut = SyncAutomaton.from_table(rng.integers(0, n, size=(2, n)))
+    truth = shortest_synchronizing_word(aut, time_budget=None).length
+    for budget in (30, 100, 300, 1000, 3000):
+        r = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget)
+        assert r.lower_bound is None or r.lower_bound <= truth
+        assert r.exact == (r.length == truth and r.lower_bound == truth)
