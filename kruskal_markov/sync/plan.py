@@ -140,6 +140,13 @@ class _Problem:
         self.local_cells = cell_list
         self.cell = np.concatenate(cell_list).astype(np.int64)
         self.n_cells = int(max(ncell_list))
+        # the cells of the reachability bound: for ``state`` the partition when every model has one
+        # (one state lies in one cell, so the bound stays admissible and its tables stay small)
+        if target.kind == "state" and all(m.partition is not None for m in models):
+            self.bound_cell = np.concatenate([np.asarray(m.partition, dtype=np.int64) for m in models])
+            self.n_bound_cells = int(max(m.n_cells for m in models))
+        else:
+            self.bound_cell, self.n_bound_cells = self.cell, self.n_cells
         self.model_of = np.repeat(np.arange(self.M, dtype=np.int64), sizes)
         # letters: the support automaton (set targets) or the matrices (probability)
         indptr = np.zeros((self.k, self.N + 1), dtype=np.int64)
@@ -220,11 +227,12 @@ class _Problem:
         """Compute the admissible bound tables for lengths up to ``R`` within ``memory_bytes``."""
         notes = []
         if self.kind == 0:
-            Wc = (self.n_cells + 63) // 64
+            Wc = (self.n_bound_cells + 63) // 64
             R_fit = int(memory_bytes // max(1, self.N * Wc * 8)) - 2
             R_use = min(R, R_fit)
             if R_use >= 1:
-                self.masks, self.msat = _pk.cell_masks(self.indptr, self.indices, self.cell, self.N, Wc, R_use)
+                self.masks, self.msat = _pk.cell_masks(self.indptr, self.indices, self.bound_cell, self.N, Wc,
+                                                       R_use)
                 self.work = np.zeros(Wc, dtype=np.uint64)
             else:
                 notes.append("cell-reachability bound skipped (memory)")
