@@ -120,7 +120,13 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     ens = run_ensemble(model, count, 50, seed=seed, epsilon=epsilon, threads=threads)
     aut = support_automaton(model, 0.0)
     start = start_set(model, False)
-    sync = shortest_synchronizing_word(aut, start, time_budget=sync_time_budget)
+    if model.partition is not None and not aut.deterministic:
+        # plan target state by the plan search (exact where the subset search runs out of memory)
+        from kruskal_markov.sync.plan import state_plan
+
+        sync = state_plan(model, 0.0, time_budget=sync_time_budget)
+    else:
+        sync = shortest_synchronizing_word(aut, start, time_budget=sync_time_budget)
     tilts = monte_carlo_entropy_tilts(model, epsilon, runs=runs, seed=[seed, 5], max_steps=max_tilts)
     rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=[seed, 6], max_steps=max_tilts)
     h0 = float(entropy_trajectory(model, []).entropy_bits[0])

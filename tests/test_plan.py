@@ -264,3 +264,32 @@ def test_sync_node_budget_stop_lower_bound_is_proven():
         r = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget)
         assert r.lower_bound is None or r.lower_bound <= truth
         assert r.exact == (r.length == truth and r.lower_bound == truth)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_cli_sync_on_a_tray_like_model_is_the_state_plan(capsys, tmp_path, seed):
+    """``kruskal sync --model`` (plan search) and the bidirectional subset search agree, both exact."""
+    rng = np.random.default_rng(seed)
+    n, mats = 24, []
+    for _ in range(4):
+        walls = rng.choice(n, size=n // 4, replace=False)
+        a = np.zeros((n, n))
+        for q in range(n):
+            if rng.random() < 0.2:
+                c = rng.choice(walls, size=2, replace=False)
+                a[q, c[0]], a[q, c[1]] = 0.7, 0.3
+            else:
+                a[q, rng.choice(walls)] = 1.0
+        mats.append(sp.csr_matrix(a))
+    initial = np.zeros(n)
+    initial[rng.choice(n, size=n // 2, replace=False)] = 1.0
+    model = TransitionModel(["N", "E", "S", "W"], mats, initial=initial / initial.sum(),
+                            partition=np.arange(n) % 6, n_cells=6)
+    path = tmp_path / "tray.npz"
+    model.save(path)
+    assert main(["sync", "--model", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    ref = shortest_synchronizing_word(support_automaton(model), np.flatnonzero(model.initial > 0),
+                                      time_budget=None)
+    assert out["target"] == "state" and out["method"].startswith("plan-")
+    assert out["exact"] == ref.exact and out["length"] == ref.length

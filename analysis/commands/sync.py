@@ -66,8 +66,16 @@ def run(args: argparse.Namespace) -> dict:
     start = start_set(model, whole)
     if args.node_budget is not None and args.node_budget < 1:
         raise InputError("--node-budget must be a positive integer")
-    res = shortest_synchronizing_word(aut, start, time_budget=args.time_budget,
-                                      memory_budget_mb=args.memory_budget_mb, node_budget=args.node_budget)
+    if model.partition is not None and not aut.deterministic and args.start != "all":
+        # a built tray model: the plan search (IDA* with cell-reachability bounds) proves what the
+        # bidirectional subset search cannot hold in memory (70,776 states: 11 tilts in ~1 minute)
+        from kruskal_markov.sync.plan import DEFAULT_NODE_BUDGET, state_plan
+
+        res = state_plan(model, args.threshold, time_budget=args.time_budget,
+                         node_budget=args.node_budget or DEFAULT_NODE_BUDGET)
+    else:
+        res = shortest_synchronizing_word(aut, start, time_budget=args.time_budget,
+                                          memory_budget_mb=args.memory_budget_mb, node_budget=args.node_budget)
     out = res.as_dict(model.actions)
     out["target"] = "state"     # kruskal plan --target state asks the same question
     out.update({"states": model.n_states, "start_states": len(start),

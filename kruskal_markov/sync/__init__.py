@@ -65,7 +65,7 @@ from kruskal_markov.sync.pairs import (
     pair_check_memory_mb,
     synchronizability,
 )
-from kruskal_markov.sync.plan import PlanResult, random_word_success, shortest_plan
+from kruskal_markov.sync.plan import PlanResult, random_word_success, shortest_plan, state_plan
 from kruskal_markov.sync.result import SyncResult
 from kruskal_markov.sync.targets import Target, parse_target
 
@@ -84,6 +84,7 @@ __all__ = [
     "shortest_plan",
     "shortest_synchronizing_word",
     "start_set",
+    "state_plan",
     "support_automaton",
     "synchronizability",
 ]

@@ -53,7 +53,7 @@ from kruskal_markov import _sync_kernels as _sk
 from kruskal_markov.sync.automaton import start_set, support_automaton
 from kruskal_markov.sync.targets import Target, model_cells, parse_target
 
-__all__ = ["PlanResult", "shortest_plan", "random_word_success"]
+__all__ = ["PlanResult", "shortest_plan", "random_word_success", "state_plan"]
 
 #: default budget of images computed by the exact search (about a minute on the key's model)
 DEFAULT_NODE_BUDGET = 20_000_000
@@ -457,6 +457,37 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
         return result(ub_word, True, len(ub_word), "beam+ida*", nodes)
     notes.append(f"no plan of length <= {max_length}")
     return result(None, False, max_length + 1, "ida*", nodes)
+
+
+def state_plan(model, threshold: float = 0.0, time_budget: float | None = 60.0,
+               node_budget: int = DEFAULT_NODE_BUDGET):
+    """The ``state`` target of a built model as a :class:`~kruskal_markov.sync.result.SyncResult`
+    (the fields ``kruskal sync`` and the ranking show), searched by :func:`shortest_plan`.
+
+    Parameters
+    ----------
+    model : TransitionModel
+        Synchronized from its start set (:func:`~kruskal_markov.sync.automaton.start_set`).
+    threshold : float
+        Support automaton threshold.
+    time_budget : float or None
+    node_budget : int
+
+    Returns
+    -------
+    SyncResult
+        ``word`` as letter indices; ``method`` prefixed ``plan-`` (e.g. ``plan-ida*``).
+
+    References
+    ----------
+    As :func:`shortest_plan`.
+    """
+    from kruskal_markov.sync.result import SyncResult
+
+    r = shortest_plan(model, "state", node_budget=node_budget, time_budget=time_budget, threshold=threshold)
+    word = None if r.word is None else [model.actions.index(a) for a in r.word]
+    return SyncResult(word, r.length, r.exact, "plan-" + r.method, witness=r.witness, lower_bound=r.lower_bound,
+                      states_explored=r.nodes, seconds=r.seconds, notes=r.notes)
 
 
 def _pow2(x):
