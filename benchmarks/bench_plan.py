@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from kruskal_markov.sync import SyncAutomaton, shortest_plan, shortest_synchronizing_word
+from kruskal_markov.sync import SyncAutomaton, random_word_success, shortest_plan, shortest_synchronizing_word
 
 #: exact search budgets of the key-model runs
 KEY_NODE_BUDGET = int(os.environ.get("KRUSKAL_PLAN_NODES", 30_000_000))
@@ -67,6 +67,13 @@ def key_cases(path, targets=("cell", "probability:0.001", "state")):
         row = {"case": f"allen key {target}", **res.to_dict(), "wall_seconds": time.perf_counter() - t}
         rows.append(row)
         print(json.dumps(row), flush=True)
+    # how rare are good plans: random words of length 1..50 from the model (5,000 words, seed 29)
+    for target in targets:
+        t = time.perf_counter()
+        rw = random_word_success(model, target, max_length=50, words=5000, seed=29)
+        p = rw["probability"]
+        print(json.dumps({"case": f"allen key random words {target}", "seconds": time.perf_counter() - t,
+                          "probability_at": {L: p[L] for L in (8, 11, 12, 15, 20, 30, 40, 50)}}), flush=True)
     return rows
 
 

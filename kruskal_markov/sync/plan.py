@@ -386,7 +386,7 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     if ub_word is not None and lower >= len(ub_word):
         return result(ub_word, True, len(ub_word), "beam+bound", nodes)
     # 3. IDA* passes
-    N, k = prob.N, prob.k
+    N = prob.N
     Dmax = (len(ub_word) - 1) if ub_word is not None else max_length
     st_idx = np.zeros((Dmax + 2, N), dtype=np.int32)
     st_val = np.zeros((Dmax + 2, N), dtype=np.float64)
