@@ -267,7 +267,7 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         lines.append(f"| C: {level}-noise friction maps converging | {pc} of {pn} | {g['converged']} of {g['maps']} "
                      f"reach zero (mean tilt {_fmt(g['mean_zero_at'], '.1f')}), {ends} end there "
                      f"(direct, M = {s['c_trials']}) |")
-    plan = (f"{km['sync_length']} tilts ("
+    plan = (f"{km['sync_length']} tilts (target {km.get('sync_target', 'state')}; "
             + ("proven shortest" if km["sync_exact"] else f"greedy; lower bound {_fmt(km['sync_lower_bound'], 'd')}")
             + ")" if km["sync_length"] is not None else
             f"none found within the time budget (lower bound {_fmt(km['sync_lower_bound'], 'd')} tilts)")
@@ -306,7 +306,8 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         proof = ("proven shortest" if km["sync_exact"]
                  else f"not proven shortest; lower bound {km['sync_lower_bound']}")
         lines += [
-            f"**The shortest synchronizing word** for the key: `{','.join(km['sync_word'])}` ({km['sync_length']} tilts, "
+            f"**The shortest synchronizing word** (plan target `{km.get('sync_target', 'state')}`) for the key: "
+            f"`{','.join(km['sync_word'])}` ({km['sync_length']} tilts, "
             f"{proof}). "
             f"Replayed in direct simulation with {rep['trials']:,} trials it ends at {rep['entropy_bits'][-1]:.3f} bits "
             f"({sum(rep['faults'].values())} faulted trials); the model predicts {rep['model_entropy_bits'][-1]:.3f}.",
