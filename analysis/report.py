@@ -345,8 +345,10 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
                 ("expected random tilts to converge", "random_tilts", ".1f", None)]
         for label, k, f, paper in rows:
             lines.append(f"| {label} | {paper or '-'} | " + " | ".join(_fmt(cm[c][k], f) for c in keys) + " |")
-        base = cm[keys[0]]
-        for other_key in keys[1:]:
+        # the variants are compared with the default contact built at their own resolution
+        base_key = next((k for k in keys if k.endswith("(compared resolution)")), keys[0])
+        base = cm[base_key]
+        for other_key in [k for k in keys[1:] if k != base_key]:
             verdict = []
             other = cm[other_key]
             for label, k, _, _ in rows[1:]:
@@ -355,7 +357,7 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
                     continue
                 rel = abs(x - y) / max(abs(x), abs(y), 1e-9)
                 verdict.append(f"{label}: {'within 10%' if rel <= 0.1 else 'differs by ' + format(rel, '.0%')}")
-            lines += ["", f"`{other_key}` against `{keys[0]}` (relative difference): " + "; ".join(verdict) + "."]
+            lines += ["", f"`{other_key}` against `{base_key}` (relative difference): " + "; ".join(verdict) + "."]
         lines += [""]
         both = all(cm[k]["sync_length"] is not None for k in keys)
         lines += ["What holds under every contact model and step: "
