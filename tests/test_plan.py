@@ -293,3 +293,60 @@ def test_cli_sync_on_a_tray_like_model_is_the_state_plan(capsys, tmp_path, seed)
                                       time_budget=None)
     assert out["target"] == "state" and out["method"].startswith("plan-")
     assert out["exact"] == ref.exact and out["length"] == ref.length
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_pair_distances_against_plain_pair_search(seed):
+    """The pair-merging distances behind the state bound and Eppstein's greedy, against a plain
+    breadth-first search from every pair (a bound one too high would make the plan search miss)."""
+    from kruskal_markov.sync import SyncAutomaton
+
+    rng = np.random.default_rng(seed)
+    n, k = 7, 2
+    table = rng.integers(0, n, size=(k, n)) if seed else np.array([[1, 2, 3, 0], [0, 1, 2, 0]])
+    n = table.shape[1]
+    dist, _ = SyncAutomaton.from_table(table).pair_distances()
+    for p in range(n):
+        for q in range(p + 1, n):
+            level, seen, d, found = {(p, q)}, {(p, q)}, 0, -1
+            while level and found < 0:
+                d += 1
+                nxt = set()
+                for (x, y) in level:
+                    for a in range(k):
+                        u, v = int(table[a][x]), int(table[a][y])
+                        if u == v:
+                            found = d
+                        elif (min(u, v), max(u, v)) not in seen:
+                            seen.add((min(u, v), max(u, v)))
+                            nxt.add((min(u, v), max(u, v)))
+                level = nxt
+            i = p * n - p * (p + 1) // 2 + (q - p - 1)
+            assert dist[i] == found, (p, q)
+    if not seed:
+        assert dist.tolist() == [4, 6, 1, 3, 5, 2]      # Cerny C_4
+
+
+def test_cli_plan_grid_cells_from_state_poses(capsys, tmp_path):
+    """--grid bins the rest states by their poses on the model's tray; start states (no pose) get
+    cells of their own. The answer equals brute force on those cells."""
+    from analysis.commands.plan import grid_cells
+
+    rng = np.random.default_rng(4)
+    n, k = 8, 2
+    model = random_model(rng, n, k, True, 3)
+    poses = np.column_stack([rng.uniform(0, 100, n), rng.uniform(0, 80, n), rng.uniform(0, 6.28, n)])
+    poses[:2] = np.nan                                   # two start states
+    model = TransitionModel(model.actions, model.matrices, initial=model.initial, partition=model.partition,
+                            n_cells=model.n_cells, extras={"state_poses": poses},
+                            metadata={"grid": {"tray_x_mm": 100.0, "tray_y_mm": 80.0, "nx": 4, "ny": 4,
+                                               "ntheta": 4, "symmetry_order": 1, "theta_offset": 0.0}})
+    path = tmp_path / "m.npz"
+    model.save(path)
+    cells = grid_cells(model, "2x1x1")
+    assert cells[0] != cells[1] and set(cells[:2]).isdisjoint(cells[2:])
+    assert np.array_equal(cells[2:], (poses[2:, 0] >= 50).astype(int))
+    truth = brute_length([model], "cell", 7, cells=[cells])
+    assert main(["plan", "--model", str(path), "--target", "cell", "--grid", "2x1x1", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["length"] == truth and out["exact"] and out["grid"] == "2x1x1"
