@@ -76,6 +76,9 @@ class ReproduceSettings:
     metrics_runs: int = 500
     sync_time_budget: float = 60.0
     part_sync_time_budget: float = 20.0
+    #: when set, every shortest-word search stops after this many subsets per direction instead
+    #: of at its time budget (results independent of the machine's speed; the tests use it)
+    sync_node_budget: int | None = None
     compare_support_points: tuple = (4,)
     contact_build: dict | None = None
     contact_ensemble_count: int = 100_000
@@ -233,7 +236,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     # --- beyond: the optimal plan and the expected random length ------------------------------
     _log(progress, "the key's shortest synchronizing word and expected random lengths")
     km = part_metrics(key, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
-                      sync_time_budget=s.sync_time_budget)
+                      sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
     out["key_metrics"] = km.as_dict()
     if km.sync_word:
         model_curve = entropy_trajectory(key, km.sync_word).entropy_bits
@@ -249,7 +252,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         model_k, info = _build(scene_k, s.key_build if s.contact_build is None else s.contact_build, s.seed,
                                workers, progress, f"{s.shape}, {k} support points")
         mk = part_metrics(model_k, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
-                          sync_time_budget=s.sync_time_budget)
+                          sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
         out["contact_models"][str(k)] = {**_contact_summary(model_k, mk, s, names), "model": info}
 
     # --- B: the best sequence on other parts ---------------------------------------------------
@@ -259,7 +262,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         model, info = _build(scene, s.part_build, s.seed, workers, progress, f"B: {spec}")
         curve = entropy_trajectory(model, best).entropy_bits
         metrics = part_metrics(model, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
-                               sync_time_budget=s.part_sync_time_budget)
+                               sync_time_budget=s.part_sync_time_budget, sync_node_budget=s.sync_node_budget)
         _log(progress, f"B: {spec}: best sequence in direct simulation ({s.b_trials} trials)")
         direct = direct_summary(scene, best, s.b_trials, s.seed, workers)
         parts[spec] = {"model": info, "entropy_bits": curve.tolist(), "converged_at": first_at_most(curve, eps),

@@ -133,6 +133,45 @@ def main() -> None:
     print(f"pair-chain bounds, tray-like contracting n=3000 k=8: lower {pb['lower']:.1f}, upper {pb['upper']:.1f}, "
           f"{pb['pairs']} reachable pairs, {pb['iterations']} iterations, arrays {pb['memory_mb']:.0f} MB, "
           f"process peak RSS {peak:.0f} MB, {sec:.1f} s (target <= 60 s)")
+    cli_budgets()
+
+
+def _budgeted_run(n, command, budget_args):
+    """``kruskal COMMAND`` on a seeded random binary automaton of ``n`` states in a child process:
+    (JSON result, wall seconds, peak resident MB of the child)."""
+    import json
+    import subprocess
+    import sys
+    import tempfile
+
+    rng = np.random.default_rng(1)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, f"random{n}.json")
+        with open(path, "w") as fh:
+            json.dump({"states": n, "actions": {"a": rng.integers(0, n, n).tolist(),
+                                               "b": rng.integers(0, n, n).tolist()}}, fh)
+        t = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "analysis", command, "--automaton", path, "--json",
+                               *budget_args], capture_output=True, text=True, timeout=600)
+        wall = time.perf_counter() - t
+    if proc.returncode != 0:
+        raise RuntimeError(proc.stderr[-2000:])
+    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    return json.loads(proc.stdout), wall, peak_mb
+
+
+def cli_budgets() -> None:
+    """Wall time and memory of ``kruskal sync`` / ``convergence`` on large random automata against
+    their time budgets (moved here from the tests: a test must not depend on the machine's speed).
+    Target: within twice the budget plus the interpreter's start, and under 4 GB."""
+    for n, budget in ((3000, 3.0), (20000, 20.0)):
+        for command, args in (("sync", ["--time-budget", str(budget)]),
+                              ("convergence", ["--pair-time-budget", str(budget), "--mc-time-budget", str(budget),
+                                               "--max-subsets", "20000"])):
+            res, wall, peak = _budgeted_run(n, command, args)
+            ok = wall < 2 * budget + 10 and peak < 4096
+            print(f"{command} n={n} budget {budget:g} s: {wall:.1f} s wall, peak RSS {peak:.0f} MB "
+                  f"({'within' if ok else 'OVER'} 2 x budget + 10 s and 4 GB)", flush=True)
 
 
 if __name__ == "__main__":

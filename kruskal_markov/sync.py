@@ -366,13 +366,16 @@ def _choose_forward(fwd, bwd, k):
     return (fhi - flo) <= (bhi - blo)
 
 
-def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb):
+def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node_budget=None):
     """Bidirectional BFS. Returns ``(word | None, status, explored, lower_bound)`` with status
-    'found', 'none' (proven: no word) or 'budget'."""
+    'found', 'none' (proven: no word) or 'budget'. ``node_budget``, when given, caps the subsets
+    stored per direction (a budget that does not depend on the machine's speed)."""
     t0 = time.perf_counter()
     W = aut.n_words
     row_bytes = 8 * W + 8 + 4 + 16 * 2      # rows + parent + letter + hash table (load <= 1/2, x2 growth)
     max_rows = max(1024, int(memory_budget_mb * 2 ** 20 / row_bytes / 2))   # per direction
+    if node_budget is not None:
+        max_rows = min(max_rows, node_budget)
     if aut.n >= max_rows:       # not even the n backward roots fit: no exact search in this budget
         return None, "budget", 0, 1
     fwd = SubsetStore(W, 1024, max_rows)
@@ -637,7 +640,7 @@ _MEET_SLICE = 2048
 
 
 def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, time_budget: float = 60.0,
-                                memory_budget_mb: float = 2048.0) -> SyncResult:
+                                memory_budget_mb: float = 2048.0, node_budget: int | None = None) -> SyncResult:
     """The shortest word synchronizing ``start`` (default: all states).
 
     Exact bidirectional subset search (Kisielewicz, Kowalski and Szykula 2015): forward images of
@@ -648,6 +651,10 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     (:func:`greedy_synchronizing_word`, found first within 40% of the time) with ``exact=False``
     and a proven ``lower_bound``.
 
+    ``node_budget`` (subsets stored per search direction), when given, replaces ``time_budget``:
+    the search then stops after a fixed amount of work, so the answer is the same on a fast and on
+    a loaded machine (the greedy word runs to its own subset budget, without a deadline).
+
     >>> a = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])   # Cerny C_3
     >>> r = shortest_synchronizing_word(a)
     >>> r.length, r.exact
@@ -656,6 +663,9 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     aut, start = as_automaton(aut, start)
     if time_budget <= 0 or memory_budget_mb <= 0:
         raise ValueError("time and memory budgets must be positive")
+    if node_budget is not None:
+        node_budget = _check_node_budget(node_budget)
+        time_budget = math.inf          # deterministic: work, not seconds, bounds the search
     t0 = time.perf_counter()
     s = as_start(aut, start)
     if s.size == 1:
@@ -674,7 +684,7 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
             return SyncResult(None, None, True, "pair-graph", witness=check["witness"],
                               seconds=time.perf_counter() - t0)
     remaining = max(time_budget - (time.perf_counter() - t0), 1e-3)
-    word, status, explored, lower = _exact_search(aut, s, remaining, memory_budget_mb)
+    word, status, explored, lower = _exact_search(aut, s, remaining, memory_budget_mb, node_budget)
     if status == "found":
         if not is_synchronizing_word(aut, word, s):
             raise AssertionError("internal error: exact search returned a non-synchronizing word")
@@ -702,6 +712,13 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                       lower_bound=lower, states_explored=explored,
                       greedy_length=None if greedy is None else len(greedy),
                       seconds=time.perf_counter() - t0, notes=notes)
+
+
+def _check_node_budget(node_budget) -> int:
+    """A positive integer subset budget (not a bool), or ValueError."""
+    if isinstance(node_budget, bool) or not isinstance(node_budget, (int, np.integer)) or node_budget < 1:
+        raise ValueError(f"node_budget must be a positive integer, got {node_budget!r}")
+    return int(node_budget)
 
 
 # ----------------------------------------------------------------------------- epsilon-synchronizing

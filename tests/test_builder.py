@@ -546,8 +546,13 @@ def test_max_samples_gives_heavy_rows_samples_in_proportion_to_their_weight():
     the samples still add up, and the option leaves other keys alone when off."""
     from dataclasses import replace
 
-    from transition_builder.builder import (_WEIGHT_LENGTH, _WEIGHT_SEQUENCES, _WEIGHT_STREAM, _WEIGHT_THRESHOLD,
-                                            _proportional_samples)
+    from transition_builder.builder import (
+        _WEIGHT_LENGTH,
+        _WEIGHT_SEQUENCES,
+        _WEIGHT_STREAM,
+        _WEIGHT_THRESHOLD,
+        _proportional_samples,
+    )
 
     scene = _square_scene()
     s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5,

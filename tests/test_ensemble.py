@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kruskal_markov.automaton import model_from_automaton
 from kruskal_markov.ensemble import (
     best_sequence_index,
     convergence_steps,
@@ -11,7 +12,6 @@ from kruskal_markov.ensemble import (
     run_ensemble,
 )
 from kruskal_markov.entropy import batch_entropy, entropy_trajectory
-from kruskal_markov.automaton import model_from_automaton
 from kruskal_markov.model import ModelError, TransitionModel
 
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from kruskal_markov.ensemble import run_ensemble
 from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.ensemble import run_ensemble
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.structure import analyze_structure, closed_classes, support_graph
 

@@ -11,8 +11,7 @@ import argparse
 import sys
 
 from analysis.commands import InputError
-from analysis.commands._common import (add_seed, check_writable_file, parse_sequence, scene_from_args,
-                                       sequence_rng)
+from analysis.commands._common import add_seed, check_writable_file, parse_sequence, scene_from_args, sequence_rng
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -27,6 +27,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds for the exact search before falling back to greedy (default 60)")
     parser.add_argument("--memory-budget-mb", type=positive_float, default=2048.0, metavar="MB",
                         help="memory for the exact search's subset stores (default 2048)")
+    parser.add_argument("--node-budget", type=int, default=None, metavar="N",
+                        help="instead of --time-budget: stop the exact search after N subsets per direction "
+                             "(the same answer on any machine)")
     parser.add_argument("--max-length", type=int, default=30,
                         help="--epsilon search: longest word tried (default 30)")
 
@@ -41,6 +44,8 @@ def run(args: argparse.Namespace) -> dict:
 
     if args.time_budget <= 0 or args.memory_budget_mb <= 0:
         raise InputError("--time-budget and --memory-budget-mb must be positive")
+    if args.node_budget is not None and args.node_budget < 1:
+        raise InputError(f"--node-budget must be a positive integer, got {args.node_budget}")
     if not 0.0 <= args.threshold <= 1.0:
         raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
     model = load_model_source(args)
@@ -61,7 +66,7 @@ def run(args: argparse.Namespace) -> dict:
         whole = model.is_deterministic()
     start = start_set(model, whole)
     res = shortest_synchronizing_word(aut, start, time_budget=args.time_budget,
-                                      memory_budget_mb=args.memory_budget_mb)
+                                      memory_budget_mb=args.memory_budget_mb, node_budget=args.node_budget)
     out = res.as_dict(model.actions)
     out.update({"states": model.n_states, "start_states": len(start),
                 "deterministic": aut.deterministic, "threshold": args.threshold,
