@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from kruskal_markov import generators
 from kruskal_markov.convergence import expected_sync_length, pair_chain_bounds
 from kruskal_markov.sync import (
     SyncAutomaton,
@@ -23,45 +24,20 @@ from kruskal_markov.sync import (
 
 
 def random_automaton(rng, n, k):
-    return SyncAutomaton.from_table(rng.integers(0, n, size=(k, n)))
+    return generators.random_automaton(n, k, rng)
 
 
 def contracting_automaton(rng, n, k=8):
     """Tray-like: every letter maps all states into a random eighth of them."""
-    table = np.empty((k, n), dtype=np.int64)
-    m = max(1, n // 8)
-    for a in range(k):
-        image = rng.choice(n, size=m, replace=False)
-        table[a] = image[rng.integers(0, m, size=n)]
-    return SyncAutomaton.from_table(table)
+    return SyncAutomaton.from_table(generators.contracting_table(n, k, rng))
 
 
 def tray_like_support(rng, n, k=8, shrink=64, noise=0.02):
-    """Stand-in for a built tray model (until the builder's allen-key model is available): every
-    action pushes all states into a random 1/``shrink`` of them; a fraction ``noise`` of the rows
-    splits between two landing states (a set-valued support automaton)."""
-    import scipy.sparse as sp
-
-    from kruskal_markov.model import TransitionModel
+    """Stand-in for a built tray model: the set-valued support automaton of
+    :func:`kruskal_markov.generators.set_valued_tray_model`."""
     from kruskal_markov.sync import support_automaton
 
-    m = max(2, n // shrink)
-    mats = []
-    for _ in range(k):
-        image = rng.choice(n, size=m, replace=False)
-        rows, cols, vals = [], [], []
-        for q in range(n):
-            if rng.random() < noise:
-                c = rng.choice(image, size=2, replace=False)
-                rows += [q, q]
-                cols += [int(c[0]), int(c[1])]
-                vals += [0.6, 0.4]
-            else:
-                rows.append(q)
-                cols.append(int(image[rng.integers(0, m)]))
-                vals.append(1.0)
-        mats.append(sp.csr_matrix((vals, (rows, cols)), shape=(n, n)))
-    return support_automaton(TransitionModel([str(a) for a in range(k)], mats))
+    return support_automaton(generators.set_valued_tray_model(n, k, shrink, noise, rng))
 
 
 def _warm_up():

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from analysis.cli import main
+from kruskal_markov.generators import cerny_table
 
 
 def run_json(capsys, argv):
@@ -17,10 +18,9 @@ def run_json(capsys, argv):
 
 @pytest.fixture
 def cerny5(tmp_path):
-    n = 5
+    table = cerny_table(5)
     path = tmp_path / "c5.json"
-    path.write_text(json.dumps({"states": n, "actions": {"a": [(i + 1) % n for i in range(n)],
-                                                         "b": [i if i != n - 1 else 0 for i in range(n)]}}))
+    path.write_text(json.dumps({"states": 5, "actions": {"a": table[0].tolist(), "b": table[1].tolist()}}))
     return path
 
 

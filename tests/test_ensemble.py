@@ -12,14 +12,8 @@ from kruskal_markov.ensemble import (
     run_ensemble,
 )
 from kruskal_markov.entropy import batch_entropy, entropy_trajectory
+from kruskal_markov.generators import cerny_model as cerny
 from kruskal_markov.model import ModelError, TransitionModel
-
-
-def cerny(n: int) -> TransitionModel:
-    """Černý automaton C_n: a = cyclic shift, b merges state 0 into 1; shortest reset word (n-1)^2."""
-    a = [(i + 1) % n for i in range(n)]
-    b = [1] + list(range(1, n))
-    return model_from_automaton({"states": n, "actions": {"a": a, "b": b}})
 
 
 def image_sizes(model, seq):
@@ -179,3 +173,27 @@ def test_never_converging_model():
 def test_ensemble_bad_input(kwargs, pattern):
     with pytest.raises(ModelError, match=pattern):
         run_ensemble(cerny(3), seed=0, **kwargs)
+
+
+# --------------------------------------------------------------------------- the epsilon boundary
+def test_convergence_counts_entropy_equal_to_epsilon():
+    """``h <= epsilon`` converges: an entropy exactly at epsilon counts, one just above does not."""
+    h = np.array([[2.0, 1.0, 0.5], [2.0, np.nextafter(1.0, 2.0), 1.0], [3.0, 2.0, 1.5]])
+    assert convergence_steps(h, 1.0).tolist() == [1, 2, -1]
+    assert convergence_steps(h, 0.5).tolist() == [2, -1, -1]
+
+
+def test_run_ensemble_hits_the_epsilon_boundary_exactly():
+    """Uniform over 4 states; action ``a`` merges them pairwise into states 0 and 2, where it stays
+    (exactly 1 bit: 0.5 log2 2 twice, exact in floating point), ``b`` is the identity (2 bits).
+    With epsilon = 1 bit a sequence converges at its first ``a``: the step is derived here from the
+    sequence itself; with epsilon one ulp below 1 bit, none ever does."""
+    model = model_from_automaton({"states": 4, "actions": {"a": [0, 0, 2, 2], "b": [0, 1, 2, 3]}})
+    assert entropy_trajectory(model, [0]).entropy_bits.tolist() == [2.0, 1.0]
+    res = run_ensemble(model, 64, 6, seed=3, epsilon=1.0)
+    seqs = res.sequences
+    first_a = [int(np.flatnonzero(s == 0)[0]) + 1 if np.any(s == 0) else -1 for s in seqs]
+    assert res.convergence_steps.tolist() == first_a
+    assert res.converged == sum(x > 0 for x in first_a) > 0
+    just_below = run_ensemble(model, 64, 6, seed=3, epsilon=np.nextafter(1.0, 0.0))
+    assert np.all(just_below.convergence_steps == -1) and just_below.converged == 0

@@ -4,21 +4,15 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 from kruskal_markov.automaton import model_from_automaton
 from kruskal_markov.ensemble import run_ensemble
-from kruskal_markov.model import TransitionModel
+from kruskal_markov.generators import random_model
 from kruskal_markov.structure import analyze_structure, closed_classes, support_graph
 
 
 def random_sparse_model(rng, n, k, density):
-    mats = []
-    for _ in range(k):
-        a = rng.random((n, n)) * (rng.random((n, n)) < density)
-        a[np.arange(n), rng.integers(0, n, n)] += 0.5
-        mats.append(sp.csr_matrix(a / a.sum(axis=1, keepdims=True)))
-    return TransitionModel([f"a{i}" for i in range(k)], mats)
+    return random_model(n, k, density, initial="uniform", seed=rng, floor=0.5)
 
 
 @pytest.mark.parametrize("seed", range(15))

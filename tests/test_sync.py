@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from kruskal_markov.generators import cerny_table as cerny
+from kruskal_markov.generators import random_table as _random_table
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.sync import (
     SyncAutomaton,
@@ -22,13 +24,6 @@ from kruskal_markov.sync import (
 
 
 # ----------------------------------------------------------------------------- independent judges
-def cerny(n):
-    """Cerny automaton C_n: a = cyclic shift, b = identity except n-1 -> 0."""
-    a = [(i + 1) % n for i in range(n)]
-    b = [i if i != n - 1 else 0 for i in range(n)]
-    return np.array([a, b])
-
-
 def plain_image(table, states, word):
     cur = {int(s) for s in states}
     for a in word:
@@ -87,7 +82,7 @@ def brute_pair_mergeable(table, p, q):
 
 
 def random_table(rng, n, k):
-    return rng.integers(0, n, size=(k, n))
+    return _random_table(n, k, rng)
 
 
 # ----------------------------------------------------------------------------- Cerny automata
