@@ -400,7 +400,8 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         f = b = -1
         for lo in range(flo, fhi, _MEET_SLICE):
             if total and time.perf_counter() - t0 > time_budget:
-                return None, "budget", fwd.count + bwd.count, total + 1
+                # the meet test of length ``total`` did not finish: only shorter words are excluded
+                return None, "budget", fwd.count + bwd.count, total
             f, b = _k.meet(fwd.rows, lo, min(fhi, lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
             if f >= 0:
                 break

@@ -591,3 +591,36 @@ def test_lower_bound_never_above_brute_force_and_exact_means_shortest():
     for n in (6, 8, 10):
         res = shortest_synchronizing_word(SyncAutomaton.from_table(cerny(n)), node_budget=2 * n)
         assert res.exact is False and res.lower_bound <= (n - 1) ** 2 < res.length
+
+
+def test_lower_bound_after_a_time_budget_stop_never_above_brute_force(monkeypatch):
+    """The time-budget branches of the exact search, made deterministic by a fake clock that
+    advances one 'second' per reading: stopped at every point a budget can stop it, the proven
+    lower bound never exceeds the true shortest length and ``exact`` holds only at equality."""
+    import types
+
+    import kruskal_markov.sync as sync_module
+
+    clock = {"t": 0.0}
+
+    def tick():
+        clock["t"] += 1.0
+        return clock["t"]
+    monkeypatch.setattr(sync_module, "time", types.SimpleNamespace(perf_counter=tick))
+    rng = np.random.default_rng(99)
+    stopped = 0
+    for _ in range(120):
+        n = int(rng.integers(4, 11))
+        table = random_table(rng, n, 2)
+        truth = brute_det(table)
+        if truth is None:
+            continue
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=float(rng.integers(2, 40)))
+        if res.word is not None:
+            assert len(plain_image(table, range(n), res.word)) == 1 and res.length >= truth
+        if res.lower_bound is not None:
+            assert res.lower_bound <= truth
+        if res.exact:
+            assert res.length == truth
+        stopped += res.method.startswith("greedy")
+    assert stopped > 20
