@@ -33,5 +33,10 @@ lint: $(VENV)/.installed
 bench: $(VENV)/.installed
 	$(PY) -m benchmarks
 
+# Mutation testing of the core modules (tools/mutate.py, docs/testing.md): mutmut, one module at a
+# time against the tests that cover it; MUTATE_JOBS=2 for two workers, `make mutate MODULES=grid`.
+mutate: $(VENV)/.installed
+	$(PY) tools/mutate.py $(MODULES)
+
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache mutants

@@ -1,0 +1,148 @@
+"""Mutation testing of the core modules with mutmut (``make mutate``; docs/testing.md).
+
+Each module is mutated in a scratch copy of the project (``build/mutate/<module>/``, ignored by
+git) against only the tests that cover it, one mutant at a time (``--max-children 1`` unless
+``MUTATE_JOBS`` says otherwise). mutmut leaves decorated functions alone, so the Numba
+``@njit`` kernels are never mutated: the scores are for Python-level mutants only, and every
+mutant reuses the compiled kernels.
+
+    python tools/mutate.py                 # every module below
+    python tools/mutate.py ensemble grid   # the named ones
+    python tools/mutate.py --list
+
+Prints per module: mutants, killed, survived, timeouts, score; writes the survivors' diffs to
+``build/mutate/<module>/survivors.txt``.
+"""
+from __future__ import annotations
+
+import fnmatch
+import json
+import os
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+WORK = ROOT / "build" / "mutate"
+
+#: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
+MODULES = {
+    "entropy": ("kruskal_markov/entropy.py", ["tests/test_entropy.py"], None),
+    "ensemble": ("kruskal_markov/ensemble.py", ["tests/test_ensemble.py"], None),
+    "convergence": ("kruskal_markov/convergence.py", ["tests/test_convergence.py"], None),
+    "model": ("kruskal_markov/model.py", ["tests/test_model.py"], None),
+    "structure": ("kruskal_markov/structure.py", ["tests/test_structure.py"], None),
+    "automaton": ("kruskal_markov/automaton.py", ["tests/test_automaton.py"], None),
+    "symmetry": ("transition_builder/symmetry.py", ["tests/test_snapping_symmetry.py"], None),
+    "grid": ("transition_builder/grid.py", ["tests/test_grid.py"], None),
+    "status": ("transition_builder/status.py", ["tests/test_sim_faults.py"], None),
+    "posterior": ("kruskal_markov/posterior.py", ["tests/test_posterior.py"], None),
+    # the simulator: its fault classification only (the trial loop and the batch's landing check)
+    "sim": ("transition_builder/sim.py", ["tests/test_sim_faults.py"],
+            ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
+             "transition_builder.sim.x_valid_start__mutmut_*"]),
+}
+
+PYPROJECT = """[tool.mutmut]
+source_paths = ["kruskal_markov/", "transition_builder/", "analysis/"]
+only_mutate = ["{file}"]
+pytest_add_cli_args_test_selection = {tests}
+pytest_add_cli_args = ["-p", "no:cacheprovider", "-q", "-x"]
+use_setproctitle = false
+# workers forked from a clean server (the default forks from a process whose Numba state made
+# children that compile a new specialisation die with SIGTERM: "suspicious", not a verdict)
+process_isolation = "forkserver"
+# a mutant that changes a dtype makes Numba compile a new specialisation (seconds): not a hang
+timeout_constant = 60.0
+timeout_multiplier = 10.0
+
+[tool.pytest.ini_options]
+testpaths = ["tests"]
+markers = ["slow: long-running tests"]
+addopts = "-m 'not slow'"
+"""
+
+
+def _workspace(name: str, file: str, tests: list[str]) -> pathlib.Path:
+    ws = WORK / name
+    if ws.exists():
+        shutil.rmtree(ws)
+    ws.mkdir(parents=True)
+    for d in ("kruskal_markov", "transition_builder", "analysis", "tests"):
+        shutil.copytree(ROOT / d, ws / d, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+    (ws / "pyproject.toml").write_text(PYPROJECT.format(file=file, tests=repr(tests).replace("'", '"')))
+    return ws
+
+
+def _results(ws: pathlib.Path, globs: list[str] | None) -> dict:
+    out = subprocess.run([sys.executable, "-m", "mutmut", "results", "--all", "true"], cwd=ws,
+                         capture_output=True, text=True)
+    status = {}
+    for line in out.stdout.splitlines():
+        m = re.match(r"\s*(\S+__mutmut_\d+): (.+)$", line)
+        if m and (globs is None or any(fnmatch.fnmatchcase(m.group(1), g) for g in globs)):
+            status[m.group(1)] = m.group(2).strip()
+    return status
+
+
+def run_module(name: str) -> dict:
+    file, tests, globs = MODULES[name]
+    ws = _workspace(name, file, tests)
+    # one Numba cache per module run, kept across its mutants: the kernels are never mutated, so
+    # a specialisation compiled for one mutant is valid for the next
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(ws / ".numba-cache"))
+    jobs = os.environ.get("MUTATE_JOBS", "1")
+    t0 = time.perf_counter()
+    pattern = [file[:-3].replace("/", ".") + ".*"] if globs is None else globs
+    proc = subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", jobs, *pattern], cwd=ws,
+                          env=env, capture_output=True, text=True)
+    seconds = time.perf_counter() - t0
+    status = _results(ws, globs)
+    counts = {}
+    for s in status.values():
+        counts[s] = counts.get(s, 0) + 1
+    survivors = [n for n, s in status.items() if s in ("survived", "no tests", "suspicious")]
+    with open(ws / "survivors.txt", "w") as fh:
+        for n in survivors:
+            diff = subprocess.run([sys.executable, "-m", "mutmut", "show", n], cwd=ws, capture_output=True,
+                                  text=True).stdout
+            fh.write(f"=== {n}\n{diff}\n")
+    killed = counts.get("killed", 0) + counts.get("timeout", 0)
+    # "no tests": no covering test calls the mutated function -- a survivor, counted as one
+    total = sum(counts.values()) - counts.get("skipped", 0) - counts.get("not checked", 0)
+    with open(WORK / "scores.jsonl", "a") as fh:
+        fh.write(json.dumps({"module": name, "counts": counts, "seconds": round(seconds)}) + "\n")
+    row = {"module": name, "file": file, "mutants": sum(counts.values()), "counts": counts,
+           "score": killed / total if total else float("nan"), "seconds": round(seconds),
+           "returncode": proc.returncode}
+    if proc.returncode not in (0,):
+        row["stderr"] = proc.stderr[-1500:]
+    return row
+
+
+def main(argv: list[str]) -> int:
+    if argv == ["--list"]:
+        print("\n".join(f"{k}: {v[0]} <- {' '.join(v[1])}" for k, v in MODULES.items()))
+        return 0
+    names = argv or list(MODULES)
+    unknown = [n for n in names if n not in MODULES]
+    if unknown:
+        print(f"unknown module(s) {unknown}; known: {list(MODULES)}", file=sys.stderr)
+        return 2
+    for name in names:
+        row = run_module(name)
+        c = row["counts"]
+        print(f"{name:12s} {row['file']:34s} mutants {row['mutants']:4d}  killed {c.get('killed', 0):4d}  "
+              f"timeout {c.get('timeout', 0):3d}  survived {c.get('survived', 0):3d}  "
+              f"other {sum(v for k, v in c.items() if k not in ('killed', 'timeout', 'survived')):3d}  "
+              f"score {row['score']:.1%}  ({row['seconds']} s)", flush=True)
+        if "stderr" in row:
+            print(row["stderr"], file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
