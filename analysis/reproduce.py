@@ -44,11 +44,14 @@ class ReproduceSettings:
     """What :func:`reproduce` runs; :meth:`full` is the paper's scale, :meth:`quick` a few minutes.
 
     ``friction`` is the floor's uniform friction coefficient (None: the scene default) of the key and
-    the B parts; ``key_build`` and ``part_build`` are :class:`~transition_builder.builder.BuildSettings` changes for
-    the key's model and the B parts' models, and ``contact_build`` for the key's models under the
-    other contact models of ``compare_support_points`` (None: ``key_build``, so that both contact
-    models are compared at the same resolution); ``parts`` are the B shape specs and ``maps`` the C
-    friction specs; ``tray_mm`` the tray of every scene.
+    the B parts; ``contact`` the floor contact of every scene (None: the simulator's default,
+    ``coulomb``); ``key_build`` and ``part_build`` are :class:`~transition_builder.builder.BuildSettings`
+    changes for the key's model and the B parts' models, and ``contact_build`` for the key's models
+    under the other contact models of ``compare_contacts`` and at the finer time steps of
+    ``compare_refine`` (1/R of the default step, same rest-test interval; None: ``key_build``, so
+    that every variant is compared at the same resolution); ``judges`` runs the contact judges of
+    :func:`transition_builder.judges.judges_table` for the compared contacts; ``parts`` are the B
+    shape specs and ``maps`` the C friction specs; ``tray_mm`` the tray of every scene.
     """
 
     quick: bool = False
@@ -79,7 +82,10 @@ class ReproduceSettings:
     #: when set, every shortest-word search stops after this many subsets per direction instead
     #: of at its time budget (results independent of the machine's speed; the tests use it)
     sync_node_budget: int | None = None
-    compare_support_points: tuple = (4,)
+    contact: str | None = None
+    compare_contacts: tuple = ("sphere", "legs:4")
+    compare_refine: tuple = (4,)
+    judges: bool = True
     contact_build: dict | None = None
     contact_ensemble_count: int = 100_000
     epsilon: float = CONVERGED_BITS
@@ -97,7 +103,8 @@ class ReproduceSettings:
                    maps=("map:low:1", "map:medium:1", "map:high:1"), key_build=coarse, part_build=coarse,
                    a_check_trials=200, b_trials=100, c_trials=60, replay_trials=500, validate_sequences=2,
                    validate_trials=200, validate_length=20, metrics_count=500, metrics_runs=200,
-                   sync_time_budget=20.0, part_sync_time_budget=10.0, compare_support_points=())
+                   sync_time_budget=20.0, part_sync_time_budget=10.0, compare_contacts=(),
+                   compare_refine=(), judges=False)
 
 
 def _log(progress, text):
@@ -198,6 +205,8 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     eps = s.epsilon
     out = {"settings": dataclasses.asdict(s), "paper": PAPER}
     fr = {} if s.friction is None else {"friction_spec": s.friction}
+    if s.contact is not None:
+        fr["contact"] = s.contact
     key_scene = scene_from_options(s.shape, tray_mm=s.tray_mm, **fr)
     key, out["key_model"] = _build(key_scene, s.key_build, s.seed, workers, progress, s.shape)
     names = key.actions
@@ -246,14 +255,27 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         out["sync_replay"] = replay
 
     # --- does the answer depend on the contact model? ------------------------------------------
-    out["contact_models"] = {"1": _contact_summary(key, km, s, names)}
-    for k in s.compare_support_points:
-        scene_k = key_scene.with_settings(support_points=int(k))
+    default_contact = key_scene.settings.contact
+    out["contact_models"] = {default_contact: _contact_summary(key, km, s, names)}
+    variants = [(str(c), key_scene.with_settings(contact=c)) for c in s.compare_contacts
+                if str(c) != default_contact]
+    st = key_scene.settings
+    variants += [(f"{default_contact}, 1/{r} step", key_scene.with_settings(time_step_s=st.time_step_s / r,
+                                                                           substeps=st.substeps * r))
+                 for r in s.compare_refine]
+    for label, scene_k in variants:
         model_k, info = _build(scene_k, s.key_build if s.contact_build is None else s.contact_build, s.seed,
-                               workers, progress, f"{s.shape}, {k} support points")
+                               workers, progress, f"{s.shape}, {label}")
         mk = part_metrics(model_k, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
                           sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
-        out["contact_models"][str(k)] = {**_contact_summary(model_k, mk, s, names), "model": info}
+        out["contact_models"][label] = {**_contact_summary(model_k, mk, s, names), "model": info}
+    if s.judges:
+        from transition_builder.judges import JUDGE_TARGETS, judges_table
+        _log(progress, "the contact judges (free sliding against the integration of Coulomb's law)")
+        contacts = [default_contact] + [str(c) for c in s.compare_contacts if str(c) != default_contact]
+        out["contact_judges"] = {"table": judges_table(tuple(contacts) + (("legs:25",) if "legs:25" not in contacts
+                                                                          else ())),
+                                 "targets": JUDGE_TARGETS}
 
     # --- B: the best sequence on other parts ---------------------------------------------------
     parts = {}
@@ -278,7 +300,8 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     # --- C: friction maps (direct simulation) --------------------------------------------------
     maps = {}
     for spec in s.maps:
-        scene = scene_from_options(s.shape, friction_spec=spec, tray_mm=s.tray_mm)
+        scene = scene_from_options(s.shape, friction_spec=spec, tray_mm=s.tray_mm,
+                                   **({} if s.contact is None else {"contact": s.contact}))
         _log(progress, f"C: {spec}: best sequence in direct simulation ({s.c_trials} trials)")
         d = direct_summary(scene, best, s.c_trials, s.seed, workers)
         d["zero_at"] = first_at_most(d["entropy_bits"], 0.0)

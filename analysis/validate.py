@@ -98,12 +98,14 @@ def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
 
 def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 1000, seed: int = 0,
                    length: int = 50, spread: bool = False, bands: int = 40, workers=None, scheduler=None,
-                   progress: bool | None = False, simulate=None) -> dict:
+                   progress: bool | None = False, simulate=None, contact: str | None = None) -> dict:
     """Compare ``model`` with direct simulation on ``sequences`` random sequences (see module docstring).
 
     ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
     :func:`analysis.montecarlo.run_direct` (e.g. a benchmark that caches references shared by
-    several models). Returns the ``kruskal validate`` JSON keys (without ``seconds``).
+    several models). ``contact`` (a :func:`transition_builder.settings.parse_contact` spec) simulates
+    the reference under another floor contact than the model's own. Returns the ``kruskal validate``
+    JSON keys (without ``seconds``); ``contact`` is the reference's, ``model_contact`` the model's.
     """
     if simulate is None:
         def simulate(sc, sq, m, sd, nz):
@@ -114,6 +116,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < lo:
             raise ValueError(f"{name} must be an integer >= {lo}, got {val!r}")
     scene = model_scene(model)
+    model_contact = scene.settings.contact
+    if contact is not None:
+        scene = scene.with_settings(contact=contact)
     grid = model_grid(model)
     if model.partition is None or model.n_cells != grid.n_voxels:
         raise ModelError("the model's partition is not on its report grid")
@@ -202,6 +207,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         "model_seconds": model_seconds,
         "simulation_seconds": sim_seconds,
         "states": model.n_states,
+        "contact": scene.settings.contact, "model_contact": model_contact,
     }
     if spread:
         d = np.concatenate(spread_diffs)

@@ -1,5 +1,7 @@
 """Tilts per second per core and fault rate of the tray-tilt simulator (allen key, random actions
-and uniform collision-free start poses), with a naive free-body PyBullet loop side by side.
+and uniform collision-free start poses) for the default contact (coulomb), the sphere and 4 legs,
+with a naive free-body PyBullet loop side by side; the ratio of a default tilt's cost to a sphere
+tilt's, measured in alternating chunks under the same load.
 
 Run: ``python -m benchmarks sim`` (``make bench``). Both wall time and process (CPU) time are
 printed: the machine may be shared, and CPU time is the honest per-core figure then.
@@ -97,8 +99,9 @@ def main():
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"machine: {os.cpu_count()} cores, load average {load:.2f} at start; the variants run in "
           f"alternating chunks so that they share the same load")
-    variants = [("kruskal simulator (default settings)", _ours(), N_TILTS),
-                ("kruskal, 4 legs (support_points=4, 50 it.)", _ours(support_points=4, solver_iterations=50),
+    variants = [("kruskal simulator (default: coulomb)", _ours(), N_TILTS),
+                ("kruskal, contact sphere (the old default)", _ours(contact="sphere"), N_TILTS),
+                ("kruskal, contact legs:4 (50 it.)", _ours(contact="legs:4", solver_iterations=50),
                  N_TILTS // 4),
                 ("naive free body (10 it., 1/240 s)", _naive(), N_NAIVE)]
     shape = parse_shape("allen-key")
@@ -124,6 +127,10 @@ def main():
         detail = fault_counts(status) if name.startswith("kruskal") else "tipped/escaped/unsettled"
         print(f"{name:44s}: {n:5d} tilts  {n / cpu:6.1f} tilts/s per core (CPU)  {n / wall:6.1f} (wall)  "
               f"faults {nf} = {nf / n:.1e} {detail}")
+    base = stats["kruskal, contact sphere (the old default)"]
+    new = stats["kruskal simulator (default: coulomb)"]
+    print(f"cost of a default (coulomb) tilt against a sphere tilt, side by side: "
+          f"{(new[1] / new[3]) / (base[1] / base[3]):.2f}x CPU, {(new[0] / new[3]) / (base[0] / base[3]):.2f}x wall")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"load average {load:.2f} at end (other processes share the machine). Fault rates of 1e-4 "
           f"need >= 20,000 tilts: tests/test_sim_faults.py::test_fault_rate_20000_random_tilts")

@@ -17,8 +17,7 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SMALL = {"start_samples": 400}
-#: the 4-leg model of the small scene: coarse, because 4-leg physics is slow on this low-friction
-#: square (207 s at SMALL's settings against 18 s for the single contact)
+#: the compared contact model of the small scene (the sphere): coarse, to keep the suite short
 CONTACT = {"start_samples": 100, "tol_mm": 1.0, "tol_deg": 1.0}
 
 
@@ -44,8 +43,8 @@ def report(cache_dir, tmp_path_factory):
                           maps=("map:low:1",), key_build=SMALL, part_build=SMALL, a_check_trials=30,
                           b_trials=20, c_trials=20, replay_trials=100, validate_sequences=1, validate_trials=30,
                           validate_length=5, metrics_count=100, metrics_runs=30, sync_time_budget=10,
-                          part_sync_time_budget=10, sync_node_budget=100_000, compare_support_points=(4,),
-                          contact_ensemble_count=200,
+                          part_sync_time_budget=10, sync_node_budget=100_000, compare_contacts=("sphere",),
+                          compare_refine=(), judges=False, contact_ensemble_count=200,
                           contact_build=CONTACT)
     result = reproduce(s, workers=2)
     out = tmp_path_factory.mktemp("report")
@@ -111,18 +110,18 @@ def test_parts_and_maps_sections(report):
 
 
 def test_contact_models_side_by_side(report):
-    """The 4-leg model is a different model of the same scene, with its own paper-level answers."""
+    """The sphere's model is a different model of the same scene, with its own paper-level answers."""
     result, _, out = report
     cm = result["contact_models"]
-    assert set(cm) == {"1", "4"}
-    assert cm["4"]["model"]["path"] != result["key_model"]["path"]
-    assert cm["1"]["a_converged"] == result["A"]["converged"]      # the same 43-sequence sample
-    assert cm["4"]["model"]["settings"] == CONTACT and result["key_model"]["settings"] == SMALL
+    assert list(cm) == ["coulomb", "sphere"]                          # the default first
+    assert cm["sphere"]["model"]["path"] != result["key_model"]["path"]
+    assert cm["coulomb"]["a_converged"] == result["A"]["converged"]      # the same 43-sequence sample
+    assert cm["sphere"]["model"]["settings"] == CONTACT and result["key_model"]["settings"] == SMALL
     for k in cm:
         assert 0.0 <= cm[k]["converging_share"] <= 1.0
     text = (out / "index.md").read_text()
-    assert "Does the answer depend on the contact model?" in text
-    assert "the models on legs were built with" in text          # their settings differ from the key's
+    assert "Does the answer depend on the contact model and the time step?" in text
+    assert "the compared models were built with" in text          # their settings differ from the key's
 
 
 def test_rank_cli_uses_cached_models_and_puts_a_synchronizable_part_first(report, cache_dir, tmp_path):

@@ -45,7 +45,10 @@ def test_hash_is_stable_and_sensitive():
     assert len(hashes) == len(variants) + 1
     # every settings field is hashed
     for name, val in SimSettings().to_dict().items():
-        new = val * 1.5 if isinstance(val, float) else val + 1
+        if isinstance(val, str):
+            new = "sphere" if val != "sphere" else "legs:4"      # the contact model
+        else:
+            new = val * 1.5 if isinstance(val, float) else val + 1
         if name == "contact_threshold_mm":
             new = val * 1.1                      # must stay below the floor clearance
         changed = scene_from_options("allen-key", **{name: new})
@@ -101,3 +104,22 @@ def test_action_index():
     with pytest.raises(ValueError):
         sc.action_index(2)
     assert parse_friction("map:HIGH:7").level == "high"
+
+
+def test_contact_model_parsed_recorded_and_old_scene_files_read():
+    """``contact`` has one canonical spelling, is refused in one line when unknown, and a scene file
+    written before simulator version 4 (``support_points``) reads as the contact it meant."""
+    from transition_builder.settings import parse_contact
+
+    assert SimSettings().contact == "coulomb"
+    assert SimSettings(contact=" LEGS:9 ").contact == "legs:9"
+    assert parse_contact("legs:4").support_points == 4 and parse_contact("sphere").support_points == 1
+    for bad in ("legs:1", "legs:65", "legs:x", "ball", "", 3):
+        with pytest.raises(ValueError, match="unknown contact model"):
+            SimSettings(contact=bad)
+    old = SimSettings().to_dict()
+    del old["contact"]
+    assert SimSettings.from_dict({**old, "support_points": 1}).contact == "sphere"
+    assert SimSettings.from_dict({**old, "support_points": 4}).contact == "legs:4"
+    d = scene_from_options("allen-key", contact="legs:4").to_dict()
+    assert d["settings"]["contact"] == "legs:4"

@@ -23,7 +23,9 @@ from transition_builder._quiet import quiet_stderr
 with quiet_stderr():    # PyBullet prints its build banner on the C-level stderr at import
     import pybullet as pb
 
+from transition_builder._coulomb import _contact_update, footprint_points
 from transition_builder.friction import friction_map, parse_friction
+from transition_builder.settings import parse_contact
 
 G = 9.81
 #: PyBullet's collision margin of a convex hull made from vertices, in world units.
@@ -169,10 +171,13 @@ class BulletWorld:
         """Time step, solver, contact threshold and the tilted gravity of this world."""
         a = math.radians(scene.tilt_deg)
         pb.resetSimulation(physicsClientId=cid)
-        # with a friction map the support's coefficient is updated before every step, so Python
-        # steps one physics step at a time; otherwise one call runs ``substeps`` steps
+        # with a friction map or the coulomb contact the support's friction is updated before every
+        # step, so Python steps one physics step at a time; otherwise one call runs ``substeps``
         self.substeps = st.substeps
-        n_sub = 1 if parse_friction(scene.friction).kind == "map" else st.substeps
+        self.contact = parse_contact(st.contact)
+        self.per_step = parse_friction(scene.friction).kind == "map" or self.contact.kind == "coulomb"
+        n_sub = 1 if self.per_step else st.substeps
+        self.normal_force = scene.shape.mass_kg * G * st.world_units_per_m * math.cos(a)
         pb.setPhysicsEngineParameter(
             fixedTimeStep=st.time_step_s * n_sub, numSubSteps=n_sub,
             numSolverIterations=st.solver_iterations, deterministicOverlappingPairs=1,
@@ -240,13 +245,13 @@ class BulletWorld:
             part_shapes.append(cs)
         sph = pb.createCollisionShape(pb.GEOM_SPHERE, radius=r, physicsClientId=cid)
         n_parts = len(part_shapes)
-        legs = st.support_points > 1
+        legs = self.contact.kind == "legs"
         izz = shape.inertia_kg_m2 * st.world_units_per_m ** 2
         tiny = izz * _EPS_MASS_FRACTION
         if legs:
             # K legs: prismatic-z links under the centroids of K equal-area cells, each carrying its
             # cell's mass; the hinge link keeps the rest of the z inertia; no global z freedom.
-            pts, w = support_cells(shape, st.support_points)
+            pts, w = support_cells(shape, self.contact.legs)
             leg_m = m * w
             leg_xy = pts * self.mm
             yaw_m = eps
@@ -303,10 +308,25 @@ class BulletWorld:
         c, sn = math.cos(self.phi), math.sin(self.phi)
         self._to_tray = (c / self.mm, -sn / self.mm, sn / self.mm, c / self.mm)   # world units -> mm
         self._nx, self._ny = mu.shape
+        if self.contact.kind == "coulomb":
+            st = self.scene.settings
+            pts, w = footprint_points(shape.vertices, st.footprint_points)
+            pts = pts * self.mm
+            r = np.hypot(pts[:, 0], pts[:, 1])
+            self._cb_geom = np.ascontiguousarray(np.vstack([pts[:, 0], pts[:, 1], w, r]))
+            self._cb_grid = np.ascontiguousarray(mu, dtype=np.float64)
+            a, b, c, d = self._to_tray
+            self._cb_params = np.array([self.tile_mm, a, b, c, d, self.centre[0], self.centre[1],
+                                        st.stick_speed_mm_s * self.mm, float(r.max())])
+            self._cb_mem = np.zeros(4)
+            self._cb_out = np.zeros(4)
+            self._cb_z = st.support_radius_mm * self.mm     # height of the yaw link (its z slide at 0)
+            self._cb_caps = None
 
     # ------------------------------------------------------------------ state
-    def set_pose(self, pose_mm):  # noqa: D401
-        """Place the part at a tray-frame pose (x, y in mm, theta in rad), at rest on the floor."""
+    def set_pose(self, pose_mm, twist=None):  # noqa: D401
+        """Place the part at a tray-frame pose (x, y in mm, theta in rad) on the floor, at rest or
+        with the tray-frame ``twist`` (vx, vy in mm/s, yaw rate in rad/s)."""
         cid, ob = self.cid, self.body
         # Move away and run collision detection first: drops every cached contact (and its
         # warm-start impulse), so a trial never depends on the trial before it.
@@ -314,11 +334,17 @@ class BulletWorld:
         pb.performCollisionDetection(physicsClientId=cid)
         wx, wy = self._world_xy(pose_mm[:2])
         yaw = float(pose_mm[2]) - self.phi
-        for j, q in ((J_X, wx), (J_Y, wy), (J_Z, 0.0), (J_YAW, yaw)):
-            pb.resetJointState(ob, j, float(q), 0.0, physicsClientId=cid)
+        vel = (0.0, 0.0, 0.0)
+        if twist is not None:
+            vx, vy = self.R @ np.asarray(twist[:2], float) * self.mm
+            vel = (float(vx), float(vy), float(twist[2]))
+        for j, q, v in ((J_X, wx, vel[0]), (J_Y, wy, vel[1]), (J_Z, 0.0, 0.0), (J_YAW, yaw, vel[2])):
+            pb.resetJointState(ob, j, float(q), v, physicsClientId=cid)
         if self.legs:
             for j in self.support_links:
                 pb.resetJointState(ob, j, 0.0, 0.0, physicsClientId=cid)
+        if self.contact.kind == "coulomb":
+            self._cb_mem[:] = 0.0           # no previous step: no prediction on the first
 
     def lift_mm(self) -> float:
         """Largest height of a support above its resting height (mm)."""
@@ -363,9 +389,33 @@ class BulletWorld:
             j = min(max(int(py // t), 0), self._ny - 1)
             self._set_support_mu(k, float(self.mu_grid[i, j]))
 
+    def _step_coulomb(self):
+        """``substeps`` physics steps, each after setting the support's friction limits and the
+        explicit friction force from the twist predicted for the end of the step (distributed
+        Coulomb friction, :func:`transition_builder._coulomb._contact_update`)."""
+        cid, ob = self.cid, self.body
+        mem, geom, grid, params, out = self._cb_mem, self._cb_geom, self._cb_grid, self._cb_params, self._cb_out
+        n, z = self.normal_force, self._cb_z
+        joints = (J_X, J_Y, J_YAW)
+        get_states, change, force, step = pb.getJointStates, pb.changeDynamics, pb.applyExternalForce, pb.stepSimulation
+        for _ in range(self.substeps):
+            s = get_states(ob, joints, physicsClientId=cid)
+            sx, sy, sw = s
+            _contact_update(sx[0], sy[0], sw[0], sx[1], sy[1], sw[1], mem, geom, grid, params, out)
+            caps = (out[0], out[1])
+            if caps != self._cb_caps:
+                change(ob, J_YAW, lateralFriction=caps[0], spinningFriction=caps[1], physicsClientId=cid)
+                self._cb_caps = caps
+            if out[2] != 0.0 or out[3] != 0.0:
+                force(ob, J_YAW, (out[2] * n, out[3] * n, 0.0), (sx[0], sy[0], z), pb.WORLD_FRAME,
+                      physicsClientId=cid)
+            step(physicsClientId=cid)
+
     def step(self):
         """Advance one rest-test interval (``substeps`` physics steps)."""
-        if self.has_map:
+        if self.contact.kind == "coulomb":
+            self._step_coulomb()
+        elif self.has_map:
             for _ in range(self.substeps):
                 self._apply_map()
                 pb.stepSimulation(physicsClientId=self.cid)

@@ -9,14 +9,50 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields
 
-__all__ = ["SimSettings", "SIMULATOR_VERSION"]
+__all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES"]
+
+#: the contact models ``--contact`` accepts (``legs:K`` with an integer K from 2 to 64).
+CONTACT_CHOICES = "coulomb (default), sphere, legs:K"
 
 #: bump when the simulator's model changes in a way that changes results (part of the scene hash;
 #: re-exported by :mod:`transition_builder.sim`). 3: every task starts from freshly built worlds
 #: (:meth:`TraySimulator.fresh_start`), so results no longer depend on which worker ran what; the
 #: part's area integrals count grid points on its outline as inside (friction radius of some
-#: triangles up by 0.1%).
-SIMULATOR_VERSION = "planar-chain-3"
+#: triangles up by 0.1%). 4: the floor contact is a setting (``contact``), distributed Coulomb
+#: friction by default.
+SIMULATOR_VERSION = "planar-chain-4"
+
+
+@dataclass(frozen=True)
+class ContactModel:
+    """A parsed floor-contact model: ``kind`` is ``"coulomb"``, ``"sphere"`` or ``"legs"`` (with
+    ``legs`` = K). ``str()`` gives the canonical spelling (``"legs:4"``)."""
+
+    kind: str
+    legs: int = 0
+
+    def __str__(self) -> str:
+        return f"legs:{self.legs}" if self.kind == "legs" else self.kind
+
+    @property
+    def support_points(self) -> int:
+        """Floor contacts of the part: K legs, else one sphere."""
+        return self.legs if self.kind == "legs" else 1
+
+
+def parse_contact(spec) -> ContactModel:
+    """Parse a contact spec (``coulomb``, ``sphere``, ``legs:K``); one-line :class:`ValueError` if
+    it is none of them."""
+    if isinstance(spec, ContactModel):
+        return spec
+    text = str(spec).strip().lower() if isinstance(spec, str) else None
+    if text in ("coulomb", "sphere"):
+        return ContactModel(text)
+    if text is not None and text.startswith("legs:"):
+        k = text[5:]
+        if k.isdigit() and 2 <= int(k) <= 64:
+            return ContactModel("legs", int(k))
+    raise ValueError(f"unknown contact model {spec!r}; expected {CONTACT_CHOICES} (K an integer from 2 to 64)")
 
 
 @dataclass(frozen=True)
@@ -44,10 +80,21 @@ class SimSettings:
         ... continuously for this long (s).
     max_time_s : float
         A tilt still moving after this long is ``UNSETTLED``.
-    support_points : int
-        1: the floor contact is one sphere under the centroid, with spinning friction for the
-        friction torque. K > 1: K "legs" (independent prismatic-z links with a sphere each) under
-        K equal-area cells, each carrying its cell's weight, so Coulomb friction is distributed.
+    contact : str
+        The floor contact (:func:`parse_contact`). ``"coulomb"`` (the default): distributed
+        Coulomb friction under uniform pressure, by quadrature over the footprint before every
+        physics step, carried by one support sphere under the centroid (its lateral and spinning
+        friction limits) plus an explicit force for the part one contact cannot give.
+        ``"sphere"``: the same sphere with fixed limits (``mu`` and ``mu`` x friction radius, a
+        "box" limit surface; the default up to simulator version 3). ``"legs:K"``: K "legs"
+        (independent prismatic-z links with a sphere each) under K equal-area cells, each carrying
+        its cell's weight (PyBullet's per-axis friction rows bias them away from Coulomb's law).
+    footprint_points : int
+        Quadrature points of the ``coulomb`` contact (about this many, equal area).
+    stick_speed_mm_s : float
+        The ``coulomb`` contact sticks (limits of the friction "box", no explicit force) while the
+        fastest point of the part moves slower than this; the stick-slip rule with a velocity
+        threshold of the paper's Simscape contact. Far below the rest test's speeds.
     support_radius_mm : float
         Radius of the support sphere(s) that carry the floor contact.
     floor_clearance_mm : float
@@ -78,7 +125,9 @@ class SimSettings:
     rest_angular_speed_rad_s: float = 0.03
     dwell_s: float = 0.05
     max_time_s: float = 4.0
-    support_points: int = 1
+    contact: str = "coulomb"
+    footprint_points: int = 300
+    stick_speed_mm_s: float = 0.5
     support_radius_mm: float = 1.0
     floor_clearance_mm: float = 4.0
     world_units_per_m: float = 100.0
@@ -89,6 +138,9 @@ class SimSettings:
     def __post_init__(self):
         for f in fields(self):
             val = getattr(self, f.name)
+            if f.name == "contact":
+                object.__setattr__(self, f.name, str(parse_contact(val)))
+                continue
             if f.type in ("int", int):
                 if isinstance(val, bool) or not isinstance(val, int) or val < 1:
                     raise ValueError(f"SimSettings.{f.name} must be a positive integer, got {val!r}")
@@ -111,6 +163,10 @@ class SimSettings:
         if not isinstance(data, dict):
             raise ValueError(f"sim settings must be a table/object, got {type(data).__name__}")
         known = {f.name for f in fields(cls)}
+        if "support_points" in data and "contact" not in data:     # scene files before version 4
+            data = dict(data)
+            k = data.pop("support_points")
+            data["contact"] = "sphere" if k == 1 else f"legs:{k}"
         unknown = sorted(set(data) - known)
         if unknown:
             raise ValueError(f"unknown sim setting(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")

@@ -228,8 +228,10 @@ class TraySimulator:
         out[escaped] = np.nan
         return out, status
 
-    def trajectory(self, pose, action, duration_s: float):
+    def trajectory(self, pose, action, duration_s: float, twist=None):
         """Free-run one trial for ``duration_s`` (no rest test) and record it after every check interval.
+
+        ``twist``: an initial tray-frame velocity ``(vx_mm_s, vy_mm_s, omega_rad_s)`` (default at rest).
 
         Returns ``(t, poses, z)``: times (s, from the start of the tilt), tray-frame poses (mm, rad;
         theta unwrapped, not reduced modulo 2 pi) and the height of the part above its resting
@@ -239,7 +241,7 @@ class TraySimulator:
         if not valid_start(self.scene, p[None])[0]:
             raise ValueError(f"start pose {p.tolist()} is not inside the tray")
         w = self._world(action)
-        w.set_pose(p)
+        w.set_pose(p, twist)
         k = int(math.ceil(duration_s / self._dt_check - 1e-9))
         t = np.arange(k + 1) * self._dt_check
         out = np.empty((k + 1, 3))

@@ -125,6 +125,25 @@ def check_writable_dir(path: str, option: str) -> None:
         raise InputError(f"{option} {path!r}: {parent} is not writable")
 
 
+def add_contact(parser: argparse.ArgumentParser) -> None:
+    """``--contact``: the floor-contact model of the simulator, the same meaning on every command."""
+    parser.add_argument("--contact", default=None, metavar="MODEL",
+                        help="floor contact of the simulator: coulomb (distributed Coulomb friction, the "
+                             "default), sphere (one support sphere, the default before simulator version 4) "
+                             "or legs:K (K point legs); see docs/simulator.md")
+
+
+def parse_contact_arg(text: str | None):
+    """The canonical spelling of a ``--contact`` value (None stays None); one-line InputError."""
+    if text is None:
+        return None
+    from transition_builder.settings import parse_contact
+    try:
+        return str(parse_contact(text))
+    except ValueError as exc:
+        raise InputError(f"--contact: {exc}") from None
+
+
 def scene_from_args(args):
     """The scene of --scene (a scene file; --shape/--friction/--tilt-deg replace its parts) or of
     --shape/--friction/--tilt-deg."""
@@ -146,8 +165,14 @@ def scene_from_args(args):
             changes["friction"] = parse_friction(args.friction)
         if args.tilt_deg is not None:
             changes["tilt_deg"] = args.tilt_deg
+        contact = parse_contact_arg(getattr(args, "contact", None))
+        if contact is not None:
+            changes["settings"] = replace(scene.settings, contact=contact)
         return replace(scene, **changes) if changes else scene
     kw = {}
+    contact = parse_contact_arg(getattr(args, "contact", None))
+    if contact is not None:
+        kw["contact"] = contact
     if args.friction is not None:
         kw["friction_spec"] = args.friction
     if args.tilt_deg is not None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, check_writable_file, parse_resolution
+from analysis.commands._common import add_contact, add_seed, check_writable_file, parse_resolution
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -60,8 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="snap only between poses resting on the same end of an edge flush with a wall "
                              "(default: on without noise, off with noise)")
     parser.add_argument("--no-symmetry", action="store_true", help="do not use the tray's rotation symmetry")
-    parser.add_argument("--support-points", type=int, default=None,
-                        help="simulator floor contact: 1 sphere (default) or K legs")
+    add_contact(parser)
+    parser.add_argument("--support-points", type=int, default=None, help=argparse.SUPPRESS)   # old: --contact
     parser.add_argument("--max-states", type=int, default=400_000, help="stop exploring beyond this many states")
     add_seed(parser)
     parser.add_argument("--out", metavar="PATH", help="write the model here (default: the cache file)")
@@ -72,13 +72,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def scene_for(args):
-    """The scene named by --scene/--shape/--friction/--tilt-deg/--support-points."""
+    """The scene named by --scene/--shape/--friction/--tilt-deg/--contact (``--support-points K``,
+    the option's name before simulator version 4, means ``sphere`` for 1 and ``legs:K`` otherwise)."""
     from analysis.commands._common import scene_from_args
 
-    scene = scene_from_args(args)
-    if getattr(args, "support_points", None) is not None:
-        scene = scene.with_settings(support_points=args.support_points)
-    return scene
+    k = getattr(args, "support_points", None)
+    if k is not None:
+        if getattr(args, "contact", None) is not None:
+            raise InputError("give --contact or --support-points, not both")
+        if k < 1:
+            raise InputError(f"--support-points must be at least 1, got {k}")
+        args = argparse.Namespace(**{**vars(args), "contact": "sphere" if k == 1 else f"legs:{k}",
+                                     "support_points": None})
+    return scene_from_args(args)
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -110,7 +116,7 @@ def run(args: argparse.Namespace) -> dict:
     out = {"model": path, "states": stats.get("states"), "voxels_total": stats.get("voxels_total"),
            "tilts_simulated": 0 if cached else stats.get("tilts_simulated"),
            "fault_rate": stats.get("fault_rate"), "cached": cached, "shape": scene.shape.name,
-           "friction": str(scene.friction), "noise": settings.noise}
+           "friction": str(scene.friction), "noise": settings.noise, "contact": scene.settings.contact}
     if cached:
         stats["tilts_simulated_when_built"] = stats.pop("tilts_simulated", None)
     out.update({k: v for k, v in stats.items() if k not in out})

@@ -12,6 +12,7 @@ import argparse
 
 from analysis.commands import InputError
 from analysis.commands._common import (
+    add_contact,
     add_seed,
     check_writable_file,
     parse_resolution,
@@ -26,8 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
     parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml): tray, friction, simulator; "
                         "each shape replaces its part")
-    parser.add_argument("--support-points", type=int, default=None,
-                        help="simulator floor contact: 1 sphere (default) or K legs")
+    add_contact(parser)
+    parser.add_argument("--support-points", type=int, default=None, help=argparse.SUPPRESS)   # old: --contact
     parser.add_argument("--resolution", default="0.5,0.5", metavar="MM,DEG",
                         help="snapping tolerance of the models (default 0.5,0.5: cheaper than build's default)")
     parser.add_argument("--recenter-rounds", type=int, default=1, help="recentring rounds (default 1)")
@@ -88,7 +89,7 @@ def run(args: argparse.Namespace) -> dict:
     ranking = rank_parts(metrics)
     for row in ranking:
         row.update(models[row["shape"]])
-    out = {"ranking": ranking, "order": [r["shape"] for r in ranking],
+    out = {"contact": next(iter(scenes.values())).settings.contact, "ranking": ranking, "order": [r["shape"] for r in ranking],
            "resolution": [mm, deg], "seed": args.seed}
     if checks:
         out["check"] = {"sequence": [first.actions[a] for a in seq], "trials": args.check_trials,
@@ -111,7 +112,7 @@ def _command_line(args) -> str:
     import shlex
 
     parts = ["kruskal rank --shapes", " ".join(shlex.quote(s) for s in args.shapes)]
-    for opt in ("friction", "tilt_deg", "scene", "support_points", "resolution", "recenter_rounds",
+    for opt in ("friction", "tilt_deg", "scene", "contact", "support_points", "resolution", "recenter_rounds",
                 "start_samples", "count", "runs", "sync_time_budget", "check_trials", "seed"):
         value = getattr(args, opt, None)
         if value is not None:

@@ -11,7 +11,7 @@ import argparse
 import sys
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, check_writable_dir
+from analysis.commands._common import add_contact, add_seed, check_writable_dir, parse_contact_arg
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -19,6 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="coarse models, 3 triangles, 3 friction maps, few trials (minutes)")
     parser.add_argument("--out", required=True, metavar="DIR", help="directory of the report (index.md)")
     add_seed(parser)
+    add_contact(parser)
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
 
 
@@ -29,8 +30,12 @@ def run(args: argparse.Namespace) -> dict:
     if args.workers is not None and args.workers < 1:
         raise InputError(f"--workers must be at least 1, got {args.workers}")
     check_writable_dir(args.out, "--out")
+    contact = parse_contact_arg(args.contact)
     settings = (ReproduceSettings.quick_settings(args.seed) if args.quick
                 else ReproduceSettings.full(args.seed))
+    if contact is not None:
+        import dataclasses
+        settings = dataclasses.replace(settings, contact=contact)
 
     def progress(text):
         print(f"reproduce: {text}", file=sys.stderr, flush=True)
@@ -39,6 +44,7 @@ def run(args: argparse.Namespace) -> dict:
     paths = write_report(result, args.out)
     a = result["A"]
     return {"report": paths["report"], "figures": paths["figures"], "quick": args.quick,
+            "contact": next(iter(result["contact_models"])),
             "A_converged": a["converged"], "A_sequences": a["of"], "A_best_sequence": a["best_sequence"],
             "B_converged": result["B"]["converged"], "B_parts": len(result["B"]["parts"]),
             "sync_word": result["key_metrics"]["sync_word"],

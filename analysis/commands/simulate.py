@@ -11,7 +11,14 @@ import argparse
 import sys
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed, check_writable_file, parse_sequence, scene_from_args, sequence_rng
+from analysis.commands._common import (
+    add_contact,
+    add_seed,
+    check_writable_file,
+    parse_sequence,
+    scene_from_args,
+    sequence_rng,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,6 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scene", metavar="FILE",
                         help="a scene file (.json/.toml); --shape/--friction/--tilt-deg then override it "
                              "only when given explicitly")
+    add_contact(parser)
     parser.add_argument("--poses", metavar="FILE.csv",
                         help="write every trial's pose after every tilt "
                              "(columns trial,step,x_mm,y_mm,theta_rad,status)")
@@ -68,6 +76,7 @@ def run(args: argparse.Namespace) -> dict:
     out = result.to_json()
     out["shape"] = scene.shape.name
     out["friction"] = str(scene.friction)
+    out["contact"] = scene.settings.contact
     out["scene_hash"] = scene.content_hash()
     if args.poses is not None:
         out["poses"] = write_poses_csv(args.poses, result)

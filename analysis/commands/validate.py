@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_seed
+from analysis.commands._common import add_contact, add_seed, parse_contact_arg
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -21,6 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_seed(parser)
     parser.add_argument("--spread", action="store_true",
                         help="also re-simulate the reference at half the time step")
+    add_contact(parser)
     parser.add_argument("--bands", type=int, default=40, help="posterior draws for the model's band (default 40)")
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask distributed scheduler")
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> dict:
     model = TransitionModel.load(args.model)
     return validate_model(model, args.sequences, args.trials, args.seed, args.length, spread=args.spread,
                           bands=args.bands, workers=args.workers, scheduler=args.scheduler,
-                          progress=True if args.progress else None)
+                          progress=True if args.progress else None, contact=parse_contact_arg(args.contact))
 
 
 def format_text(result: dict) -> str:

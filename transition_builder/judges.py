@@ -1,0 +1,224 @@
+"""Mechanics judges of the floor contact: free sliding on a level floor, engine against Coulomb's law.
+
+A flat part given a twist on a level floor slides and spins to a stop under its floor friction.
+Distributed Coulomb friction under uniform pressure fixes that motion completely, so a direct
+numerical integration of it (:func:`transition_builder._coulomb.integrate_free_sliding`: about
+1,000 quadrature points, RK4 at 10 microseconds) is the ground truth for any contact model of the
+simulator. Closed forms check the integration itself: pure sliding stops at ``v0 / (mu g)``; a
+uniform disk spinning in place stops at ``3 R omega0 / (4 mu g)``; a disk sliding and spinning
+stops sliding and spinning at the same instant, ``v / (R omega)`` tending to about 0.653 (Farkas,
+Bartels, Unger and Wolf, PRL 90, 2003; Weidman and Malhotra, PRL 95, 2005).
+
+The engine runs with the tray almost level (tilt 1e-6 degrees) and the part started from the
+given pose and twist, at a time step ``refine`` times finer than the scene's default (same
+rest-test interval), so that the engine's own integrator error (about ``v0 dt / 2``) stays below
+the judges' tolerance. Used by ``tests/test_sim_mechanics.py`` and ``python -m benchmarks contact``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from transition_builder._coulomb import integrate_free_sliding
+
+__all__ = ["FreeSlide", "engine_free_slide", "reference_free_slide", "disk_shape_spec", "rotate_start",
+           "isotropy_error", "judges_table", "JUDGE_TARGETS", "TABLE_SLIDES"]
+
+#: tilt of the "level" tray of the judges (degrees; a scene's tilt must be positive).
+LEVEL_TILT_DEG = 1e-6
+
+
+def disk_shape_spec(radius_mm: float = 20.0, sides: int = 96) -> str:
+    """A regular polygon standing in for a uniform disk, as a ``polygon:`` shape spec."""
+    ang = 2 * math.pi * (np.arange(sides) + 0.5) / sides
+    return "polygon:" + ";".join(f"{radius_mm * math.cos(a):.6f},{radius_mm * math.sin(a):.6f}" for a in ang)
+
+
+@dataclass(frozen=True)
+class FreeSlide:
+    """Outcome of one free slide.
+
+    Attributes
+    ----------
+    final : ndarray (3,)
+        Final pose ``(x_mm, y_mm, theta_rad)`` (theta unwrapped).
+    t_slide, t_spin : float
+        When the centroid's speed and the yaw rate fell below 0.1% of their largest values (s).
+    ratio_late : float
+        ``v / (R omega)`` (``R`` = largest distance from the centroid to the outline) when the
+        fastest point's speed has fallen to 5% of its start; NaN if the part never spun.
+    """
+
+    final: np.ndarray
+    t_slide: float
+    t_spin: float
+    ratio_late: float
+
+
+def _summarise(t, pose, vel, r_max) -> FreeSlide:
+    speed = np.hypot(vel[:, 0], vel[:, 1])
+    spin = np.abs(vel[:, 2])
+
+    def stop_time(x):
+        if x.max() <= 0.0:
+            return 0.0
+        moving = np.nonzero(x > 1e-3 * x.max())[0]
+        return float(t[moving[-1] + 1]) if moving[-1] + 1 < len(t) else float(t[-1])
+
+    fastest = speed + spin * r_max
+    late = np.nonzero(fastest <= 0.05 * fastest[0])[0]
+    ratio = float("nan")
+    if len(late) and spin[late[0]] > 0:
+        ratio = float(speed[late[0]] / (r_max * spin[late[0]]))
+    return FreeSlide(np.asarray(pose[-1], dtype=float), stop_time(speed), stop_time(spin), ratio)
+
+
+def engine_free_slide(shape_spec: str, pose, twist, contact: str = "coulomb", refine: int = 16,
+                      mu: float = 0.3, duration_s: float = 1.0, **settings) -> FreeSlide:
+    """The simulator's free slide: start at tray-frame ``pose`` (mm, rad) with ``twist``
+    (mm/s, mm/s, rad/s) on a level floor of coefficient ``mu``, run ``duration_s`` at ``1/refine``
+    of the default time step (same rest-test interval).
+
+    Returns
+    -------
+    FreeSlide
+        Final pose, stopping times and late ``v / (R omega)``; velocities are the mean over each
+        rest-test interval.
+    """
+    from transition_builder.scene import scene_from_options
+    from transition_builder.settings import SimSettings
+    from transition_builder.sim import TraySimulator
+    base = SimSettings(contact=contact, **settings)
+    # the trajectory is recorded every ``substeps`` steps: one, for a fine record
+    settings = dict(settings, time_step_s=base.time_step_s / refine, substeps=1)
+    sc = scene_from_options(shape_spec, mu, tilt_deg=LEVEL_TILT_DEG, contact=contact, **settings)
+    sim = TraySimulator(sc)
+    try:
+        t, poses, _ = sim.trajectory(pose, "E", duration_s, twist=twist)
+    finally:
+        sim.close()
+    vel = np.diff(poses, axis=0) / np.diff(t)[:, None]
+    return _summarise(t[1:], poses[1:], vel, sc.shape.radius_mm)
+
+
+def reference_free_slide(shape_spec: str, pose, twist, mu: float = 0.3, dt: float = 1e-5,
+                         n_points: int = 1000, stop_speed: float = 1e-4) -> FreeSlide:
+    """The ground truth of :func:`engine_free_slide`: a direct integration of distributed Coulomb
+    friction (uniform pressure) from the same start.
+
+    Returns
+    -------
+    FreeSlide
+        Final pose and stopping times (``ratio_late`` from the integration sampled every 1 ms).
+        The integration stops once the fastest point moves slower than ``stop_speed`` (m/s; RK4
+        chatters about a stop by about ``mu g dt``, far below it).
+    """
+    from transition_builder.shapes import parse_shape
+    shape = parse_shape(shape_spec)
+    verts = np.asarray(shape.vertices, float) / 1000.0
+    k = shape.inertia_kg_m2 / shape.mass_kg
+    state = np.array([pose[0] / 1000.0, pose[1] / 1000.0, pose[2], twist[0] / 1000.0, twist[1] / 1000.0,
+                      twist[2]], float)
+    # record the motion on a 1 ms grid (each piece integrated from the last)
+    rec_t, rec_pose, rec_vel = [0.0], [state[:3].copy()], [state[3:].copy()]
+    t = 0.0
+    step = 1e-3
+    while True:
+        state, dt_used = integrate_free_sliding(verts, k, state[:3], state[3:], mu=mu, dt=dt, t_max=step,
+                                                n_points=n_points, stop_speed=stop_speed)
+        t += dt_used
+        rec_t.append(t)
+        rec_pose.append(state[:3].copy())
+        rec_vel.append(state[3:].copy())
+        if dt_used < step - 0.5 * dt or t > 10.0:
+            break
+    pose_a = np.array(rec_pose)
+    pose_a[:, :2] *= 1000.0
+    vel = np.array(rec_vel)
+    vel[:, :2] *= 1000.0
+    return _summarise(np.array(rec_t), pose_a, vel, shape.radius_mm)
+
+
+def rotate_start(pose, twist, angle: float, centre=(100.0, 100.0)):
+    """The same free slide turned by ``angle`` (rad) about the tray point ``centre``: pose and
+    twist rotated (the yaw rate unchanged)."""
+    c, s = math.cos(angle), math.sin(angle)
+    x, y = pose[0] - centre[0], pose[1] - centre[1]
+    p = (centre[0] + c * x - s * y, centre[1] + s * x + c * y, pose[2] + angle)
+    tw = (c * twist[0] - s * twist[1], s * twist[0] + c * twist[1], twist[2])
+    return p, tw
+
+
+def isotropy_error(shape_spec: str, pose, twist, angle: float = math.pi / 4, contact: str = "coulomb",
+                   refine: int = 16, **kw) -> tuple[float, float]:
+    """How far a contact model is from isotropic: slide from ``(pose, twist)`` and from the same
+    start turned by ``angle``, turn the second outcome back, and compare. Returns the relative
+    differences ``(|d1 - d2| / |d1|, |a1 - a2| / max(|a1|, 1 degree))`` of the displacements ``d``
+    and rotations ``a``."""
+    a = engine_free_slide(shape_spec, pose, twist, contact=contact, refine=refine, **kw)
+    p2, tw2 = rotate_start(pose, twist, angle)
+    b = engine_free_slide(shape_spec, p2, tw2, contact=contact, refine=refine, **kw)
+    c, s = math.cos(-angle), math.sin(-angle)
+    d1 = a.final[:2] - np.asarray(pose[:2])
+    d2r = b.final[:2] - np.asarray(p2[:2])
+    d2 = np.array([c * d2r[0] - s * d2r[1], s * d2r[0] + c * d2r[1]])
+    r1 = a.final[2] - pose[2]
+    r2 = b.final[2] - p2[2]
+    return (float(np.hypot(*(d1 - d2)) / np.hypot(*d1)),
+            float(abs(r1 - r2) / max(abs(r1), math.radians(1.0))))
+
+
+#: the free slides of the judges' table: (shape, start pose (mm, rad), twist (mm/s, rad/s)).
+TABLE_SLIDES = (("disk", (100.0, 100.0, 0.0), (200.0, 100.0, 8.0)),
+                ("disk", (100.0, 100.0, 0.0), (-150.0, 250.0, -12.0)),
+                ("allen-key", (100.0, 100.0, 0.3), (300.0, 200.0, 6.0)),
+                ("allen-key", (100.0, 100.0, 1.0), (-200.0, 250.0, -5.0)),
+                ("allen-key", (100.0, 100.0, 4.0), (50.0, -300.0, 10.0)))
+
+
+def judges_table(contacts=("coulomb", "sphere", "legs:4", "legs:25"), mu: float = 0.3, refine: int = 16) -> dict:
+    """Every judge for every contact model: ``{contact: {judge: value}}``.
+
+    Judges (targets of the default contact in brackets): ``slide_mm`` / ``slide_deg``, the largest
+    distance and angle between the engine's and the integration's final poses over
+    :data:`TABLE_SLIDES` [0.2 mm, 0.5 degrees]; ``disk_stop_gap``, ``|t_slide - t_spin| / t_slide``
+    of the first disk slide [2%]; ``disk_ratio_error``, relative error of its late ``v / (R omega)``
+    [5%]; ``pure_slide_error`` and ``pure_spin_error``, relative errors of the stopping times
+    ``v0 / (mu g)`` and ``I omega0 / (mu m g rho)`` [2%]; ``isotropy_slide`` / ``isotropy_turn``, the
+    relative change of the key's displacement and rotation when its start is turned by 45 degrees [1%].
+    """
+    from transition_builder._bullet_world import friction_radius_mm
+    from transition_builder.shapes import parse_shape
+    disk = disk_shape_spec()
+    spec = {"disk": disk, "allen-key": "allen-key"}
+    refs = [reference_free_slide(spec[s], p, tw, mu=mu) for s, p, tw in TABLE_SLIDES]
+    dshape = parse_shape(disk)
+    w0, v0 = 10.0, 300.0
+    spin_law = dshape.inertia_kg_m2 / dshape.mass_kg * w0 / (mu * 9.81 * friction_radius_mm(dshape) / 1000.0)
+    slide_law = v0 / 1000.0 / (mu * 9.81)
+    out = {}
+    for contact in contacts:
+        runs = [engine_free_slide(spec[s], p, tw, contact=contact, mu=mu, refine=refine) for s, p, tw in TABLE_SLIDES]
+        d_mm = [float(np.hypot(*(e.final[:2] - r.final[:2]))) for e, r in zip(runs, refs)]
+        d_deg = [abs(math.degrees(e.final[2] - r.final[2])) for e, r in zip(runs, refs)]
+        disk_run = runs[0]
+        slide = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.6 * v0, 0.8 * v0, 0.0), contact=contact, mu=mu,
+                                  refine=refine)
+        spin = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.0, 0.0, w0), contact=contact, mu=mu, refine=refine)
+        iso = isotropy_error("allen-key", *TABLE_SLIDES[2][1:], contact=contact, refine=refine, mu=mu)
+        out[contact] = {
+            "slide_mm": max(d_mm), "slide_deg": max(d_deg),
+            "disk_stop_gap": abs(disk_run.t_slide - disk_run.t_spin) / disk_run.t_slide,
+            "disk_ratio_error": (abs(disk_run.ratio_late / refs[0].ratio_late - 1.0)
+                                 if math.isfinite(disk_run.ratio_late) else float("inf")),
+            "pure_slide_error": abs(slide.t_slide / slide_law - 1.0),
+            "pure_spin_error": abs(spin.t_spin / spin_law - 1.0),
+            "isotropy_slide": iso[0], "isotropy_turn": iso[1]}
+    return out
+
+
+#: the default contact's targets of :func:`judges_table` (a judge passes at or below its target).
+JUDGE_TARGETS = {"slide_mm": 0.2, "slide_deg": 0.5, "disk_stop_gap": 0.02, "disk_ratio_error": 0.05,
+                 "pure_slide_error": 0.02, "pure_spin_error": 0.02, "isotropy_slide": 0.01, "isotropy_turn": 0.01}
