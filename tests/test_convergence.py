@@ -273,3 +273,43 @@ def test_one_state_start_has_expected_length_zero():
     mc = monte_carlo_sync_length(aut, start=[1], runs=10)
     assert mc["mean"] == 0.0 and mc["ci95"] == [0.0, 0.0] and mc["censored"] == 0
     assert expected_sync_length(aut, start=[0], runs=10)["exact"] == 0.0
+
+
+# ----------------------------------------------------------------------------- random tilts to low entropy
+def _two_action_model(partition=None, initial=None):
+    """4 states, uniform start. ``a`` sends everything to state 0 (entropy 0 after one tilt);
+    ``b`` is the identity (never converges)."""
+    a = np.zeros((4, 4))
+    a[:, 0] = 1.0
+    return TransitionModel(["a", "b"], [a, np.eye(4)], initial=initial, partition=partition,
+                           n_cells=None if partition is None else int(max(partition)) + 1)
+
+
+def test_entropy_tilts_geometric_and_weighted():
+    """Uniform letters: T is geometric with p = 1/2, E[T] = 2; with all weight on ``a``, exactly 1;
+    with all on ``b``, every run is censored at max_steps."""
+    model = _two_action_model()
+    mc = monte_carlo_entropy_tilts(model, 0.0, runs=4000, seed=3)
+    assert mc["censored"] == 0 and abs(mc["mean"] - 2.0) < 4 * math.sqrt(2.0 / 4000)   # var = (1-p)/p^2 = 2
+    assert mc == monte_carlo_entropy_tilts(model, 0.0, runs=4000, seed=3)               # seeded
+    only_a = monte_carlo_entropy_tilts(model, 0.0, weights=[1, 0], runs=20)
+    assert only_a["mean"] == 1.0 and only_a["ci95"] == [1.0, 1.0]
+    only_b = monte_carlo_entropy_tilts(model, 0.0, weights=[0, 1], runs=20, max_steps=7)
+    assert only_b["mean"] is None and only_b["censored"] == 20 and only_b["lower"] == 7.0
+    with pytest.raises(ValueError, match="epsilon must be >= 0"):
+        monte_carlo_entropy_tilts(model, -1e-9)
+
+
+def test_entropy_tilts_start_converged_and_partition():
+    """A start already at entropy <= epsilon needs 0 tilts (epsilon 0 and entropy 0: the boundary);
+    with a partition that puts every start state in one cell, the cell entropy is 0 at the start
+    while the state entropy is 2 bits."""
+    at_zero = _two_action_model(initial=[1.0, 0.0, 0.0, 0.0])
+    mc = monte_carlo_entropy_tilts(at_zero, 0.0, weights=[0, 1], runs=10)
+    assert mc["mean"] == 0.0 and mc["censored"] == 0
+    one_cell = _two_action_model(partition=[0, 0, 0, 0])
+    assert monte_carlo_entropy_tilts(one_cell, 0.0, weights=[0, 1], runs=10)["mean"] == 0.0
+    two_cells = _two_action_model(partition=[0, 0, 1, 1])          # 1 bit on the cells at the start
+    assert monte_carlo_entropy_tilts(two_cells, 1.0, weights=[0, 1], runs=10)["mean"] == 0.0
+    assert monte_carlo_entropy_tilts(two_cells, 0.5, weights=[0, 1], runs=10, max_steps=5)["censored"] == 10
+    assert monte_carlo_entropy_tilts(two_cells, 0.5, weights=[1, 0], runs=10)["mean"] == 1.0
