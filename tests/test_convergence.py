@@ -313,3 +313,26 @@ def test_entropy_tilts_start_converged_and_partition():
     assert monte_carlo_entropy_tilts(two_cells, 1.0, weights=[0, 1], runs=10)["mean"] == 0.0
     assert monte_carlo_entropy_tilts(two_cells, 0.5, weights=[0, 1], runs=10, max_steps=5)["censored"] == 10
     assert monte_carlo_entropy_tilts(two_cells, 0.5, weights=[1, 0], runs=10)["mean"] == 1.0
+
+
+def test_expected_sync_length_reports_one_schema_and_its_parts():
+    """The non-synchronizing answer has the same keys as the normal one; the parts are the
+    functions' own results (weights passed through); ``infinite`` is a bool."""
+    cerny3 = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])
+    out = expected_sync_length(cerny3, weights=[3, 1], runs=50, seed=2)
+    exact, info = exact_expected_length(cerny3, None, [0.75, 0.25])
+    assert out["exact"] == exact and out["subsets"] == info["subsets"] and out["infinite"] is False
+    assert out["mc_runs"] == 50 and out["mc_censored"] == 0
+    mc = monte_carlo_sync_length(cerny3, None, [0.75, 0.25], runs=50, seed=2, max_steps=out["mc_max_steps"])
+    assert out["monte_carlo"] == mc["mean"] and out["ci95"] == mc["ci95"] and out["monte_carlo_lower"] == mc["lower"]
+    pb = pair_chain_bounds(cerny3, None, [0.75, 0.25])
+    assert out["pair_lower"] == pb["lower"] and out["pair_upper"] == pb["upper"]
+    assert out["pair_memory_mb"] == pb["memory_mb"] and out["pair_states"] == pb["pairs"]
+    never = expected_sync_length(SyncAutomaton.from_table([[1, 2, 0], [1, 0, 2]]), runs=10)
+    assert set(never) - {"witness"} <= set(out) and set(out) - set(never) <= {"pair_bounds"}
+    assert never["infinite"] is True and never["mc_runs"] == 0 and never["subsets"] is None
+    # a zero-weight letter the automaton needs: synchronizable by the pair test, infinite by weight
+    stuck = expected_sync_length(cerny3, weights=[1, 0], runs=10)
+    assert stuck["infinite"] is True and stuck["exact"] is None and stuck["mc_runs"] == 0
+    with pytest.raises(ValueError, match="^Monte Carlo needs at least 2 runs$"):
+        monte_carlo_sync_length(cerny3, runs=1)
