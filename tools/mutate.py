@@ -9,6 +9,7 @@ mutant reuses the compiled kernels.
     python tools/mutate.py                 # every module below
     python tools/mutate.py ensemble grid   # the named ones
     python tools/mutate.py --list
+    python tools/mutate.py --recheck ensemble   # the last run's survivors against the current tests
 
 Prints per module: mutants, killed, survived, timeouts, score; writes the survivors' diffs to
 ``build/mutate/<module>/survivors.txt``. ``MUTATE_SAMPLE=k`` runs a deterministic sample (every
@@ -144,7 +145,46 @@ def run_module(name: str) -> dict:
     return row
 
 
+def recheck_survivors(name: str) -> dict:
+    """Run the last run's survivors of ``name`` again against the current tests (in the same
+    workspace, so the mutants are the same): the score after new tests."""
+    file, tests, _ = MODULES[name]
+    ws = WORK / name
+    shutil.rmtree(ws / "tests")
+    shutil.copytree(ROOT / "tests", ws / "tests", ignore=shutil.ignore_patterns("__pycache__"))
+    survivors = [line[4:].strip() for line in (ws / "survivors.txt").read_text().splitlines()
+                 if line.startswith("=== ")]
+    meta_path = next((ws / "mutants").rglob(pathlib.Path(file).name + ".meta"))
+    meta = json.loads(meta_path.read_text())
+    checked = {k: v for k, v in meta["exit_code_by_key"].items() if v is not None}
+    for n in survivors:
+        meta["exit_code_by_key"][n] = None
+    meta_path.write_text(json.dumps(meta))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(ws / ".numba-cache"))
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", os.environ.get("MUTATE_JOBS", "1"),
+                    *survivors], cwd=ws, env=env, capture_output=True, text=True)
+    status = _results(ws, list(checked))
+    still = [n for n in survivors if status.get(n) in ("survived", "no tests", "suspicious")]
+    with open(ws / "survivors-after.txt", "w") as fh:
+        for n in still:
+            diff = subprocess.run([sys.executable, "-m", "mutmut", "show", n], cwd=ws, capture_output=True,
+                                  text=True).stdout
+            fh.write(f"=== {n}\n{diff}\n")
+    total = len(checked)
+    return {"module": name, "mutants": total, "survivors_before": len(survivors), "survivors_after": len(still),
+            "score_before": 1 - len(survivors) / total, "score_after": 1 - len(still) / total,
+            "seconds": round(time.perf_counter() - t0)}
+
+
 def main(argv: list[str]) -> int:
+    if argv[:1] == ["--recheck"]:
+        for name in argv[1:]:
+            r = recheck_survivors(name)
+            print(f"{name:12s} mutants {r['mutants']:4d}  survivors {r['survivors_before']:3d} -> "
+                  f"{r['survivors_after']:3d}  score {r['score_before']:.1%} -> {r['score_after']:.1%}  "
+                  f"({r['seconds']} s)", flush=True)
+        return 0
     if argv == ["--list"]:
         print("\n".join(f"{k}: {v[0]} <- {' '.join(v[1])}" for k, v in MODULES.items()))
         return 0
