@@ -267,3 +267,14 @@ def test_invalid_when_the_state_goes_non_finite_in_flight():
         w.state = state
     rest, code = _tilt_with(sc, [100.0, 100.0, 0.0], "E", nan_state)
     assert code == INVALID and np.all(np.isnan(rest))
+
+
+def test_fault_counts():
+    from transition_builder.status import FAULT_NAMES, STATUS_NAMES, TIPPED, UNSETTLED
+
+    assert STATUS_NAMES == ("ok", "tipped", "escaped", "unsettled", "invalid") and FAULT_NAMES == STATUS_NAMES[1:]
+    counts = fault_counts(np.array([[OK, TIPPED], [ESCAPED, ESCAPED], [UNSETTLED, INVALID]], dtype=np.int8))
+    assert counts == {"tipped": 1, "escaped": 2, "unsettled": 1, "invalid": 1}
+    assert fault_counts([]) == {"tipped": 0, "escaped": 0, "unsettled": 0, "invalid": 0}
+    with pytest.raises(ValueError, match=r"^unknown status code\(s\) \[5, 7\]$"):
+        fault_counts([0, 5, 7, 5])
