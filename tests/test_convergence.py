@@ -336,3 +336,22 @@ def test_expected_sync_length_reports_one_schema_and_its_parts():
     assert stuck["infinite"] is True and stuck["exact"] is None and stuck["mc_runs"] == 0
     with pytest.raises(ValueError, match="^Monte Carlo needs at least 2 runs$"):
         monte_carlo_sync_length(cerny3, runs=1)
+
+
+def test_pair_bounds_are_exact_on_two_states():
+    """With two states the only pair is the whole set: the pair chain is the subset chain, so both
+    bounds equal the exact expected length (and the dense solve)."""
+    rng = np.random.default_rng(12)
+    checked = 0
+    for _ in range(40):
+        k = int(rng.integers(1, 4))
+        table = random_table(2, k, rng)
+        w = letter_weights(k, rng.random(k) + 0.1)
+        exact, _ = exact_expected_length(SyncAutomaton.from_table(table), None, w)
+        if not math.isfinite(exact) or exact == 0:
+            continue
+        pb = pair_chain_bounds(SyncAutomaton.from_table(table), None, w)
+        assert pb["lower"] == pytest.approx(exact, rel=1e-9) and pb["upper"] == pytest.approx(exact, rel=1e-9)
+        assert exact == pytest.approx(brute_expectation(det_step(table), 2, k, w, range(2)), rel=1e-9)
+        checked += 1
+    assert checked > 10
