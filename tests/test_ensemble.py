@@ -277,3 +277,16 @@ def test_convergence_steps_and_best_index_messages():
     assert empty.tolist() == [-1] * 4 and empty.dtype == np.int64
     with pytest.raises(ValueError, match="^no sequences$"):
         best_sequence_index(np.zeros(0, dtype=np.int64), np.zeros(0))
+
+
+def test_best_sequence_without_convergence_is_the_lowest_final_entropy():
+    """Nothing converges (``a`` merges states 0 and 1 and nothing merges further): the best
+    sequence is the first one (lowest index) that contains ``a`` anywhere, decided by the final
+    entropy, not by the entropy after any earlier step."""
+    model = model_from_automaton({"states": 3, "actions": {"a": [0, 0, 2], "c": [0, 1, 2]}})
+    for seed in (5, 6):       # seed 6: the first sequence holding ``a`` holds it at its last step only
+        res = run_ensemble(model, 40, 4, seed=seed)
+        assert res.converged == 0
+        has_a = [bool(np.any(s == 0)) for s in res.sequences]
+        assert res.best_index == has_a.index(True)
+    assert res.best_index == 0 and res.sequences[0].tolist() == [1, 1, 1, 0]
