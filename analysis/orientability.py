@@ -64,6 +64,8 @@ class PartMetrics:
     initial_entropy: float
     epsilon: float
     seconds: float
+    #: the plan target of ``sync_word`` (kruskal_markov.sync.targets): every start state to one model state
+    sync_target: str = "state"
 
     def as_dict(self) -> dict:
         """Plain JSON-ready dictionary of the fields."""
@@ -101,8 +103,9 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     -----
     The shortest word is searched from the support of the initial distribution (every pose a part
     can come to rest in after its first tilt, plus the start cells), i.e. the ``kruskal sync
-    --start initial`` question: it orients a part placed anywhere. Searches: Kisielewicz, Kowalski
-    and Szykula (2015) bidirectional BFS, Eppstein (1990) greedy fallback (``kruskal_markov.sync``).
+    --start initial`` question, the plan target ``state``: it orients a part placed anywhere. Search:
+    Kisielewicz, Kowalski and Szykula (2015) bidirectional BFS, then depth-first when memory runs out
+    (Szykula and Zyzik 2022), Eppstein (1990) greedy fallback at the time budget (``kruskal_markov.sync``).
     """
     from kruskal_markov.convergence import (
         monte_carlo_entropy_tilts,
@@ -120,7 +123,14 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     ens = run_ensemble(model, count, 50, seed=seed, epsilon=epsilon, threads=threads)
     aut = support_automaton(model, 0.0)
     start = start_set(model, False)
-    sync = shortest_synchronizing_word(aut, start, time_budget=sync_time_budget, node_budget=sync_node_budget)
+    if model.partition is not None and not aut.deterministic:
+        # plan target state by the plan search (exact where the subset search runs out of memory)
+        from kruskal_markov.sync.plan import DEFAULT_NODE_BUDGET, state_plan
+
+        sync = state_plan(model, 0.0, time_budget=sync_time_budget,
+                          node_budget=DEFAULT_NODE_BUDGET if sync_node_budget is None else sync_node_budget)
+    else:
+        sync = shortest_synchronizing_word(aut, start, time_budget=sync_time_budget, node_budget=sync_node_budget)
     tilts = monte_carlo_entropy_tilts(model, epsilon, runs=runs, seed=[seed, 5], max_steps=max_tilts)
     rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=[seed, 6], max_steps=max_tilts)
     h0 = float(entropy_trajectory(model, []).entropy_bits[0])

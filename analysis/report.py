@@ -267,7 +267,7 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         lines.append(f"| C: {level}-noise friction maps converging | {pc} of {pn} | {g['converged']} of {g['maps']} "
                      f"reach zero (mean tilt {_fmt(g['mean_zero_at'], '.1f')}), {ends} end there "
                      f"(direct, M = {s['c_trials']}) |")
-    plan = (f"{km['sync_length']} tilts ("
+    plan = (f"{km['sync_length']} tilts (target {km.get('sync_target', 'state')}; "
             + ("proven shortest" if km["sync_exact"] else f"greedy; lower bound {_fmt(km['sync_lower_bound'], 'd')}")
             + ")" if km["sync_length"] is not None else
             f"none found within the time budget (lower bound {_fmt(km['sync_lower_bound'], 'd')} tilts)")
@@ -306,7 +306,8 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         proof = ("proven shortest" if km["sync_exact"]
                  else f"not proven shortest; lower bound {km['sync_lower_bound']}")
         lines += [
-            f"**The shortest synchronizing word** for the key: `{','.join(km['sync_word'])}` ({km['sync_length']} tilts, "
+            f"**The shortest synchronizing word** (plan target `{km.get('sync_target', 'state')}`) for the key: "
+            f"`{','.join(km['sync_word'])}` ({km['sync_length']} tilts, "
             f"{proof}). "
             f"Replayed in direct simulation with {rep['trials']:,} trials it ends at {rep['entropy_bits'][-1]:.3f} bits "
             f"({sum(rep['faults'].values())} faulted trials); the model predicts {rep['model_entropy_bits'][-1]:.3f}.",
@@ -344,8 +345,10 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
                 ("expected random tilts to converge", "random_tilts", ".1f", None)]
         for label, k, f, paper in rows:
             lines.append(f"| {label} | {paper or '-'} | " + " | ".join(_fmt(cm[c][k], f) for c in keys) + " |")
-        base = cm[keys[0]]
-        for other_key in keys[1:]:
+        # the variants are compared with the default contact built at their own resolution
+        base_key = next((k for k in keys if k.endswith("(compared resolution)")), keys[0])
+        base = cm[base_key]
+        for other_key in [k for k in keys[1:] if k != base_key]:
             verdict = []
             other = cm[other_key]
             for label, k, _, _ in rows[1:]:
@@ -354,7 +357,7 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
                     continue
                 rel = abs(x - y) / max(abs(x), abs(y), 1e-9)
                 verdict.append(f"{label}: {'within 10%' if rel <= 0.1 else 'differs by ' + format(rel, '.0%')}")
-            lines += ["", f"`{other_key}` against `{keys[0]}` (relative difference): " + "; ".join(verdict) + "."]
+            lines += ["", f"`{other_key}` against `{base_key}` (relative difference): " + "; ".join(verdict) + "."]
         lines += [""]
         both = all(cm[k]["sync_length"] is not None for k in keys)
         lines += ["What holds under every contact model and step: "

@@ -47,9 +47,10 @@ class ReproduceSettings:
     the B parts; ``contact`` the floor contact of every scene (None: the simulator's default,
     ``coulomb``); ``key_build`` and ``part_build`` are :class:`~transition_builder.builder.BuildSettings`
     changes for the key's model and the B parts' models, and ``contact_build`` for the key's models
-    under the other contact models of ``compare_contacts`` and at the finer time steps of
-    ``compare_refine`` (1/R of the default step, same rest-test interval; None: ``key_build``, so
-    that every variant is compared at the same resolution); ``judges`` runs the contact judges of
+    under the simulator settings of ``compare_contacts`` (label, :class:`SimSettings` changes) and
+    at the finer time steps of ``compare_refine`` (1/R of the default step, same rest-test
+    interval); when ``contact_build`` differs from ``key_build`` the default contact is built with
+    it too, so that every variant is compared at one resolution; ``judges`` runs the contact judges of
     :func:`transition_builder.judges.judges_table` for the compared contacts; ``parts`` are the B
     shape specs and ``maps`` the C friction specs; ``tray_mm`` the tray of every scene.
     """
@@ -83,10 +84,12 @@ class ReproduceSettings:
     #: of at its time budget (results independent of the machine's speed; the tests use it)
     sync_node_budget: int | None = None
     contact: str | None = None
-    compare_contacts: tuple = ("sphere", "legs:4")
+    compare_contacts: tuple = (("sphere, 1/240 s (the old default)",
+                                {"contact": "sphere", "time_step_s": 1.0 / 240.0, "substeps": 4}),)
     compare_refine: tuple = (4,)
     judges: bool = True
-    contact_build: dict | None = None
+    contact_build: dict | None = dataclasses.field(default_factory=lambda: {
+        "tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1, "start_samples": 2000})
     contact_ensemble_count: int = 100_000
     epsilon: float = CONVERGED_BITS
 
@@ -257,24 +260,24 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     # --- does the answer depend on the contact model? ------------------------------------------
     default_contact = key_scene.settings.contact
     out["contact_models"] = {default_contact: _contact_summary(key, km, s, names)}
-    variants = [(str(c), key_scene.with_settings(contact=c)) for c in s.compare_contacts
-                if str(c) != default_contact]
     st = key_scene.settings
+    compare_build = s.key_build if s.contact_build is None else s.contact_build
+    variants = []
+    if compare_build != s.key_build and (s.compare_contacts or s.compare_refine):
+        variants.append((f"{default_contact} (compared resolution)", key_scene))
+    variants += [(str(label), key_scene.with_settings(**dict(changes))) for label, changes in s.compare_contacts]
     variants += [(f"{default_contact}, 1/{r} step", key_scene.with_settings(time_step_s=st.time_step_s / r,
                                                                            substeps=st.substeps * r))
                  for r in s.compare_refine]
     for label, scene_k in variants:
-        model_k, info = _build(scene_k, s.key_build if s.contact_build is None else s.contact_build, s.seed,
-                               workers, progress, f"{s.shape}, {label}")
+        model_k, info = _build(scene_k, compare_build, s.seed, workers, progress, f"{s.shape}, {label}")
         mk = part_metrics(model_k, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
                           sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
         out["contact_models"][label] = {**_contact_summary(model_k, mk, s, names), "model": info}
     if s.judges:
         from transition_builder.judges import JUDGE_TARGETS, judges_table
         _log(progress, "the contact judges (free sliding against the integration of Coulomb's law)")
-        contacts = [default_contact] + [str(c) for c in s.compare_contacts if str(c) != default_contact]
-        out["contact_judges"] = {"table": judges_table(tuple(contacts) + (("legs:25",) if "legs:25" not in contacts
-                                                                          else ())),
+        out["contact_judges"] = {"table": judges_table((default_contact, "sphere", "legs:4", "legs:25")),
                                  "targets": JUDGE_TARGETS}
 
     # --- B: the best sequence on other parts ---------------------------------------------------

@@ -100,8 +100,10 @@ def main():
     print(f"machine: {os.cpu_count()} cores, load average {load:.2f} at start; the variants run in "
           f"alternating chunks so that they share the same load")
     variants = [("kruskal simulator (default: coulomb)", _ours(), N_TILTS),
-                ("kruskal, contact sphere (the old default)", _ours(contact="sphere"), N_TILTS),
-                ("kruskal, contact legs:4 (50 it.)", _ours(contact="legs:4", solver_iterations=50),
+                ("kruskal, contact sphere (the old default)", _ours(contact="sphere", time_step_s=1.0 / 240.0, substeps=4),
+                 N_TILTS),
+                ("kruskal, contact legs:4 (1/240 s, 50 it.)",
+                 _ours(contact="legs:4", solver_iterations=50, time_step_s=1.0 / 240.0, substeps=4),
                  N_TILTS // 4),
                 ("naive free body (10 it., 1/240 s)", _naive(), N_NAIVE)]
     shape = parse_shape("allen-key")

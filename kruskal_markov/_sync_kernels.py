@@ -435,3 +435,33 @@ def eppstein_greedy(delta, start, dist, nxt, out_word):
     return length
 
 
+
+
+@njit(cache=True)
+def max_pair_distance_rows(rows, dist, n, out):
+    """``out[i]``: the largest pair-merging distance among the states of bitset row ``i`` (``-1`` if
+    some pair never merges; 0 for a single state): a lower bound on the length of every word
+    that synchronizes the set (each pair must merge)."""
+    W = rows.shape[1]
+    elems = np.empty(n, dtype=np.int64)
+    for i in range(rows.shape[0]):
+        m = 0
+        for w in range(W):
+            x = rows[i, w]
+            while x != _ZERO:
+                b = _ctz(x)
+                x &= x - _ONE
+                elems[m] = w * 64 + b
+                m += 1
+        best = 0
+        for s in range(m):
+            if best < 0:
+                break
+            for t in range(s + 1, m):
+                d = dist[pair_index(elems[s], elems[t], n)]
+                if d < 0:
+                    best = -1
+                    break
+                if d > best:
+                    best = d
+        out[i] = best

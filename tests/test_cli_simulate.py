@@ -47,6 +47,21 @@ def test_json_contract(small_run):
     assert all(h <= math.log2(max(n, 1)) + 1e-9 for h, n in zip(res["entropy_bits"], res["surviving"]))
     assert len(res["scene_hash"]) == 64
     assert res["noise"] == "none"
+    assert res["contact"] == "coulomb"                  # the default contact, named
+
+
+@pytest.mark.parametrize("command", ["build", "validate", "rank", "reproduce"])
+def test_unknown_contact_is_one_line_exit_2_on_every_command(capsys, command, tmp_path):
+    """``--contact`` has one meaning everywhere: an unknown value stops every command in one line
+    before any work."""
+    argv = {"build": ["build", "--shape", "rectangle:30x30"],
+            "validate": ["validate", "--model", str(tmp_path / "missing.npz")],
+            "rank": ["rank", "--shapes", "rectangle:30x30"],
+            "reproduce": ["reproduce", "--quick", "--out", str(tmp_path / "r")]}[command]
+    code = main([*argv, "--contact", "sphere-ish"])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and "unknown contact model" in err
 
 
 def test_poses_file_matches_json(small_run):
@@ -145,6 +160,8 @@ def test_zero_length_sequence_text_output(capsys):
     (["--shape", "", "--sequence", "N"], "--shape is empty"),
     (["--sequence", "N", "--poses", "/nonexistent-dir/p.csv"], "does not exist"),
     (["--sequence", "N", "--poses", "/"], "is a directory"),
+    (["--sequence", "N", "--contact", "springs"], "unknown contact model"),
+    (["--sequence", "N", "--contact", "legs:1"], "unknown contact model"),
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv, needle):
     code, out, err = _run(capsys, *argv)

@@ -43,8 +43,9 @@ def report(cache_dir, tmp_path_factory):
                           maps=("map:low:1",), key_build=SMALL, part_build=SMALL, a_check_trials=30,
                           b_trials=20, c_trials=20, replay_trials=100, validate_sequences=1, validate_trials=30,
                           validate_length=5, metrics_count=100, metrics_runs=30, sync_time_budget=10,
-                          part_sync_time_budget=10, sync_node_budget=100_000, compare_contacts=("sphere",),
-                          compare_refine=(), judges=False, contact_ensemble_count=200,
+                          part_sync_time_budget=10, sync_node_budget=100_000,
+                          compare_contacts=(("sphere", {"contact": "sphere"}),), compare_refine=(), judges=False,
+                          contact_ensemble_count=200,
                           contact_build=CONTACT)
     result = reproduce(s, workers=2)
     out = tmp_path_factory.mktemp("report")
@@ -113,7 +114,7 @@ def test_contact_models_side_by_side(report):
     """The sphere's model is a different model of the same scene, with its own paper-level answers."""
     result, _, out = report
     cm = result["contact_models"]
-    assert list(cm) == ["coulomb", "sphere"]                          # the default first
+    assert list(cm) == ["coulomb", "coulomb (compared resolution)", "sphere"]   # the default first
     assert cm["sphere"]["model"]["path"] != result["key_model"]["path"]
     assert cm["coulomb"]["a_converged"] == result["A"]["converged"]      # the same 43-sequence sample
     assert cm["sphere"]["model"]["settings"] == CONTACT and result["key_model"]["settings"] == SMALL

@@ -48,7 +48,7 @@ def test_hash_is_stable_and_sensitive():
         if isinstance(val, str):
             new = "sphere" if val != "sphere" else "legs:4"      # the contact model
         else:
-            new = val * 1.5 if isinstance(val, float) else val + 1
+            new = val * 1.5 if isinstance(val, float) else val * 2     # x2 keeps substeps divisible
         if name == "contact_threshold_mm":
             new = val * 1.1                      # must stay below the floor clearance
         changed = scene_from_options("allen-key", **{name: new})

@@ -177,6 +177,8 @@ class BulletWorld:
         self.contact = parse_contact(st.contact)
         self.per_step = parse_friction(scene.friction).kind == "map" or self.contact.kind == "coulomb"
         n_sub = 1 if self.per_step else st.substeps
+        if self.contact.kind == "coulomb":     # one friction update per call (on a map as well)
+            n_sub = st.friction_substeps
         self.normal_force = scene.shape.mass_kg * G * st.world_units_per_m * math.cos(a)
         pb.setPhysicsEngineParameter(
             fixedTimeStep=st.time_step_s * n_sub, numSubSteps=n_sub,
@@ -322,6 +324,17 @@ class BulletWorld:
             self._cb_out = np.zeros(4)
             self._cb_z = st.support_radius_mm * self.mm     # height of the yaw link (its z slide at 0)
             self._cb_caps = None
+            # (physics step, steps per call, calls per rest-test interval) near walls and in free flight
+            k = st.free_flight_step_factor
+            n_free = max(st.friction_substeps // k, 1)
+            self._cb_modes = ((st.time_step_s, st.friction_substeps, st.substeps // st.friction_substeps),
+                              (st.time_step_s * k, n_free, st.substeps // (n_free * k)))
+            self._cb_mode = 0
+            self._cb_free_factor = k
+            W, H = self.scene.tray_x_mm, self.scene.tray_y_mm
+            # clear by twice the distance covered in one interval, plus the contact threshold and 1 mm
+            self._cb_walls = (W, H, float(r.max()) / self.mm, 2.0 * st.check_interval_s,
+                              st.contact_threshold_mm + 1.0)
 
     # ------------------------------------------------------------------ state
     def set_pose(self, pose_mm, twist=None):  # noqa: D401
@@ -398,7 +411,15 @@ class BulletWorld:
         n, z = self.normal_force, self._cb_z
         joints = (J_X, J_Y, J_YAW)
         get_states, change, force, step = pb.getJointStates, pb.changeDynamics, pb.applyExternalForce, pb.stepSimulation
-        for _ in range(self.substeps):
+        mode = 0
+        if self._cb_free_factor > 1:
+            s = get_states(ob, joints, physicsClientId=cid)
+            mode = self._free_flight(s[0][0], s[1][0], s[0][1], s[1][1])
+            if mode != self._cb_mode:
+                dt, n_sub, _ = self._cb_modes[mode]
+                pb.setPhysicsEngineParameter(fixedTimeStep=dt * n_sub, numSubSteps=n_sub, physicsClientId=cid)
+                self._cb_mode = mode
+        for _ in range(self._cb_modes[mode][2]):
             s = get_states(ob, joints, physicsClientId=cid)
             sx, sy, sw = s
             _contact_update(sx[0], sy[0], sw[0], sx[1], sy[1], sw[1], mem, geom, grid, params, out)
@@ -410,6 +431,17 @@ class BulletWorld:
                 force(ob, J_YAW, (out[2] * n, out[3] * n, 0.0), (sx[0], sy[0], z), pb.WORLD_FRAME,
                       physicsClientId=cid)
             step(physicsClientId=cid)
+
+    def _free_flight(self, x, y, vx, vy) -> int:
+        """1 if the part's bounding circle is clear of every wall by the margin (free flight), else 0.
+        ``x, y, vx, vy``: world (downhill frame) position and velocity, world units."""
+        a, b, c, d = self._to_tray
+        px = a * x + b * y + self.centre[0]
+        py = c * x + d * y + self.centre[1]
+        W, H, r_mm, horizon_s, margin_mm = self._cb_walls
+        speed_mm_s = math.hypot(vx, vy) / self.mm
+        clear = min(px, W - px, py, H - py) - r_mm
+        return int(clear > speed_mm_s * horizon_s + margin_mm)
 
     def step(self):
         """Advance one rest-test interval (``substeps`` physics steps)."""

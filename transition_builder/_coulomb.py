@@ -108,6 +108,10 @@ def coulomb_wrench(points, weights, mu, v, omega, yaw: float = 0.0):
     return _friction_wrench(float(v[0]), float(v[1]), float(omega), px, py, w, m)
 
 
+#: resolution of the friction limits and of the explicit force per unit normal force.
+_QUANTUM = 1e9
+
+
 @njit(cache=True)
 def _contact_update(x, y, yaw, vx, vy, wz, mem, geom, mu_grid, params, out):
     """Everything the coupled contact needs before one physics step, in one call.
@@ -210,6 +214,13 @@ def _contact_update(x, y, yaw, vx, vy, wz, mem, geom, mu_grid, params, out):
         out[2] = fx
         out[3] = fy
     out[1] = abs(tz)
+    # round-off of a pure translation (limits equal to the last bits, a perpendicular force of
+    # 1e-17) is not passed on: the caller skips engine calls that would change nothing
+    out[0] = math.floor(out[0] * _QUANTUM + 0.5) / _QUANTUM
+    out[1] = math.floor(out[1] * _QUANTUM + 0.5) / _QUANTUM
+    if abs(out[2]) < 1.0 / _QUANTUM and abs(out[3]) < 1.0 / _QUANTUM:
+        out[2] = 0.0
+        out[3] = 0.0
 
 
 @njit(cache=True)

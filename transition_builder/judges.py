@@ -91,8 +91,8 @@ def engine_free_slide(shape_spec: str, pose, twist, contact: str = "coulomb", re
     from transition_builder.settings import SimSettings
     from transition_builder.sim import TraySimulator
     base = SimSettings(contact=contact, **settings)
-    # the trajectory is recorded every ``substeps`` steps: one, for a fine record
-    settings = dict(settings, time_step_s=base.time_step_s / refine, substeps=1)
+    # the trajectory is recorded every ``substeps`` steps: as few as the contact allows, for a fine record
+    settings = dict(settings, time_step_s=base.time_step_s / refine, substeps=base.friction_substeps)
     sc = scene_from_options(shape_spec, mu, tilt_deg=LEVEL_TILT_DEG, contact=contact, **settings)
     sim = TraySimulator(sc)
     try:

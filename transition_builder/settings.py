@@ -91,6 +91,15 @@ class SimSettings:
         its cell's weight (PyBullet's per-axis friction rows bias them away from Coulomb's law).
     footprint_points : int
         Quadrature points of the ``coulomb`` contact (about this many, equal area).
+    friction_substeps : int
+        Physics steps per update of the ``coulomb`` contact's friction (one ``stepSimulation`` call
+        of this many internal steps; the explicit force persists over them). Must divide
+        ``substeps``.
+    free_flight_step_factor : int
+        ``coulomb`` contact: while the part's bounding circle is clear of every wall (by more than
+        twice the distance it covers in one rest-test interval plus the contact threshold), physics
+        steps are this many times longer: the time step matters where a part slides along or pivots
+        on a wall, not in free flight (docs/simulator.md). 1 turns it off.
     stick_speed_mm_s : float
         The ``coulomb`` contact sticks (limits of the friction "box", no explicit force) while the
         fastest point of the part moves slower than this; the stick-slip rule with a velocity
@@ -117,8 +126,8 @@ class SimSettings:
         this below the floor during a tilt is ``ESCAPED`` (fell through it).
     """
 
-    time_step_s: float = 1.0 / 240.0
-    substeps: int = 4
+    time_step_s: float = 1.0 / 480.0
+    substeps: int = 8
     solver_iterations: int = 100
     solver_residual_threshold: float = 1e-4
     rest_speed_mm_s: float = 1.0
@@ -127,6 +136,8 @@ class SimSettings:
     max_time_s: float = 4.0
     contact: str = "coulomb"
     footprint_points: int = 300
+    friction_substeps: int = 2
+    free_flight_step_factor: int = 2
     stick_speed_mm_s: float = 0.5
     support_radius_mm: float = 1.0
     floor_clearance_mm: float = 4.0
@@ -148,6 +159,13 @@ class SimSettings:
                 if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) or val <= 0:
                     raise ValueError(f"SimSettings.{f.name} must be a positive finite number, got {val!r}")
                 object.__setattr__(self, f.name, float(val))
+        if self.substeps % self.friction_substeps:
+            raise ValueError(f"SimSettings.friction_substeps ({self.friction_substeps}) must divide "
+                             f"substeps ({self.substeps})")
+        k = self.free_flight_step_factor
+        if self.substeps % (max(self.friction_substeps // k, 1) * k):
+            raise ValueError(f"SimSettings.free_flight_step_factor ({k}) does not fit substeps ({self.substeps}) "
+                             f"and friction_substeps ({self.friction_substeps})")
         if self.floor_clearance_mm <= self.contact_threshold_mm:
             raise ValueError("SimSettings.floor_clearance_mm must exceed contact_threshold_mm")
         if self.max_time_s < self.dwell_s:

@@ -15,16 +15,22 @@ mechanics: ``docs/simulator.md``):
 1. **Planar by construction**: the part is a fixed-base multibody chain (prismatic x, y, z and a
    revolute yaw) carrying the prism's convex parts; it cannot tip or ride over a wall (``TIPPED``
    only means "lifted off the floor"). Joint motors are disabled and damping is zero.
-2. **A well-defined floor contact**: the prism floats above the floor and its weight rests on one
-   small support sphere under the centroid (lateral friction ``mu``; spinning friction from the
-   part's friction radius), or with ``SimSettings(support_points=K)`` on K legs (distributed
-   point-contact Coulomb friction). A friction map sets the contact's coefficient to the tile
-   under it before every physics step.
+2. **Distributed Coulomb friction on one contact** (``SimSettings.contact``, default ``coulomb``):
+   the prism floats above the floor and its weight rests on one small support sphere under the
+   centroid. Before every friction update (every ``friction_substeps`` physics steps) the friction
+   of uniform pressure over the footprint is integrated by quadrature at the twist predicted for
+   the end of the step (:mod:`transition_builder._coulomb`): its component against the centroid's
+   velocity and its torque become the sphere's lateral and spinning limits (Bullet's implicit
+   contact, which also sticks), the rest is applied as an explicit force. Below a small speed the
+   contact sticks. ``sphere`` keeps fixed limits (``mu``, ``mu`` x friction radius); ``legs:K`` puts
+   the part on K point legs. A friction map gives every quadrature point (or leg, or the sphere) the
+   coefficient of the tile under it.
 3. **Downhill along world +x**: each action has its own world, rotated so that downhill is +x
    (Bullet's friction is anisotropic off the axes); poses are mapped in and out exactly.
 4. **A centimetre world** with inset hulls: Bullet's fixed 0.001-unit collision margin is 0.01 mm.
-5. **A 2 mm contact threshold, 100 solver iterations and a rest test on mean velocities**, so
-   parts neither creep along walls nor jitter in corners.
+5. **A 2 mm contact threshold, 100 solver iterations, 1/480 s steps and a rest test on mean
+   velocities** every 1/60 s, so parts neither creep along walls nor jitter in corners; steps are
+   1/240 s while the part is clear of every wall (``free_flight_step_factor``).
 6. **No memory between trials**: the part is moved away and collision detection run before every
    trial, so an outcome does not depend on the trial before it.
 """

@@ -25,6 +25,8 @@ register("entropy", "analysis.commands.entropy",
 register("ensemble", "analysis.commands.ensemble",
          "statistics of K random sequences (the paper's Fig. 3)")
 register("sync", "analysis.commands.sync", "shortest synchronizing word (optimal sensorless plan)")
+register("plan", "analysis.commands.plan",
+         "shortest tilt sequence that orients the part (targets state, cell, probability:E; robust plans)")
 register("convergence", "analysis.commands.convergence",
          "expected length of a random synchronizing sequence")
 register("validate", "analysis.commands.validate", "model prediction against direct simulation")

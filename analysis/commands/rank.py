@@ -137,7 +137,8 @@ def markdown_table(result: dict, command: str = "kruskal rank") -> str:
     mm, deg = result["resolution"]
     lines = ["# Orientability ranking", "",
              f"`{command}` (models at {mm:g} mm / {deg:g} degrees). "
-             "Metrics from each part's model (docs/commands.md): the shortest synchronizing word (* = greedy, "
+             "Metrics from each part's model (docs/commands.md): the shortest synchronizing word (plan target "
+             "`state`; * = greedy, "
              "not proven shortest; none = proven not to exist; not found = neither a word nor a proof within "
              "the budget), the expected number of random tilts until the predicted entropy is "
              "<= 1e-3 bits (censored: random runs that never got there in 1,000 tilts; with any, only a lower "

@@ -37,10 +37,11 @@ def run(args: argparse.Namespace) -> dict:
             raise InputError(f"--{name} must be at least 1, got {getattr(args, name)}")
     if args.trials < 2:
         raise InputError("--trials must be at least 2 (the reference's noise is a bootstrap)")
+    contact = parse_contact_arg(args.contact)     # checked before any work
     model = TransitionModel.load(args.model)
     return validate_model(model, args.sequences, args.trials, args.seed, args.length, spread=args.spread,
                           bands=args.bands, workers=args.workers, scheduler=args.scheduler,
-                          progress=True if args.progress else None, contact=parse_contact_arg(args.contact))
+                          progress=True if args.progress else None, contact=contact)
 
 
 def format_text(result: dict) -> str:

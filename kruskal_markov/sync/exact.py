@@ -1,0 +1,290 @@
+"""Exact shortest synchronizing words: bidirectional breadth-first subset search, then a
+memory-bounded depth-first phase.
+
+References
+----------
+A. Kisielewicz, J. Kowalski and M. Szykula, "Computing the shortest reset words of synchronizing
+automata", J. Comb. Optim. 29 (2015) 88-124.
+M. Szykula and A. Zyzik, "An improved algorithm for finding the shortest synchronizing words",
+ESA 2022, LIPIcs 244, 85:1-85:17 (synchrowords).
+"""
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from kruskal_markov import _sync_kernels as _k
+from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
+from kruskal_markov.sync.greedy import greedy_synchronizing_word
+from kruskal_markov.sync.pairs import _eppstein_fits, eppstein_memory_mb, pair_check_memory_mb, synchronizability
+from kruskal_markov.sync.result import SyncResult
+
+if TYPE_CHECKING:
+    from kruskal_markov.model import TransitionModel
+
+__all__ = ["shortest_synchronizing_word"]
+
+#: share of ``time_budget`` the greedy word may use before the exact search starts.
+_GREEDY_SHARE = 0.4
+#: forward sets per call of the meet test (the time budget is checked between calls)
+_MEET_SLICE = 2048
+
+
+_BLOCK = 1 << 16
+
+
+def _choose_forward(fwd, bwd, k):
+    """Which side to expand: the one with the smaller newest level (forward on a tie)."""
+    (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
+    return (fhi - flo) <= (bhi - blo)
+
+
+def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node_budget=None, upper=None):
+    """Bidirectional BFS, then (when memory runs out) a depth-first phase.
+
+    Returns ``(word | None, status, explored, lower_bound)`` with status 'found', 'none' (proven:
+    no word), 'upper' (proven: no word shorter than ``upper``) or 'budget' (time or node budget;
+    ``lower_bound`` proven). ``time_budget`` None: no time limit; ``node_budget`` counts the subsets
+    generated (the same budget gives the same answer on any machine).
+    """
+    t0 = time.perf_counter()
+    deadline = None if time_budget is None else t0 + time_budget
+    W = aut.n_words
+    row_bytes = 8 * W + 8 + 4 + 16 * 2      # rows + parent + letter + hash table (load <= 1/2, x2 growth)
+    # three eighths of the memory per direction; the last quarter for the depth-first phase
+    max_rows = max(1024, int(memory_budget_mb * 2 ** 20 / row_bytes * 3 / 8))
+    if aut.n >= max_rows:       # not even the n backward roots fit: no exact search in this budget
+        return None, "budget", 0, 1
+    fwd = SubsetStore(W, 1024, max_rows)
+    bwd = SubsetStore(W, max(1024, aut.n), max_rows)
+    fwd.add_roots([aut.bits(start)])
+    singletons = []
+    for q in range(aut.n):
+        b = np.zeros(W, dtype=np.uint64)
+        b[q >> 6] = np.uint64(1) << np.uint64(q & 63)
+        singletons.append(b)
+    bwd.add_roots(singletons)
+    total = 0
+    block = _BLOCK
+    full = {True: False, False: False}      # forward / backward store full
+    # first guesses (updated from measurements); both grow with the bitset width W
+    rate_row = 2e-7 * max(1.0, W / 16)     # seconds per generated row
+    rate_pair = 5e-11 * max(1.0, W / 4)    # seconds per (forward set x backward set) pair in the meet test
+    tested = -1                             # the largest total whose meet test is done
+    while True:
+        (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
+        if tested < total:
+            tm = time.perf_counter()
+            # the meet test in slices of the forward level, so that the budget is checked between them
+            f = b = -1
+            for lo in range(flo, fhi, _MEET_SLICE):
+                if total and deadline is not None and time.perf_counter() > deadline:
+                    return None, "budget", fwd.count + bwd.count, total
+                f, b = _k.meet(fwd.rows, lo, min(fhi, lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
+                if f >= 0:
+                    break
+            pairs = (fhi - flo) * (bhi - blo)
+            if pairs > 10_000_000:
+                rate_pair = (time.perf_counter() - tm) / pairs
+            if f >= 0:
+                u, _ = fwd.path(f)
+                v, _ = bwd.path(b)
+                return u[::-1] + v, "found", fwd.count + bwd.count, total
+            tested = total
+        if upper is not None and total + 1 >= upper:
+            return None, "upper", fwd.count + bwd.count, upper
+        if node_budget is not None and fwd.count + bwd.count >= node_budget:
+            return None, "budget", fwd.count + bwd.count, total + 1
+        # expand the side with the smaller newest level (inverse steps cost ~ n per set), unless full
+        forward = _choose_forward(fwd, bwd, aut.k)
+        if full[forward]:
+            forward = not forward
+        if full[forward]:
+            return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
+                                      block)
+        store = fwd if forward else bwd
+        # predicted cost of the next level (expansion + meet test); stop before the budget is blown
+        lo, hi = store.levels[-1]
+        growth = aut.k if len(store.levels) < 2 else \
+            max(1.0, (hi - lo) / max(1, store.levels[-2][1] - store.levels[-2][0]))
+        new_rows = (hi - lo) * min(growth, aut.k)
+        other = (bhi - blo) if forward else (fhi - flo)
+        predicted = new_rows * rate_row + new_rows * other * rate_pair
+        if deadline is not None and time.perf_counter() + predicted > deadline:
+            return None, "budget", fwd.count + bwd.count, total + 1
+        te = time.perf_counter()
+        grown = store.expand(aut, forward)
+        if grown is None:
+            full[forward] = True
+            continue
+        if grown > 10_000:
+            rate_row = max(1e-9, (time.perf_counter() - te) / grown)
+        if grown == 0:
+            return None, "none", fwd.count + bwd.count, total
+        total += 1
+
+
+def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block):
+    """Both stores are full: words of length ``t = total + 1, total + 2, ...`` are tested by expanding
+    the forward frontier ``t - total`` more levels chunk by chunk (depth-first over chunks, memory
+    bounded) and meeting the newest backward level, as synchrowords does after its breadth-first
+    phase (Szykula and Zyzik 2022). Sets whose largest pair-merging distance exceeds the remaining
+    length are pruned (admissible). Returns like :func:`_exact_search`."""
+    W = aut.n_words
+    flo, fhi = fwd.levels[-1]
+    blo, bhi = bwd.levels[-1]
+    i_b = len(bwd.levels) - 1
+    row_bytes = 8 * W + 8 + 4 + 32
+    cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
+    dist = None
+    if aut.n <= 4096:
+        dist, _ = aut.pair_distances()
+    used = [fwd.count + bwd.count]
+
+    def over_budget():
+        return (node_budget is not None and used[0] >= node_budget) or \
+            (deadline is not None and time.perf_counter() > deadline)
+
+    def rec(rows, rid, words, x):
+        """Rows (forward sets ``x`` levels above the meet depth), their frontier rows and extra letters."""
+        if over_budget():
+            return "budget"
+        if dist is not None:
+            h = np.empty(rows.shape[0], dtype=np.int64)
+            _k.max_pair_distance_rows(rows, dist, aut.n, h)
+            keep = (h >= 0) & (h <= x + i_b)
+            if not keep.all():
+                rows, rid, words = rows[keep], rid[keep], words[keep]
+            if rows.shape[0] == 0:
+                return None
+        if x == 0:
+            for lo in range(0, rows.shape[0], _MEET_SLICE):
+                f, b = _k.meet(rows, lo, min(rows.shape[0], lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
+                if f >= 0:
+                    return int(rid[f]), [int(a) for a in words[f]], int(b)
+                if over_budget():
+                    return "budget"
+            return None
+        m = rows.shape[0]
+        if m * aut.k > cap and m > 1:
+            for part in (slice(0, m // 2), slice(m // 2, m)):
+                r = rec(rows[part], rid[part], words[part], x)
+                if r is not None:
+                    return r
+            return None
+        st = SubsetStore(W, m * aut.k + m, m * aut.k + m)
+        st.add_roots(list(rows))
+        grown = st.expand(aut, True)
+        lo2, hi2 = st.levels[-1]
+        used[0] += hi2 - lo2
+        par = st.parent[lo2:hi2]
+        nrows = st.rows[lo2:hi2].copy()
+        nwords = np.concatenate([words[par], st.letter[lo2:hi2, None].astype(np.int16)], axis=1)
+        nrid = rid[par]
+        del st
+        if not grown:
+            return None
+        return rec(nrows, nrid, nwords, x - 1)
+
+    t = total + 1
+    while upper is None or t < upper:
+        x = t - total
+        res = None
+        for lo in range(flo, fhi, 4096):
+            hi = min(fhi, lo + 4096)
+            res = rec(fwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
+            if res is not None:
+                break
+        if res == "budget":
+            return None, "budget", used[0], t
+        if res is not None:
+            f, extra, b = res
+            u, _ = fwd.path(f)
+            v, _ = bwd.path(b)
+            return u[::-1] + extra + v, "found-dfs", used[0], t
+        t += 1
+    return None, "upper", used[0], upper
+
+
+def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, time_budget: float | None = 60.0,
+                                memory_budget_mb: float = 2048.0, node_budget: int | None = None) -> SyncResult:
+    """The shortest word synchronizing ``start`` (default: all states).
+
+    Exact bidirectional subset search (Kisielewicz, Kowalski and Szykula 2015): forward images of
+    the start set and inverse images of singletons, breadth-first, hashed bitsets, meeting when a
+    forward set lies inside a backward one; totals ``i + j`` are checked in increasing order, so
+    the first meeting is a shortest word. If a direction is exhausted without meeting, no word
+    exists. When a direction's store fills ``memory_budget_mb``, the other direction goes on; when
+    both are full the search continues depth-first (the forward frontier expanded chunk by chunk
+    against the newest backward level, pairs' merging distances pruning; Szykula and Zyzik 2022),
+    so memory never costs exactness. Past ``time_budget`` seconds (None: no limit) or
+    ``node_budget`` subsets generated (None: no limit; tests use this, not seconds) the result is
+    the greedy word (:func:`greedy_synchronizing_word`, found first within 40% of the time) with
+    ``exact=False`` and a proven ``lower_bound``; once the search proves that no word is shorter
+    than the greedy word, the greedy word is exact.
+
+    >>> a = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])   # Cerny C_3
+    >>> r = shortest_synchronizing_word(a)
+    >>> r.length, r.exact
+    (4, True)
+    """
+    aut, start = as_automaton(aut, start)
+    if (time_budget is not None and not time_budget > 0) or memory_budget_mb <= 0:
+        raise ValueError("time and memory budgets must be positive")
+    if node_budget is not None and (int(node_budget) != node_budget or node_budget < 1):
+        raise ValueError(f"node_budget must be a positive integer, got {node_budget!r}")
+    t0 = time.perf_counter()
+    s = as_start(aut, start)
+    if s.size == 1:
+        return SyncResult([], 0, True, "trivial", seconds=time.perf_counter() - t0)
+    # a greedy word first (within a share of the time): it answers if the exact search stops, and
+    # it proves synchronizability, so the quadratic pair-graph check runs only without one (to
+    # find a witness that no word exists); the exact search then has the rest of the time
+    eppstein = _eppstein_fits(aut, memory_budget_mb)
+    greedy = greedy_synchronizing_word(aut, s, memory_budget_mb=memory_budget_mb,
+                                       deadline=None if time_budget is None else t0 + _GREEDY_SHARE * time_budget)
+    pair_mb = pair_check_memory_mb(aut.n)
+    skipped = greedy is None and pair_mb > 0.5 * memory_budget_mb
+    if greedy is None and not skipped:
+        check = synchronizability(aut, s)
+        if check["synchronizing"] is False:
+            return SyncResult(None, None, True, "pair-graph", witness=check["witness"],
+                              seconds=time.perf_counter() - t0)
+    remaining = None if time_budget is None else max(time_budget - (time.perf_counter() - t0), 1e-3)
+    word, status, explored, lower = _exact_search(aut, s, remaining, memory_budget_mb, node_budget,
+                                                  None if greedy is None else len(greedy))
+    if status in ("found", "found-dfs"):
+        if not is_synchronizing_word(aut, word, s):
+            raise AssertionError("internal error: exact search returned a non-synchronizing word")
+        return SyncResult(word, len(word), True,
+                          "bidirectional-bfs" + ("+dfs" if status == "found-dfs" else ""), states_explored=explored,
+                          lower_bound=len(word), seconds=time.perf_counter() - t0)
+    if status == "none":
+        return SyncResult(None, None, True, "bidirectional-bfs", states_explored=explored,
+                          witness={"kind": "exhaustive", "subsets_explored": explored,
+                                   "reason": "exhaustive subset search: no image of the start set "
+                                             "is a single state"},
+                          seconds=time.perf_counter() - t0)
+    method = "greedy-eppstein" if eppstein else "greedy"
+    if status == "upper":       # proven: nothing shorter than the greedy word
+        return SyncResult(greedy, len(greedy), True, method + "+lower-bound", lower_bound=len(greedy),
+                          states_explored=explored, greedy_length=len(greedy),
+                          seconds=time.perf_counter() - t0)
+    notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
+    if skipped:
+        notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
+                     f"{pair_mb:,.0f} MB (over half the memory budget)")
+    if aut.deterministic and not eppstein:
+        notes.append(f"greedy by merging one pair at a time (pair graph searched from each pair): Eppstein's "
+                     f"tables would need about {eppstein_memory_mb(aut.n):,.0f} MB (over the memory budget)")
+    if greedy is None:
+        notes.append(f"greedy word not found within {_GREEDY_SHARE:.0%} of the time budget")
+    meets_bound = greedy is not None and len(greedy) <= lower   # the greedy word meets the proven lower bound
+    return SyncResult(greedy, None if greedy is None else len(greedy), meets_bound,
+                      method + "+lower-bound" if meets_bound else method,
+                      lower_bound=lower, states_explored=explored,
+                      greedy_length=None if greedy is None else len(greedy),
+                      seconds=time.perf_counter() - t0, notes=notes)

@@ -1,0 +1,295 @@
+"""Plans (kruskal_markov.sync.plan): every target's answer against brute force over all words."""
+from __future__ import annotations
+
+import itertools
+import json
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from analysis.cli import main
+from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.model import TransitionModel
+from kruskal_markov.sync import (
+    PlanResult,
+    parse_target,
+    random_word_success,
+    shortest_plan,
+    shortest_synchronizing_word,
+    support_automaton,
+)
+
+
+# ----------------------------------------------------------------------------- independent judge
+def _dense(model):
+    return [np.asarray(sp.csr_matrix(m).todense()) for m in model.matrices]
+
+
+def meets(model, word, target, cells=None):
+    """Plain numpy: does ``word`` meet ``target`` on ``model`` (support of the start set / distribution)?"""
+    t = parse_target(target)
+    P = _dense(model)
+    p = np.asarray(model.initial, dtype=float).copy()
+    support = p > 0
+    for a in word:
+        p = p @ P[a]
+        support = (support.astype(float) @ (P[a] > 0)) > 0
+    if t.kind == "state":
+        return int(support.sum()) == 1
+    part = np.arange(model.n_states) if cells is None and model.partition is None else \
+        np.asarray(model.partition if cells is None else cells)
+    if t.kind == "cell":
+        return len(set(part[support].tolist())) == 1
+    mass = np.bincount(part, weights=p)
+    return mass.max() >= 1 - t.epsilon - 1e-12
+
+
+def brute_length(models, target, max_len, cells=None):
+    """Shortest length of a word meeting ``target`` on every model, by enumeration (None if > max_len)."""
+    k = models[0].n_actions
+    for length in range(max_len + 1):
+        for w in itertools.product(range(k), repeat=length):
+            if all(meets(m, w, target, None if cells is None else cells[i]) for i, m in enumerate(models)):
+                return length
+    return None
+
+
+def random_model(rng, n, k, stochastic, cells):
+    mats = []
+    for _ in range(k):
+        a = np.zeros((n, n))
+        a[np.arange(n), rng.integers(0, n, n)] = 1.0
+        if stochastic:
+            extra = (rng.random((n, n)) < 0.12) * rng.random((n, n))
+            a = a + extra
+        mats.append(sp.csr_matrix(a / a.sum(axis=1, keepdims=True)))
+    init = rng.random(n) ** 3 + 0.01
+    part = rng.integers(0, cells, n)
+    return TransitionModel([f"a{i}" for i in range(k)], mats, initial=init / init.sum(), partition=part,
+                           n_cells=cells)
+
+
+CASES = [(seed, stoch) for seed in range(14) for stoch in (False, True)]
+
+
+@pytest.mark.parametrize("seed,stochastic", CASES)
+@pytest.mark.parametrize("target", ["state", "cell", "probability:0.2"])
+def test_plan_equals_brute_force(seed, stochastic, target):
+    rng = np.random.default_rng(seed)
+    n, k = int(rng.integers(3, 7)), int(rng.integers(2, 4))
+    model = random_model(rng, n, k, stochastic, int(rng.integers(2, 4)))
+    max_len = 7 if k == 2 else 5
+    truth = brute_length([model], target, max_len)
+    res = shortest_plan(model, target, max_length=max_len, node_budget=10**6)
+    assert isinstance(res, PlanResult)
+    if truth is None:
+        assert res.word is None
+        assert res.lower_bound is None or res.lower_bound > max_len or res.exact
+    else:
+        assert res.exact, res
+        assert res.length == truth and res.lower_bound == truth
+        assert meets(model, [model.actions.index(a) for a in res.word], target)
+    d = res.to_dict()
+    assert set(d) >= {"word", "length", "exact", "lower_bound", "target", "method", "final_cell",
+                      "success_probability"}
+    assert d["target"] == target
+
+
+def test_no_plan_proven_exhaustively():
+    # a two-cycle that never merges: no word orients it, proven by exhausting the images
+    m = model_from_automaton({"states": 2, "actions": {"a": [1, 0], "b": [0, 1]}})
+    res = shortest_plan(m, "state")
+    assert res.word is None and res.exact and res.witness is not None
+    assert brute_length([m], "state", 6) is None
+
+
+def _strict_case():
+    """The first seeded model where probability:E < cell < state (found by brute force)."""
+    for seed in range(300):
+        rng = np.random.default_rng(1000 + seed)
+        model = random_model(rng, 6, 2, False, 2)
+        s = brute_length([model], "state", 9)
+        c = brute_length([model], "cell", 9)
+        p = brute_length([model], "probability:0.3", 9)
+        if s is not None and c is not None and p is not None and p < c < s:
+            return model, s, c, p
+    return None
+
+
+def test_cell_shorter_than_state_and_probability_shorter_than_cell():
+    found = _strict_case()
+    assert found is not None, "no seeded model separates the three targets"
+    model, s, c, p = found
+    for target, truth in (("state", s), ("cell", c), ("probability:0.3", p)):
+        res = shortest_plan(model, target, max_length=9)
+        assert res.exact and res.length == truth
+
+
+@pytest.mark.parametrize("seed", range(8))
+@pytest.mark.parametrize("budget", [1, 5, 20, 60])
+def test_budget_stop_lower_bound_never_above_truth(seed, budget):
+    rng = np.random.default_rng(50 + seed)
+    model = random_model(rng, 6, 2, seed % 2 == 1, 3)
+    for target in ("state", "cell", "probability:0.1"):
+        truth = brute_length([model], target, 8)
+        res = shortest_plan(model, target, node_budget=budget, max_length=8, beam_width=2)
+        if res.exact:
+            assert res.word is None and truth is None or res.length == truth
+        if truth is not None and res.lower_bound is not None:
+            assert res.lower_bound <= truth
+        if res.word is not None:
+            assert meets(model, [model.actions.index(a) for a in res.word], target)
+            assert res.length >= (truth or 0)
+
+
+def test_robust_plan_verifies_on_every_model():
+    rng = np.random.default_rng(7)
+    models = [random_model(rng, 5, 2, False, 2) for _ in range(2)]
+    truth = brute_length(models, "cell", 8)
+    res = shortest_plan(models, "cell", max_length=8)
+    assert truth is not None and res.exact and res.length == truth
+    w = [models[0].actions.index(a) for a in res.word]
+    assert all(meets(m, w, "cell") for m in models)
+    assert len(res.final_cell) == 2 and len(res.success_probability) == 2
+    assert res.length >= max(brute_length([m], "cell", 8) for m in models)
+
+
+def test_robust_pair_without_common_plan_says_why():
+    # model A orients only with last letter a, model B only with last letter b (set-valued rows)
+    A = TransitionModel(["a", "b"], [sp.csr_matrix([[1.0, 0], [1.0, 0]]), sp.csr_matrix([[.5, .5], [.5, .5]])])
+    B = TransitionModel(["a", "b"], [sp.csr_matrix([[.5, .5], [.5, .5]]), sp.csr_matrix([[1.0, 0], [1.0, 0]])])
+    assert brute_length([A], "state", 4) == 1 and brute_length([B], "state", 4) == 1
+    assert brute_length([A, B], "state", 6) is None
+    res = shortest_plan([A, B], "state")
+    assert res.word is None and res.exact
+    assert "every model" in res.witness["reason"]
+    assert res.witness["per_model_lengths"] == [1, 1]
+
+
+def test_state_target_agrees_with_sync():
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        table = rng.integers(0, 8, size=(2, 8))
+        m = model_from_automaton({"states": 8, "actions": {"a": table[0].tolist(), "b": table[1].tolist()}})
+        s = shortest_synchronizing_word(support_automaton(m), node_budget=10**6)
+        p = shortest_plan(m, "state", max_length=40)
+        if s.word is None:
+            assert p.word is None
+        else:
+            assert p.exact and s.exact and p.length == s.length
+
+
+def test_random_word_success_matches_enumeration():
+    rng = np.random.default_rng(11)
+    model = random_model(rng, 5, 2, True, 2)
+    res = random_word_success(model, "cell", max_length=4, words=4000, seed=1)
+    for L in range(5):
+        exact = np.mean([meets(model, w, "cell") for w in itertools.product(range(2), repeat=L)])
+        lo, hi = res["ci95"][L]
+        assert lo - 0.01 <= exact <= hi + 0.01
+    again = random_word_success(model, "cell", max_length=4, words=4000, seed=1)
+    assert again == res
+
+
+# ----------------------------------------------------------------------------- command line
+@pytest.fixture
+def cerny_file(tmp_path):
+    path = tmp_path / "c4.json"
+    path.write_text(json.dumps({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 1, 2, 0]},
+                                "partition": [0, 0, 1, 1], "cells": 2}))
+    return path
+
+
+def test_cli_plan_keys_and_values(capsys, cerny_file):
+    model = model_from_automaton(str(cerny_file))
+    for target in ("state", "cell", "probability:0.25"):
+        assert main(["plan", "--automaton", str(cerny_file), "--target", target, "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert {"word", "length", "exact", "lower_bound", "target", "method", "final_cell",
+                "success_probability", "seconds"} <= set(out)
+        assert out["target"] == target and out["exact"] is True
+        assert out["length"] == brute_length([model], target, 10)
+        assert meets(model, [model.actions.index(a) for a in out["word"]], target)
+
+
+@pytest.mark.parametrize("argv", [
+    ["plan", "--target", "cell"],
+    ["plan", "--automaton", "AUTO", "--target", "voxel"],
+    ["plan", "--automaton", "AUTO", "--target", "probability:1.5"],
+    ["plan", "--automaton", "AUTO", "--target", "probability:x"],
+    ["plan", "--automaton", "AUTO", "--grid", "2x2x2"],
+    ["plan", "--automaton", "AUTO", "--node-budget", "0"],
+    ["plan", "--automaton", "missing.json"],
+    ["plan", "--model", "missing.npz", "--model", "other.npz"],
+])
+def test_cli_plan_bad_input_exit_2(capsys, cerny_file, argv):
+    argv = [str(cerny_file) if a == "AUTO" else a for a in argv]
+    assert main(argv + ["--json"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err and "error" in err
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_sync_memory_bound_switches_to_depth_first_and_stays_exact(seed):
+    """A memory budget too small for the breadth-first stores: the search goes depth-first and still
+    proves the same shortest length as an unconstrained run."""
+    from kruskal_markov.sync import SyncAutomaton
+
+    rng = np.random.default_rng(seed)
+    n = 60
+    table = rng.integers(0, n, size=(2, n))
+    aut = SyncAutomaton.from_table(table)
+    free = shortest_synchronizing_word(aut, time_budget=None, node_budget=10**7)
+    tight = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=10**8)
+    assert free.method == "bidirectional-bfs" and tight.method == "bidirectional-bfs+dfs"
+    assert free.exact and tight.exact and free.length == tight.length
+    assert len({_apply(table, q, tight.word) for q in range(n)}) == 1
+
+
+def _apply(table, q, word):
+    for a in word:
+        q = int(table[a][q])
+    return q
+
+
+def test_sync_node_budget_stop_lower_bound_is_proven():
+    from kruskal_markov.sync import SyncAutomaton
+
+    rng = np.random.default_rng(5)
+    n = 24
+    aut = SyncAutomaton.from_table(rng.integers(0, n, size=(2, n)))
+    truth = shortest_synchronizing_word(aut, time_budget=None).length
+    for budget in (30, 100, 300, 1000, 3000):
+        r = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget)
+        assert r.lower_bound is None or r.lower_bound <= truth
+        assert r.exact == (r.length == truth and r.lower_bound == truth)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_cli_sync_on_a_tray_like_model_is_the_state_plan(capsys, tmp_path, seed):
+    """``kruskal sync --model`` (plan search) and the bidirectional subset search agree, both exact."""
+    rng = np.random.default_rng(seed)
+    n, mats = 24, []
+    for _ in range(4):
+        walls = rng.choice(n, size=n // 4, replace=False)
+        a = np.zeros((n, n))
+        for q in range(n):
+            if rng.random() < 0.2:
+                c = rng.choice(walls, size=2, replace=False)
+                a[q, c[0]], a[q, c[1]] = 0.7, 0.3
+            else:
+                a[q, rng.choice(walls)] = 1.0
+        mats.append(sp.csr_matrix(a))
+    initial = np.zeros(n)
+    initial[rng.choice(n, size=n // 2, replace=False)] = 1.0
+    model = TransitionModel(["N", "E", "S", "W"], mats, initial=initial / initial.sum(),
+                            partition=np.arange(n) % 6, n_cells=6)
+    path = tmp_path / "tray.npz"
+    model.save(path)
+    assert main(["sync", "--model", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    ref = shortest_synchronizing_word(support_automaton(model), np.flatnonzero(model.initial > 0),
+                                      time_budget=None)
+    assert out["target"] == "state" and out["method"].startswith("plan-")
+    assert out["exact"] == ref.exact and out["length"] == ref.length
