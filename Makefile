@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 
-.PHONY: run test test-slow bench clean
+.PHONY: run test test-slow lint bench mutate clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -26,8 +26,17 @@ test: $(VENV)/.installed
 test-slow: $(VENV)/.installed
 	$(PY) -m pytest -q -m slow; rc=$$?; if [ $$rc -eq 5 ]; then exit 0; fi; exit $$rc
 
+# ruff: pyflakes, pycodestyle, import order and complexity <= 25 outside the Numba kernels (pyproject.toml).
+lint: $(VENV)/.installed
+	$(VENV)/bin/ruff check .
+
 bench: $(VENV)/.installed
 	$(PY) -m benchmarks
 
+# Mutation testing of the core modules (tools/mutate.py, docs/testing.md): mutmut, one module at a
+# time against the tests that cover it; MUTATE_JOBS=2 for two workers, `make mutate MODULES=grid`.
+mutate: $(VENV)/.installed
+	$(PY) tools/mutate.py $(MODULES)
+
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache mutants

@@ -103,7 +103,7 @@ class PartMetrics:
 
 def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, runs: int = 500,
                  epsilon: float = CONVERGED_BITS, max_tilts: int = 1000, sync_time_budget: float = 30.0,
-                 threads: int | None = None) -> PartMetrics:
+                 threads: int | None = None, sync_node_budget: int | None = None) -> PartMetrics:
     """Orientability metrics of the part a model describes.
 
     Parameters
@@ -124,6 +124,9 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
         Seconds for the exact shortest-word search before the greedy fallback.
     threads : int, optional
         Numba threads of the ensemble.
+    sync_node_budget : int, optional
+        Subsets per direction of the exact search; when given it replaces ``sync_time_budget``, so
+        the metrics do not depend on the machine's speed.
 
     Returns
     -------
@@ -161,11 +164,12 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     start = start_set(model, False)
     if model.partition is not None and not aut.deterministic:
         # plan target state by the plan search (exact where the subset search runs out of memory)
-        from kruskal_markov.sync.plan import state_plan
+        from kruskal_markov.sync.plan import DEFAULT_NODE_BUDGET, state_plan
 
-        sync = state_plan(model, 0.0, time_budget=sync_time_budget)
+        sync = state_plan(model, 0.0, time_budget=sync_time_budget,
+                          node_budget=DEFAULT_NODE_BUDGET if sync_node_budget is None else sync_node_budget)
     else:
-        sync = shortest_synchronizing_word(aut, start, time_budget=sync_time_budget)
+        sync = shortest_synchronizing_word(aut, start, time_budget=sync_time_budget, node_budget=sync_node_budget)
     tilts = monte_carlo_entropy_tilts(model, epsilon, runs=runs, seed=[seed, 5], max_steps=max_tilts)
     rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=[seed, 6], max_steps=max_tilts)
     h0 = float(entropy_trajectory(model, []).entropy_bits[0])

@@ -24,20 +24,10 @@ import scipy.sparse as sp
 
 
 def tray_like_model(n=2000, k=8, nnz=5, cells=64, seed=0):
-    """Random model: action ``a`` sends every state to ``nnz`` random states of its own target set
-    (an eighth of the states), with Dirichlet(1) probabilities; a random partition into ``cells``."""
-    from kruskal_markov.model import TransitionModel
+    """The shared generator :func:`kruskal_markov.generators.tray_like_model`."""
+    from kruskal_markov.generators import tray_like_model as make
 
-    rng = np.random.default_rng(seed)
-    mats = []
-    for _ in range(k):
-        targets = rng.choice(n, size=max(1, n // 8), replace=False)
-        cols = targets[rng.integers(0, targets.size, size=(n, nnz))]
-        probs = rng.dirichlet(np.ones(nnz), size=n)
-        rows = np.repeat(np.arange(n), nnz)
-        mats.append(sp.csr_matrix((probs.ravel(), (rows, cols.ravel())), shape=(n, n)))
-    return TransitionModel([f"a{i}" for i in range(k)], mats,
-                           partition=rng.integers(0, cells, size=n), n_cells=cells)
+    return make(n, k, nnz, cells, seed)
 
 
 def tray_grid_model(nx=16, ny=16, nt=16, noise=0.05, noisy_fraction=0.3, seed=0, grid=(4, 4, 4)):
@@ -70,7 +60,9 @@ def tray_grid_model(nx=16, ny=16, nt=16, noise=0.05, noisy_fraction=0.3, seed=0,
         noisy = rng.random(n) < noisy_fraction
         for i in range(n):
             if not noisy[i]:
-                rows.append(i); cols.append(main[i]); probs.append(1.0)
+                rows.append(i)
+                cols.append(main[i])
+                probs.append(1.0)
                 continue
             alts = [np.ravel_multi_index((jx[i], jy[i], t2[i]), (nx, ny, nt))]
             if dx == 0:
@@ -79,9 +71,13 @@ def tray_grid_model(nx=16, ny=16, nt=16, noise=0.05, noisy_fraction=0.3, seed=0,
             if dy == 0:
                 alts.append(np.ravel_multi_index((jx[i], int(np.clip(jy[i] + rng.choice([-1, 1]), 0, ny - 1)), t1[i]),
                                                  (nx, ny, nt)))
-            rows.append(i); cols.append(main[i]); probs.append(1.0 - noise)
+            rows.append(i)
+            cols.append(main[i])
+            probs.append(1.0 - noise)
             for c in alts:
-                rows.append(i); cols.append(c); probs.append(noise / len(alts))
+                rows.append(i)
+                cols.append(c)
+                probs.append(noise / len(alts))
         mats.append(sp.csr_matrix((probs, (rows, cols)), shape=(n, n)))
     gx, gy, gt = grid
     part = np.ravel_multi_index((ix * gx // nx, iy * gy // ny, it * gt // nt), (gx, gy, gt))

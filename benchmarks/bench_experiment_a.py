@@ -37,7 +37,6 @@ import os
 import platform
 import time
 
-
 ROUNDS = int(os.environ.get("KRUSKAL_BENCH_A_ROUNDS", "2"))
 DESIGN = os.environ.get("KRUSKAL_BENCH_A_DESIGN", "det")
 

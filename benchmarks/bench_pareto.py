@@ -270,10 +270,17 @@ def _time_step_lines(held: dict, trials: int) -> list[str]:
 
 
 def main() -> None:
-    from analysis.validate import model_grid, reference_seed
     from analysis.sequences import random_sequences_for
-    from benchmarks.bench_builder import (HELD_OUT_SEED, LENGTH, RESULTS, SEQUENCES, TRIALS, reference_cache,
-                                          simulator_number)
+    from analysis.validate import model_grid, reference_seed
+    from benchmarks.bench_builder import (
+        HELD_OUT_SEED,
+        LENGTH,
+        RESULTS,
+        SEQUENCES,
+        TRIALS,
+        reference_cache,
+        simulator_number,
+    )
     from kruskal_markov.model import TransitionModel, atomic_write_text
     from transition_builder.scene import scene_from_options
 

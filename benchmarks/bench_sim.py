@@ -39,6 +39,7 @@ def _naive():
     rest checked every step from Python (speed < 1 mm/s and 0.03 rad/s for 0.1 s, max 4 s).
     Returns ``run(poses, actions) -> status`` (0 ok, 1 fault: tipped, escaped or unsettled)."""
     import pybullet as pb
+
     from transition_builder.scene import ACTION_ANGLES_DEG, ACTIONS, scene_from_options
     sc = scene_from_options("allen-key")
     cid = pb.connect(pb.DIRECT)

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from kruskal_markov import generators
 from kruskal_markov.convergence import expected_sync_length, pair_chain_bounds
 from kruskal_markov.sync import (
     SyncAutomaton,
@@ -23,45 +24,20 @@ from kruskal_markov.sync import (
 
 
 def random_automaton(rng, n, k):
-    return SyncAutomaton.from_table(rng.integers(0, n, size=(k, n)))
+    return generators.random_automaton(n, k, rng)
 
 
 def contracting_automaton(rng, n, k=8):
     """Tray-like: every letter maps all states into a random eighth of them."""
-    table = np.empty((k, n), dtype=np.int64)
-    m = max(1, n // 8)
-    for a in range(k):
-        image = rng.choice(n, size=m, replace=False)
-        table[a] = image[rng.integers(0, m, size=n)]
-    return SyncAutomaton.from_table(table)
+    return SyncAutomaton.from_table(generators.contracting_table(n, k, rng))
 
 
 def tray_like_support(rng, n, k=8, shrink=64, noise=0.02):
-    """Stand-in for a built tray model (until the builder's allen-key model is available): every
-    action pushes all states into a random 1/``shrink`` of them; a fraction ``noise`` of the rows
-    splits between two landing states (a set-valued support automaton)."""
-    import scipy.sparse as sp
-
-    from kruskal_markov.model import TransitionModel
+    """Stand-in for a built tray model: the set-valued support automaton of
+    :func:`kruskal_markov.generators.set_valued_tray_model`."""
     from kruskal_markov.sync import support_automaton
 
-    m = max(2, n // shrink)
-    mats = []
-    for _ in range(k):
-        image = rng.choice(n, size=m, replace=False)
-        rows, cols, vals = [], [], []
-        for q in range(n):
-            if rng.random() < noise:
-                c = rng.choice(image, size=2, replace=False)
-                rows += [q, q]
-                cols += [int(c[0]), int(c[1])]
-                vals += [0.6, 0.4]
-            else:
-                rows.append(q)
-                cols.append(int(image[rng.integers(0, m)]))
-                vals.append(1.0)
-        mats.append(sp.csr_matrix((vals, (rows, cols)), shape=(n, n)))
-    return support_automaton(TransitionModel([str(a) for a in range(k)], mats))
+    return support_automaton(generators.set_valued_tray_model(n, k, shrink, noise, rng))
 
 
 def _warm_up():
@@ -133,6 +109,45 @@ def main() -> None:
     print(f"pair-chain bounds, tray-like contracting n=3000 k=8: lower {pb['lower']:.1f}, upper {pb['upper']:.1f}, "
           f"{pb['pairs']} reachable pairs, {pb['iterations']} iterations, arrays {pb['memory_mb']:.0f} MB, "
           f"process peak RSS {peak:.0f} MB, {sec:.1f} s (target <= 60 s)")
+    cli_budgets()
+
+
+def _budgeted_run(n, command, budget_args):
+    """``kruskal COMMAND`` on a seeded random binary automaton of ``n`` states in a child process:
+    (JSON result, wall seconds, peak resident MB of the child)."""
+    import json
+    import subprocess
+    import sys
+    import tempfile
+
+    rng = np.random.default_rng(1)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, f"random{n}.json")
+        with open(path, "w") as fh:
+            json.dump({"states": n, "actions": {"a": rng.integers(0, n, n).tolist(),
+                                               "b": rng.integers(0, n, n).tolist()}}, fh)
+        t = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "analysis", command, "--automaton", path, "--json",
+                               *budget_args], capture_output=True, text=True, timeout=600)
+        wall = time.perf_counter() - t
+    if proc.returncode != 0:
+        raise RuntimeError(proc.stderr[-2000:])
+    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    return json.loads(proc.stdout), wall, peak_mb
+
+
+def cli_budgets() -> None:
+    """Wall time and memory of ``kruskal sync`` / ``convergence`` on large random automata against
+    their time budgets (moved here from the tests: a test must not depend on the machine's speed).
+    Target: within twice the budget plus the interpreter's start, and under 4 GB."""
+    for n, budget in ((3000, 3.0), (20000, 20.0)):
+        for command, args in (("sync", ["--time-budget", str(budget)]),
+                              ("convergence", ["--pair-time-budget", str(budget), "--mc-time-budget", str(budget),
+                                               "--max-subsets", "20000"])):
+            res, wall, peak = _budgeted_run(n, command, args)
+            ok = wall < 2 * budget + 10 and peak < 4096
+            print(f"{command} n={n} budget {budget:g} s: {wall:.1f} s wall, peak RSS {peak:.0f} MB "
+                  f"({'within' if ok else 'OVER'} 2 x budget + 10 s and 4 GB)", flush=True)
 
 
 if __name__ == "__main__":

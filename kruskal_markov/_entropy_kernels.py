@@ -24,7 +24,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-
 _INV_LN2 = 1.0 / np.log(2.0)
 #: log2 of small integers (the upper bound of an entropy over that many values)
 _LOG2_INT = np.log2(np.maximum(np.arange(4096, dtype=np.float64), 1.0))

@@ -117,3 +117,38 @@ def test_tolerance_is_1e9():
     bad = {"states": 1, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1 + 5e-9]}}}
     with pytest.raises(ModelError, match="sums to"):
         model_from_automaton(bad)
+
+
+@pytest.mark.parametrize("doc, message", [
+    ({"states": 2, "actions": {"a": {"rows": [0, "x"], "cols": [0, 1], "probs": [1, 1]}}},
+     "automaton: action 'a': 'rows' must contain integers only, found 'x' at position 1"),
+    ({"states": 2, "actions": {"a": [0, 1]}, "partition": [0, "q"]},
+     "automaton: 'partition' must contain integers only, found 'q' at position 1"),
+    ({"states": 2, "actions": {"a": [0, 1]}, "initial": [True, 0]}, "automaton: 'initial' must be a list of 2 numbers"),
+    ({"states": 2, "actions": {"a": [0, 2 ** 63]}},
+     "automaton: action 'a': next-state list has an entry 9223372036854775808 beyond any state index"),
+    ({"states": 2, "actions": {"a": [0, -2 ** 63]}},
+     "automaton: action 'a': state 1 goes to -9223372036854775808, out of range [0, 2)"),
+    ({"states": 2, "actions": {"a": [0, "z"]}},
+     "automaton: action 'a': next-state list must contain integers only, found 'z' at position 1"),
+])
+def test_bad_automata_are_named_exactly(doc, message):
+    """Each message names the document, the action, the field and the entry (the whole line)."""
+    import re
+
+    from kruskal_markov.model import ModelError
+    with pytest.raises(ModelError, match="^" + re.escape(message) + "$"):
+        model_from_automaton(doc)
+
+
+def test_memory_is_checked_before_building(monkeypatch):
+    """8 bytes x (3 per action + 4) per state: 2 states, 1 action = 112 bytes, refused one byte short."""
+    import kruskal_markov.limits as limits
+    from kruskal_markov.model import ModelError
+
+    doc = {"states": 2, "actions": {"a": [0, 1]}}
+    monkeypatch.setattr(limits, "available_memory_bytes", lambda: 112 / limits.MEMORY_SHARE)
+    model_from_automaton(doc)
+    monkeypatch.setattr(limits, "available_memory_bytes", lambda: 111 / limits.MEMORY_SHARE)
+    with pytest.raises(ModelError, match="^automaton: an automaton of 2 states needs "):
+        model_from_automaton(doc)

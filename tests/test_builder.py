@@ -106,6 +106,19 @@ def test_initial_distribution_is_the_start_grid(square_build):
     assert len(set(m.partition[kind == STATE_START].tolist())) == int((kind == STATE_START).sum())
 
 
+def test_initial_weights_are_proportional_to_start_samples(square_build):
+    """A start state's initial probability is its share of the start samples (the uniform start
+    poses, under every symmetry rotation, that fall in its cell), not 1 / (number of start states).
+    Every (rotated) start sample is tilted once under each representative action, so the sample
+    counts of the start rows summed over the actions (book-kept by the row assembly, apart from
+    the initial distribution) are proportional to them."""
+    m = square_build.model
+    start = m.extras["state_kind"] == STATE_START
+    counts = m.extras["samples"][:, start].sum(axis=0).astype(np.float64)
+    np.testing.assert_allclose(m.initial[start], counts / counts.sum(), rtol=1e-12, atol=0)
+    assert counts.min() < counts.max(), "start counts all equal: the check could not tell weights from uniform"
+
+
 def test_derived_rows_agree_with_direct_simulation(square_build):
     """Rows of rotated copies come from rotating the representative's landings; simulate those
     states directly and check that their landings are where the derived rows say."""
@@ -546,8 +559,13 @@ def test_max_samples_gives_heavy_rows_samples_in_proportion_to_their_weight():
     the samples still add up, and the option leaves other keys alone when off."""
     from dataclasses import replace
 
-    from transition_builder.builder import (_WEIGHT_LENGTH, _WEIGHT_SEQUENCES, _WEIGHT_STREAM, _WEIGHT_THRESHOLD,
-                                            _proportional_samples)
+    from transition_builder.builder import (
+        _WEIGHT_LENGTH,
+        _WEIGHT_SEQUENCES,
+        _WEIGHT_STREAM,
+        _WEIGHT_THRESHOLD,
+        _proportional_samples,
+    )
 
     scene = _square_scene()
     s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5,

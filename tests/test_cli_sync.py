@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from analysis.cli import main
+from kruskal_markov.generators import cerny_table
 
 
 def run_json(capsys, argv):
@@ -17,10 +18,9 @@ def run_json(capsys, argv):
 
 @pytest.fixture
 def cerny5(tmp_path):
-    n = 5
+    table = cerny_table(5)
     path = tmp_path / "c5.json"
-    path.write_text(json.dumps({"states": n, "actions": {"a": [(i + 1) % n for i in range(n)],
-                                                         "b": [i if i != n - 1 else 0 for i in range(n)]}}))
+    path.write_text(json.dumps({"states": 5, "actions": {"a": table[0].tolist(), "b": table[1].tolist()}}))
     return path
 
 
@@ -78,8 +78,8 @@ def test_cli_bad_input(capsys, cerny5, tmp_path):
     capsys.readouterr()
     assert main(["sync"]) == 2
     for cmd, opt in (("sync", "--time-budget"), ("sync", "--memory-budget-mb"), ("convergence", "--pair-time-budget"),
-                     ("convergence", "--mc-time-budget")):
-        for bad in ("nan", "inf", "0", "-1"):
+                     ("convergence", "--mc-time-budget"), ("sync", "--node-budget")):
+        for bad in (("0", "-1", "1.5") if opt == "--node-budget" else ("nan", "inf", "0", "-1")):
             capsys.readouterr()
             assert main([cmd, "--automaton", str(cerny5), opt, bad]) == 2
             err = capsys.readouterr().err
@@ -135,45 +135,41 @@ def test_model_path_sync_and_convergence(capsys, tmp_path):
     assert rc == 0 and thr["mass_dropped"] == pytest.approx(0.3) and thr["deterministic"] is True
     rc, eps, _ = run_json(capsys, ["sync", "--model", str(path), "--epsilon", "0.5"])
     assert rc == 0 and "word" in eps and "exact" in eps
-    rc, conv, _ = run_json(capsys, ["convergence", "--model", str(path), "--runs", "200", "--epsilon", "0.5",
-                                    "--mc-time-budget", "20"])
+    rc, conv, _ = run_json(capsys, ["convergence", "--model", str(path), "--runs", "200", "--epsilon", "0.5"])
     assert rc == 0 and "entropy_tilts" in conv and "expected_length" in conv
 
 
 def _budgeted_run(tmp_path, n, command, budget_args):
-    """Run ``kruskal COMMAND`` on a random binary automaton of ``n`` states in a child process:
-    (JSON result, wall seconds, peak resident MB of the child)."""
-    import resource
+    """Run ``kruskal COMMAND`` on a seeded random binary automaton of ``n`` states in a child process
+    and return its JSON result. Wall time and memory are measured by ``benchmarks/bench_sync.py``
+    (``cli_budgets``), not here: a test must not depend on the machine's speed."""
     import subprocess
     import sys
-    import time
 
     rng = np.random.default_rng(1)
     path = tmp_path / f"random{n}.json"
     path.write_text(json.dumps({"states": n, "actions": {"a": rng.integers(0, n, n).tolist(),
                                                          "b": rng.integers(0, n, n).tolist()}}))
-    t = time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "analysis", command, "--automaton", str(path), "--json",
                            *budget_args], capture_output=True, text=True, timeout=600)
-    wall = time.perf_counter() - t
     assert proc.returncode == 0, proc.stderr[-2000:]
-    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    return json.loads(proc.stdout), wall, peak_mb
+    return json.loads(proc.stdout)
 
 
-@pytest.mark.parametrize("n, budget", [(3000, 3.0), pytest.param(20000, 20.0, marks=pytest.mark.slow)])
-def test_large_random_automaton_answers_within_its_budgets(tmp_path, n, budget):
-    """sync and convergence on a large random automaton answer within twice the time budget (plus
-    the interpreter's start) and 4 GB, and say which phase stopped and why."""
-    res, wall, peak = _budgeted_run(tmp_path, n, "sync", ["--time-budget", str(budget)])
-    assert wall < 2 * budget + 10 and peak < 4096, (wall, peak)
+@pytest.mark.parametrize("n", [3000, pytest.param(20000, marks=pytest.mark.slow)])
+def test_large_random_automaton_stops_at_its_work_budgets(tmp_path, n):
+    """sync and convergence on a large random automaton stop at budgets of work (subsets, letters),
+    not seconds, so the answer is the same on a loaded machine, and say which phase stopped and why."""
+    res = _budgeted_run(tmp_path, n, "sync", ["--node-budget", "20000"])
+    again = _budgeted_run(tmp_path, n, "sync", ["--node-budget", "20000"])
+    assert again["word"] == res["word"] and again["lower_bound"] == res["lower_bound"]   # deterministic
     assert res["exact"] is False and res["word"] is not None           # a greedy word, verified
     assert any("exact search stopped by its budget" in note for note in res["notes"])
     assert res["lower_bound"] >= 1 and res["length"] >= res["lower_bound"]
-    res, wall, peak = _budgeted_run(tmp_path, n, "convergence", ["--pair-time-budget", str(budget),
-                                                                  "--mc-time-budget", str(budget),
-                                                                  "--max-subsets", "20000"])
-    assert wall < 2 * budget + 10 and peak < 4096, (wall, peak)
+    # the pair-chain phase keeps a seconds budget (no assertion reads its result); the asserted
+    # phases are bounded by --max-subsets and by letters per run (--max-steps)
+    res = _budgeted_run(tmp_path, n, "convergence", ["--pair-time-budget", "3", "--max-subsets", "20000",
+                                                     "--runs", "200"])
     assert res["subsets"] == ">20000"                                   # the exact chain was too large
     assert res["expected_length"]["monte_carlo"] is not None
     if n > 10_000:

@@ -18,6 +18,7 @@ from kruskal_markov.convergence import (
     pair_chain_bounds,
     pair_chain_memory_mb,
 )
+from kruskal_markov.generators import random_table
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.sync import SyncAutomaton, support_automaton
 
@@ -65,7 +66,7 @@ def test_exact_matches_dense_brute_force_and_pair_bounds_sandwich():
     for _ in range(60):
         n = int(rng.integers(2, 9))
         k = int(rng.integers(2, 4))
-        table = rng.integers(0, n, size=(k, n))
+        table = random_table(n, k, rng)
         w = letter_weights(k, rng.random(k) + 0.1 if rng.random() < 0.5 else None)
         aut = SyncAutomaton.from_table(table)
         exact, _ = exact_expected_length(aut, None, w)
@@ -85,7 +86,7 @@ def test_subset_start_and_monte_carlo_agree():
     rng = np.random.default_rng(8)
     for _ in range(8):
         n, k = 7, 2
-        table = rng.integers(0, n, size=(k, n))
+        table = random_table(n, k, rng)
         start = sorted(int(x) for x in rng.choice(n, size=4, replace=False))
         aut = SyncAutomaton.from_table(table)
         w = letter_weights(k)
@@ -224,3 +225,133 @@ def test_censored_runs_give_only_a_lower_bound():
     mats = [sp.csr_matrix((np.ones(4), (np.arange(4), t)), shape=(4, 4)) for t in table]
     tilts = monte_carlo_entropy_tilts(TransitionModel(["a", "b"], mats), 0.0, runs=200, seed=1, max_steps=5)
     assert tilts["censored"] == 200 and tilts["mean"] is None and tilts["lower"] == 5.0
+
+
+# ----------------------------------------------------------------------------- the 95% interval: values
+def test_interval_is_mean_plus_minus_196_sample_standard_errors():
+    """The interval from its formula, computed by hand from known run lengths: mean +- 1.96 s /
+    sqrt(n) with the sample standard deviation s (ddof = 1). The run lengths of a seeded Monte
+    Carlo are not visible from outside, so the formula is checked on the helper that turns run
+    lengths into the summary, and end to end on an automaton whose every run has one known length."""
+    from kruskal_markov.convergence import _censored_mean
+
+    steps = np.array([1.0, 2.0, 3.0, 4.0, 10.0])
+    out = _censored_mean(steps, np.ones(5, dtype=bool))
+    sd = math.sqrt(((steps - 4.0) ** 2).sum() / 4)             # ddof = 1, by hand: sqrt(12.5)
+    assert out["mean"] == 4.0 and out["std"] == pytest.approx(sd, rel=1e-12)
+    assert out["ci95"] == pytest.approx([4.0 - 1.96 * sd / math.sqrt(5), 4.0 + 1.96 * sd / math.sqrt(5)],
+                                        rel=1e-12)
+    # censored: no mean or interval, the lower estimate counts the censored run at its letters run
+    out = _censored_mean(steps, np.array([True, True, True, True, False]))
+    assert out["mean"] is None and out["ci95"] == [None, None] and out["censored"] == 1 and out["lower"] == 4.0
+    # every letter maps all states to one: every run has length 1, the interval has zero width
+    aut = SyncAutomaton.from_table([[1, 1, 1], [2, 2, 2]])
+    mc = monte_carlo_sync_length(aut, runs=50, seed=1)
+    assert mc["mean"] == 1.0 and mc["ci95"] == [1.0, 1.0] and mc["std"] == 0.0
+
+
+def test_interval_covers_the_exact_expectation_in_95_percent_of_seeded_repetitions():
+    """2,000 seeded repetitions of a 200-run Monte Carlo on Cerny C_3 (exact E[T] from the chain,
+    itself checked against a dense solve above): the 95% interval covers E[T] in 93-97% of them.
+    Binomial sd of the coverage is 0.5 points at 95% and 0.7 at 90%, so a 90% interval (1.645
+    standard errors) lies 4.5 sd below the window: it cannot pass."""
+    table = [[1, 2, 0], [0, 1, 0]]
+    aut = SyncAutomaton.from_table(table)
+    exact, _ = exact_expected_length(aut)
+    assert exact == pytest.approx(brute_expectation(det_step(table), 3, 2, [0.5, 0.5], range(3)), rel=1e-12)
+    reps, covered = 2000, 0
+    for r in range(reps):
+        lo, hi = monte_carlo_sync_length(aut, runs=200, seed=[20261124, r])["ci95"]
+        covered += lo <= exact <= hi
+    assert 0.93 <= covered / reps <= 0.97, covered / reps
+
+
+def test_one_state_start_has_expected_length_zero():
+    aut = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])
+    value, info = exact_expected_length(aut, start=[2])
+    assert value == 0.0 and info["subsets"] == 1
+    mc = monte_carlo_sync_length(aut, start=[1], runs=10)
+    assert mc["mean"] == 0.0 and mc["ci95"] == [0.0, 0.0] and mc["censored"] == 0
+    assert expected_sync_length(aut, start=[0], runs=10)["exact"] == 0.0
+
+
+# ----------------------------------------------------------------------------- random tilts to low entropy
+def _two_action_model(partition=None, initial=None):
+    """4 states, uniform start. ``a`` sends everything to state 0 (entropy 0 after one tilt);
+    ``b`` is the identity (never converges)."""
+    a = np.zeros((4, 4))
+    a[:, 0] = 1.0
+    return TransitionModel(["a", "b"], [a, np.eye(4)], initial=initial, partition=partition,
+                           n_cells=None if partition is None else int(max(partition)) + 1)
+
+
+def test_entropy_tilts_geometric_and_weighted():
+    """Uniform letters: T is geometric with p = 1/2, E[T] = 2; with all weight on ``a``, exactly 1;
+    with all on ``b``, every run is censored at max_steps."""
+    model = _two_action_model()
+    mc = monte_carlo_entropy_tilts(model, 0.0, runs=4000, seed=3)
+    assert mc["censored"] == 0 and abs(mc["mean"] - 2.0) < 4 * math.sqrt(2.0 / 4000)   # var = (1-p)/p^2 = 2
+    assert mc == monte_carlo_entropy_tilts(model, 0.0, runs=4000, seed=3)               # seeded
+    only_a = monte_carlo_entropy_tilts(model, 0.0, weights=[1, 0], runs=20)
+    assert only_a["mean"] == 1.0 and only_a["ci95"] == [1.0, 1.0]
+    only_b = monte_carlo_entropy_tilts(model, 0.0, weights=[0, 1], runs=20, max_steps=7)
+    assert only_b["mean"] is None and only_b["censored"] == 20 and only_b["lower"] == 7.0
+    with pytest.raises(ValueError, match="epsilon must be >= 0"):
+        monte_carlo_entropy_tilts(model, -1e-9)
+
+
+def test_entropy_tilts_start_converged_and_partition():
+    """A start already at entropy <= epsilon needs 0 tilts (epsilon 0 and entropy 0: the boundary);
+    with a partition that puts every start state in one cell, the cell entropy is 0 at the start
+    while the state entropy is 2 bits."""
+    at_zero = _two_action_model(initial=[1.0, 0.0, 0.0, 0.0])
+    mc = monte_carlo_entropy_tilts(at_zero, 0.0, weights=[0, 1], runs=10)
+    assert mc["mean"] == 0.0 and mc["censored"] == 0
+    one_cell = _two_action_model(partition=[0, 0, 0, 0])
+    assert monte_carlo_entropy_tilts(one_cell, 0.0, weights=[0, 1], runs=10)["mean"] == 0.0
+    two_cells = _two_action_model(partition=[0, 0, 1, 1])          # 1 bit on the cells at the start
+    assert monte_carlo_entropy_tilts(two_cells, 1.0, weights=[0, 1], runs=10)["mean"] == 0.0
+    assert monte_carlo_entropy_tilts(two_cells, 0.5, weights=[0, 1], runs=10, max_steps=5)["censored"] == 10
+    assert monte_carlo_entropy_tilts(two_cells, 0.5, weights=[1, 0], runs=10)["mean"] == 1.0
+
+
+def test_expected_sync_length_reports_one_schema_and_its_parts():
+    """The non-synchronizing answer has the same keys as the normal one; the parts are the
+    functions' own results (weights passed through); ``infinite`` is a bool."""
+    cerny3 = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])
+    out = expected_sync_length(cerny3, weights=[3, 1], runs=50, seed=2)
+    exact, info = exact_expected_length(cerny3, None, [0.75, 0.25])
+    assert out["exact"] == exact and out["subsets"] == info["subsets"] and out["infinite"] is False
+    assert out["mc_runs"] == 50 and out["mc_censored"] == 0
+    mc = monte_carlo_sync_length(cerny3, None, [0.75, 0.25], runs=50, seed=2, max_steps=out["mc_max_steps"])
+    assert out["monte_carlo"] == mc["mean"] and out["ci95"] == mc["ci95"] and out["monte_carlo_lower"] == mc["lower"]
+    pb = pair_chain_bounds(cerny3, None, [0.75, 0.25])
+    assert out["pair_lower"] == pb["lower"] and out["pair_upper"] == pb["upper"]
+    assert out["pair_memory_mb"] == pb["memory_mb"] and out["pair_states"] == pb["pairs"]
+    never = expected_sync_length(SyncAutomaton.from_table([[1, 2, 0], [1, 0, 2]]), runs=10)
+    assert set(never) - {"witness"} <= set(out) and set(out) - set(never) <= {"pair_bounds"}
+    assert never["infinite"] is True and never["mc_runs"] == 0 and never["subsets"] is None
+    # a zero-weight letter the automaton needs: synchronizable by the pair test, infinite by weight
+    stuck = expected_sync_length(cerny3, weights=[1, 0], runs=10)
+    assert stuck["infinite"] is True and stuck["exact"] is None and stuck["mc_runs"] == 0
+    with pytest.raises(ValueError, match="^Monte Carlo needs at least 2 runs$"):
+        monte_carlo_sync_length(cerny3, runs=1)
+
+
+def test_pair_bounds_are_exact_on_two_states():
+    """With two states the only pair is the whole set: the pair chain is the subset chain, so both
+    bounds equal the exact expected length (and the dense solve)."""
+    rng = np.random.default_rng(12)
+    checked = 0
+    for _ in range(40):
+        k = int(rng.integers(1, 4))
+        table = random_table(2, k, rng)
+        w = letter_weights(k, rng.random(k) + 0.1)
+        exact, _ = exact_expected_length(SyncAutomaton.from_table(table), None, w)
+        if not math.isfinite(exact) or exact == 0:
+            continue
+        pb = pair_chain_bounds(SyncAutomaton.from_table(table), None, w)
+        assert pb["lower"] == pytest.approx(exact, rel=1e-9) and pb["upper"] == pytest.approx(exact, rel=1e-9)
+        assert exact == pytest.approx(brute_expectation(det_step(table), 2, k, w, range(2)), rel=1e-9)
+        checked += 1
+    assert checked > 10

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kruskal_markov.automaton import model_from_automaton
 from kruskal_markov.ensemble import (
     best_sequence_index,
     convergence_steps,
@@ -11,15 +12,8 @@ from kruskal_markov.ensemble import (
     run_ensemble,
 )
 from kruskal_markov.entropy import batch_entropy, entropy_trajectory
-from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.generators import cerny_model as cerny
 from kruskal_markov.model import ModelError, TransitionModel
-
-
-def cerny(n: int) -> TransitionModel:
-    """Černý automaton C_n: a = cyclic shift, b merges state 0 into 1; shortest reset word (n-1)^2."""
-    a = [(i + 1) % n for i in range(n)]
-    b = [1] + list(range(1, n))
-    return model_from_automaton({"states": n, "actions": {"a": a, "b": b}})
 
 
 def image_sizes(model, seq):
@@ -179,3 +173,120 @@ def test_never_converging_model():
 def test_ensemble_bad_input(kwargs, pattern):
     with pytest.raises(ModelError, match=pattern):
         run_ensemble(cerny(3), seed=0, **kwargs)
+
+
+# --------------------------------------------------------------------------- the epsilon boundary
+def test_convergence_counts_entropy_equal_to_epsilon():
+    """``h <= epsilon`` converges: an entropy exactly at epsilon counts, one just above does not."""
+    h = np.array([[2.0, 1.0, 0.5], [2.0, np.nextafter(1.0, 2.0), 1.0], [3.0, 2.0, 1.5]])
+    assert convergence_steps(h, 1.0).tolist() == [1, 2, -1]
+    assert convergence_steps(h, 0.5).tolist() == [2, -1, -1]
+
+
+def test_run_ensemble_hits_the_epsilon_boundary_exactly():
+    """Uniform over 4 states; action ``a`` merges them pairwise into states 0 and 2, where it stays
+    (exactly 1 bit: 0.5 log2 2 twice, exact in floating point), ``b`` is the identity (2 bits).
+    With epsilon = 1 bit a sequence converges at its first ``a``: the step is derived here from the
+    sequence itself; with epsilon one ulp below 1 bit, none ever does."""
+    model = model_from_automaton({"states": 4, "actions": {"a": [0, 0, 2, 2], "b": [0, 1, 2, 3]}})
+    assert entropy_trajectory(model, [0]).entropy_bits.tolist() == [2.0, 1.0]
+    res = run_ensemble(model, 64, 6, seed=3, epsilon=1.0)
+    seqs = res.sequences
+    first_a = [int(np.flatnonzero(s == 0)[0]) + 1 if np.any(s == 0) else -1 for s in seqs]
+    assert res.convergence_steps.tolist() == first_a
+    assert res.converged == sum(x > 0 for x in first_a) > 0
+    just_below = run_ensemble(model, 64, 6, seed=3, epsilon=np.nextafter(1.0, 0.0))
+    assert np.all(just_below.convergence_steps == -1) and just_below.converged == 0
+
+
+# --------------------------------------------------------------------------- boundaries (mutation testing)
+def test_random_sequences_boundaries_and_messages():
+    assert random_sequences(3, 0, 5, seed=0).shape == (0, 5)          # zero sequences, zero length: valid
+    assert random_sequences(3, 4, 0, seed=0).shape == (4, 0)
+    assert np.all(random_sequences(1, 3, 4, seed=0) == 0)              # one action: always it
+    assert random_sequences(256, 2, 2, seed=0).dtype == np.uint8
+    assert random_sequences(257, 2, 2, seed=0).dtype == np.int32
+    wide = random_sequences(300, 2000, 1, seed=0)
+    assert wide.min() == 0 and wide.max() == 299                        # every action reachable
+    for kwargs, name in (({"count": -1}, "count"), ({"length": 2.5}, "length"), ({"n_actions": -2}, "n_actions"),
+                         ({"count": True}, "count")):
+        args = {"n_actions": 3, "count": 2, "length": 2, **kwargs}
+        with pytest.raises(ModelError, match=f"^{name} must be a non-negative integer"):
+            random_sequences(**args)
+    with pytest.raises(ModelError, match=r"^n_actions must be >= 1$"):
+        random_sequences(0, 2, 2)
+
+
+def test_weighted_sequences_follow_their_weights():
+    """Weights (0.1, 0.2, 0.7): frequencies within 5 standard errors, and a last action of positive
+    weight is drawn; a zero-weight action never is (even at the top of the cumulative sum)."""
+    seqs = random_sequences(3, 400, 50, seed=8, weights=[1, 2, 7])
+    freq = np.bincount(seqs.ravel(), minlength=3) / seqs.size
+    se = np.sqrt(np.array([0.1, 0.2, 0.7]) * np.array([0.9, 0.8, 0.3]) / seqs.size)
+    assert np.all(np.abs(freq - [0.1, 0.2, 0.7]) < 5 * se), freq
+    tail_zero = random_sequences(4, 300, 30, seed=1, weights=[0.1] * 3 + [0.0])
+    assert tail_zero.max() == 2 and tail_zero.dtype == np.uint8
+    # uniform weights draw uniformly (the weighted path); chunks of 4 rows when a row is 2^20 tilts
+    long = random_sequences(2, 9, 1 << 20, seed=2, weights=[1, 1])
+    assert long.shape == (9, 1 << 20)
+    row_means = long.mean(axis=1)
+    assert np.all(np.abs(row_means - 0.5) < 5 * 0.5 / np.sqrt(1 << 20))
+    assert len({r.tobytes()[:64] for r in long}) == 9                   # no chunk repeated
+
+
+def test_run_ensemble_checks_its_memory_before_allocating(monkeypatch):
+    """The estimate is count x (length + 1) x 25 bytes (entropy, two quantile buffers, a
+    sequence byte): at exactly the allowed share it runs, one byte of room less and it refuses,
+    naming the request and the options that change it."""
+    import kruskal_markov.limits as limits
+
+    model = cerny(3)
+    need = 100 * (9 + 1) * 25
+    monkeypatch.setattr(limits, "available_memory_bytes", lambda: need / limits.MEMORY_SHARE)
+    run_ensemble(model, 100, 9, seed=0)
+    monkeypatch.setattr(limits, "available_memory_bytes", lambda: (need - 1) / limits.MEMORY_SHARE)
+    with pytest.raises(ModelError, match=r"^100 random sequences of 9 tilts needs .*; use a smaller --count or --length$"):
+        run_ensemble(model, 100, 9, seed=0)
+
+
+def test_run_ensemble_fields_and_boundaries():
+    model = cerny(3)
+    res = run_ensemble(model, 1, 4, seed=0, epsilon=0.0)               # one sequence, epsilon 0: valid
+    assert res.sequences.shape == (1, 4) and res.entropy is None and res.epsilon == 0.0
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ModelError, match="count must be a positive integer"):
+            run_ensemble(model, bad, 4)
+    # a sequence that converges at step 0 counts as converged (steps >= 0)
+    start_done = run_ensemble(model, 5, 3, seed=1, initial=[1.0, 0.0, 0.0])
+    assert start_done.converged == 5 and np.all(start_done.convergence_steps == 0)
+    # the best sequence's own entropy curve and the final entropy decide it
+    res = run_ensemble(model, 40, 6, seed=3, keep_entropy=True)
+    np.testing.assert_array_equal(res.best_entropy, res.entropy[res.best_index])
+    assert res.best_index == best_sequence_index(res.convergence_steps, res.entropy[:, -1])
+    weighted = run_ensemble(model, 40, 6, seed=3, weights=[1, 0])
+    assert np.all(weighted.sequences == 0)
+    assert not np.array_equal(weighted.mean, res.mean)
+    init = run_ensemble(model, 40, 6, seed=3, initial=[0.5, 0.5, 0.0])
+    assert init.mean[0] == pytest.approx(1.0)
+
+
+def test_convergence_steps_and_best_index_messages():
+    with pytest.raises(ValueError, match=r"^entropy must be a 2-D array \(sequences x steps\)$"):
+        convergence_steps(np.zeros(3))
+    empty = convergence_steps(np.zeros((4, 0)))
+    assert empty.tolist() == [-1] * 4 and empty.dtype == np.int64
+    with pytest.raises(ValueError, match="^no sequences$"):
+        best_sequence_index(np.zeros(0, dtype=np.int64), np.zeros(0))
+
+
+def test_best_sequence_without_convergence_is_the_lowest_final_entropy():
+    """Nothing converges (``a`` merges states 0 and 1 and nothing merges further): the best
+    sequence is the first one (lowest index) that contains ``a`` anywhere, decided by the final
+    entropy, not by the entropy after any earlier step."""
+    model = model_from_automaton({"states": 3, "actions": {"a": [0, 0, 2], "c": [0, 1, 2]}})
+    for seed in (5, 6):       # seed 6: the first sequence holding ``a`` holds it at its last step only
+        res = run_ensemble(model, 40, 4, seed=seed)
+        assert res.converged == 0
+        has_a = [bool(np.any(s == 0)) for s in res.sequences]
+        assert res.best_index == has_a.index(True)
+    assert res.best_index == 0 and res.sequences[0].tolist() == [1, 1, 1, 0]

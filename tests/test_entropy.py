@@ -9,6 +9,7 @@ import scipy.sparse as sp
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from kruskal_markov import generators
 from kruskal_markov.entropy import (
     as_sequences,
     batch_entropy,
@@ -23,20 +24,8 @@ from kruskal_markov.model import ModelError, TransitionModel
 
 # ------------------------------------------------------------------------------- helpers
 def random_model(rng, n, k, density=0.3, cells=None, dense=False, initial="random"):
-    mats = []
-    for _ in range(k):
-        a = rng.random((n, n)) * (rng.random((n, n)) < density)
-        a[np.arange(n), rng.integers(0, n, n)] += rng.random(n) + 0.05
-        a /= a.sum(axis=1, keepdims=True)
-        mats.append(a if dense else sp.csr_matrix(a))
-    init = None
-    if initial == "random":
-        init = rng.random(n) * (rng.random(n) < 0.7)
-        init[rng.integers(0, n)] += 0.1
-        init /= init.sum()
-    part = rng.integers(0, cells, n) if cells else None
-    return TransitionModel([f"a{i}" for i in range(k)], mats, initial=init, partition=part,
-                           n_cells=cells if cells else None)
+    """:func:`kruskal_markov.generators.random_model` drawing from ``rng`` (``initial=None``: uniform)."""
+    return generators.random_model(n, k, density, cells, dense, initial or "uniform", seed=rng)
 
 
 def brute_entropy(p):

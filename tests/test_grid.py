@@ -115,3 +115,30 @@ def test_counts_and_entropy():
     assert g.counts(poses).tolist() == [2, 0, 1, 1]  # index = ix * ny + iy
     assert g.entropy_bits(poses) == pytest.approx(1.5)
     assert g.entropy_bits(np.zeros((0, 3))) == 0.0
+
+
+def test_grid_boundaries_and_messages():
+    from transition_builder.grid import ReportGrid, parse_grid
+
+    assert parse_grid("1x1x1") == (1, 1, 1)                    # one voxel is a grid
+    with pytest.raises(ValueError, match="at least 1"):
+        parse_grid("0x2x2")
+    with pytest.raises(ValueError, match=r"^bad grid '2000000x2000000x2': too many voxels$"):
+        parse_grid("2000000x2000000x2")
+    for label in ("nx", "ny", "ntheta", "symmetry_order"):
+        kw = {"nx": 2, "ny": 2, "ntheta": 2, "symmetry_order": 1, label: 0}
+        with pytest.raises(ValueError, match=label):
+            ReportGrid(200.0, 100.0, kw["nx"], kw["ny"], kw["ntheta"], symmetry_order=kw["symmetry_order"])
+    g = ReportGrid.from_spec("4x2x3", 200.0, 100.0)
+    assert (g.nx, g.ny, g.ntheta) == (4, 2, 3)
+    assert ReportGrid(**{**g.to_dict()}).to_dict() == g.to_dict()
+    # the edge tolerance is relative to the tray (1e-6 of 200 mm = 0.2 um): inside it a pose on
+    # the wall is binned, beyond it refused, naming the axis
+    assert g.bin_indices([[200.0 + 1e-4, 50.0, 0.0]])[0][0] == 3
+    with pytest.raises(ValueError, match=r"^pose 0: x = 200.001 mm lies outside the tray \[0, 200\]$"):
+        g.bin_indices([[200.001, 50.0, 0.0]])
+    with pytest.raises(ValueError, match=r"^pose 1: y = "):
+        g.bin_indices([[10.0, 50.0, 0.0], [10.0, -1.0, 0.0]])
+    c = g.centres(np.arange(g.n_voxels))
+    assert c.shape == (g.n_voxels, 3)
+    np.testing.assert_array_equal(g.voxel_index(c), np.arange(g.n_voxels))      # each centre in its voxel

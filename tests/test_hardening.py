@@ -2,7 +2,6 @@
 before allocating what it asks for (docs/commands.md: bad input)."""
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 

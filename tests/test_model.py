@@ -9,15 +9,13 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from kruskal_markov.generators import random_stochastic_matrix
 from kruskal_markov.model import ModelError, TransitionModel
 
 
 def random_stochastic(rng, n, density=0.3, dense=False):
-    """A random row-stochastic matrix with at least one non-zero per row."""
-    a = rng.random((n, n)) * (rng.random((n, n)) < density)
-    a[np.arange(n), rng.integers(0, n, size=n)] += rng.random(n) + 0.1
-    a /= a.sum(axis=1, keepdims=True)
-    return a if dense else sp.csr_matrix(a)
+    """A random row-stochastic matrix with at least one non-zero per row (the shared generator)."""
+    return random_stochastic_matrix(n, density, rng, dense)
 
 
 @pytest.fixture

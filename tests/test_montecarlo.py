@@ -286,7 +286,6 @@ def test_read_poses_csv_lenient_forms(tmp_path):
 
 @pytest.fixture(scope="module")
 def real_scene():
-    pytest.importorskip("transition_builder.sim")
     from transition_builder.scene import scene_from_options
 
     return scene_from_options("allen-key")

@@ -43,7 +43,8 @@ def report(cache_dir, tmp_path_factory):
                           maps=("map:low:1",), key_build=SMALL, part_build=SMALL, a_check_trials=30,
                           b_trials=20, c_trials=20, replay_trials=100, validate_sequences=1, validate_trials=30,
                           validate_length=5, metrics_count=100, metrics_runs=30, sync_time_budget=10,
-                          part_sync_time_budget=10, compare_contacts=(("sphere", {"contact": "sphere"}),), compare_refine=(), judges=False,
+                          part_sync_time_budget=10, sync_node_budget=100_000,
+                          compare_contacts=(("sphere", {"contact": "sphere"}),), compare_refine=(), judges=False,
                           contact_ensemble_count=200,
                           contact_build=CONTACT)
     result = reproduce(s, workers=2)

@@ -68,7 +68,10 @@ def test_theta_density_matches_free_area(spec):
     x0, x1, y0, y1 = _free_ranges(shape, mid)
     dens = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
     cdf_vals = np.concatenate([[0], np.cumsum(dens)]) / dens.sum()
-    cdf = lambda t: np.interp(t, grid_t, cdf_vals)
+
+    def cdf(t):
+        return np.interp(t, grid_t, cdf_vals)
+
     assert stats.kstest(poses[:, 2], cdf).pvalue > 1e-3
     if spec.startswith("rectangle"):
         # a long rod has much less room diagonally: uniform theta must be rejected

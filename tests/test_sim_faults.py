@@ -157,3 +157,124 @@ def test_sequences_of_tilts_of_other_shapes_do_not_fault(spec):
                 m = actions == a
                 poses[m], status[m] = sim.tilt(poses[m], a)
             assert np.all(status == OK), fault_counts(status)
+
+
+# ----------------------------------------------------------------------------- every fault status, once
+def _tilt_with(scene, pose, action, patch):
+    """One tilt with ``patch(world)`` applied to the action's world first (a constructed state or
+    reading); returns (rest pose, status)."""
+    with TraySimulator(scene) as sim:
+        patch(sim._world(action))
+        rest, status = sim.tilt([pose], action)
+    return rest[0], int(status[0])
+
+
+def _after_set_pose(world, extra):
+    orig = world.set_pose
+
+    def wrapped(pose):
+        orig(pose)
+        extra(world)
+    world.set_pose = wrapped
+
+
+def test_tipped_from_the_simulator_a_part_held_in_the_air_at_rest():
+    """Physics: a square pressed against the downhill (east) wall, raised 30 mm by its z joint
+    after placing: it cannot move in x, y or yaw, so the rest test passes while it still falls,
+    and it comes to 'rest' lifted off the floor: TIPPED, never a pose. The same start without the
+    lift rests on the floor: OK."""
+    import pybullet as pb
+
+    from transition_builder._bullet_world import J_Z
+    from transition_builder.status import TIPPED
+
+    sc = scene_from_options("rectangle:20x20")
+    against_east = [200.0 - 10.0, 100.0, 0.0]
+    rest, code = _tilt_with(sc, against_east, "E", lambda w: _after_set_pose(
+        w, lambda w: pb.resetJointState(w.body, J_Z, 30.0 * w.mm, 0.0, physicsClientId=w.cid)))
+    assert code == TIPPED and np.all(np.isnan(rest))
+    rest, code = _tilt_with(sc, against_east, "E", lambda w: None)
+    assert code == OK and np.all(np.isfinite(rest))
+
+
+@pytest.mark.parametrize("lift_over_tolerance, expected", [(1.5, "tipped"), (0.5, "ok")])
+def test_tipping_threshold_is_the_lift_tolerance(lift_over_tolerance, expected):
+    """By construction (the planar part cannot tip by itself): a part read at rest 1.5 lift
+    tolerances above the floor is TIPPED, at 0.5 it is not."""
+    from transition_builder.status import STATUS_NAMES
+
+    sc = scene_from_options("rectangle:20x20")
+    tol = sc.settings.lift_tolerance_mm
+
+    def lifted(w):
+        w.lift_mm = lambda: lift_over_tolerance * tol
+    _, code = _tilt_with(sc, [100.0, 100.0, 0.0], "E", lifted)
+    assert STATUS_NAMES[code] == expected
+
+
+def test_escaped_in_flight_below_the_floor():
+    """Physics: a part dropped 20 mm below the floor (more than the lift tolerance) fell through it."""
+    import pybullet as pb
+
+    from transition_builder._bullet_world import J_Z
+
+    sc = scene_from_options("rectangle:20x20")
+    rest, code = _tilt_with(sc, [100.0, 100.0, 0.0], "E", lambda w: _after_set_pose(
+        w, lambda w: pb.resetJointState(w.body, J_Z, -20.0 * w.mm, 0.0, physicsClientId=w.cid)))
+    assert code == ESCAPED and np.all(np.isnan(rest))
+
+
+def test_escaped_after_landing_from_the_simulator():
+    """Physics: a tilted square slides into the east wall and rests poking a few thousandths of a
+    millimetre into it (contact penetration). With the default escape tolerance (1 mm) that is a
+    valid landing; with a tolerance of 0.001 mm the same landing is not a valid start of the next
+    tilt, so the part escaped (after landing, not in flight, and not tipped)."""
+    from transition_builder.sim import valid_start
+    from transition_builder.status import STATUS_NAMES
+
+    sc = scene_from_options("rectangle:20x20")
+    strict = sc.with_settings(escape_tolerance_mm=1e-3)
+    start = [[100.0, 100.0, 0.3]]
+    rest, status = simulate(sc, start, "E")
+    assert status.tolist() == [OK]
+    assert not valid_start(strict, rest)[0]        # the landing pokes more than 0.001 mm into the wall
+    rest_strict, status_strict = simulate(strict, start, "E")
+    assert STATUS_NAMES[status_strict[0]] == "escaped" and np.all(np.isnan(rest_strict))
+
+
+def test_escaped_after_landing_by_construction():
+    """By construction: a rest pose read 30 mm beyond the east wall is ESCAPED, never a pose."""
+    from transition_builder.status import STATUS_NAMES
+
+    def outside(w):
+        w.to_tray = lambda x, y, yaw: (230.0, 100.0, 0.0)
+    rest, code = _tilt_with(scene_from_options("rectangle:20x20"), [100.0, 100.0, 0.0], "E", outside)
+    assert STATUS_NAMES[code] == "escaped" and np.all(np.isnan(rest))
+
+
+def test_invalid_when_the_state_goes_non_finite_in_flight():
+    """By construction: a NaN read from the engine mid-tilt is INVALID, never a pose."""
+    sc = scene_from_options("rectangle:20x20")
+
+    def nan_state(w):
+        orig = w.state
+        calls = {"n": 0}
+
+        def state():
+            calls["n"] += 1
+            s = orig()
+            return s if calls["n"] < 5 else (float("nan"),) + tuple(s[1:])
+        w.state = state
+    rest, code = _tilt_with(sc, [100.0, 100.0, 0.0], "E", nan_state)
+    assert code == INVALID and np.all(np.isnan(rest))
+
+
+def test_fault_counts():
+    from transition_builder.status import FAULT_NAMES, STATUS_NAMES, TIPPED, UNSETTLED
+
+    assert STATUS_NAMES == ("ok", "tipped", "escaped", "unsettled", "invalid") and FAULT_NAMES == STATUS_NAMES[1:]
+    counts = fault_counts(np.array([[OK, TIPPED], [ESCAPED, ESCAPED], [UNSETTLED, INVALID]], dtype=np.int8))
+    assert counts == {"tipped": 1, "escaped": 2, "unsettled": 1, "invalid": 1}
+    assert fault_counts([]) == {"tipped": 0, "escaped": 0, "unsettled": 0, "invalid": 0}
+    with pytest.raises(ValueError, match=r"^unknown status code\(s\) \[5, 7\]$"):
+        fault_counts([0, 5, 7, 5])

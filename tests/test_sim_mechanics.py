@@ -205,9 +205,8 @@ def test_friction_map_tile_sets_the_local_coefficient():
 # Judges of the floor contact: free sliding on a level floor against a direct integration of
 # distributed Coulomb friction (transition_builder.judges), at 1/16 of the default time step so
 # that the engine's integrator error (about v0 dt / 2) stays below the tolerances.
-from transition_builder._bullet_world import friction_radius_mm   # noqa: E402
-from transition_builder.judges import (disk_shape_spec, engine_free_slide, isotropy_error,  # noqa: E402
-                                       reference_free_slide)
+from transition_builder._bullet_world import friction_radius_mm  # noqa: E402
+from transition_builder.judges import disk_shape_spec, engine_free_slide, isotropy_error, reference_free_slide  # noqa: E402
 from transition_builder.shapes import parse_shape  # noqa: E402
 
 DISK = disk_shape_spec()

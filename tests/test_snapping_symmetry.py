@@ -155,3 +155,26 @@ def test_neighbour_counts_match_a_periodic_ball_query_on_tight_clusters():
     assert want.max() > 20 and (want == 1).any()       # dense clusters and lone points both tested
     with pytest.raises(ValueError, match="points"):
         neighbour_counts(pts[:, :2], group, r, period)
+
+
+@pytest.mark.parametrize("tray, order", [((200.0, 200.0), 4), ((200.0, 150.0), 2)])
+def test_rotate_poses_is_the_rotation_about_the_tray_centre(tray, order):
+    """Every group element against cos/sin rotation by j * 2 pi / order about the centre (the
+    quarter and half turns are computed exactly in the code, so they agree to round-off)."""
+    sym = tray_symmetry(scene_from_options("allen-key", tray_mm=tray))
+    assert sym.order == order
+    rng = np.random.default_rng(3)
+    p = np.column_stack([rng.uniform(20, tray[0] - 20, 50), rng.uniform(20, tray[1] - 20, 50),
+                         rng.uniform(0, 2 * math.pi, 50)])
+    cx, cy = tray[0] / 2, tray[1] / 2
+    for j in range(-1, order + 1):
+        phi = 2 * math.pi * j / order
+        c, s = math.cos(phi), math.sin(phi)
+        want_x = cx + c * (p[:, 0] - cx) - s * (p[:, 1] - cy)
+        want_y = cy + s * (p[:, 0] - cx) + c * (p[:, 1] - cy)
+        got = sym.rotate_poses(p, j)
+        np.testing.assert_allclose(got[:, 0], want_x, atol=1e-9)
+        np.testing.assert_allclose(got[:, 1], want_y, atol=1e-9)
+        dth = np.angle(np.exp(1j * (got[:, 2] - (p[:, 2] + phi))))
+        np.testing.assert_allclose(dth, 0.0, atol=1e-9)
+        assert np.all((got[:, 2] >= 0) & (got[:, 2] < 2 * math.pi))

@@ -4,21 +4,15 @@ from __future__ import annotations
 import networkx as nx
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
-from kruskal_markov.ensemble import run_ensemble
 from kruskal_markov.automaton import model_from_automaton
-from kruskal_markov.model import TransitionModel
+from kruskal_markov.ensemble import run_ensemble
+from kruskal_markov.generators import random_model
 from kruskal_markov.structure import analyze_structure, closed_classes, support_graph
 
 
 def random_sparse_model(rng, n, k, density):
-    mats = []
-    for _ in range(k):
-        a = rng.random((n, n)) * (rng.random((n, n)) < density)
-        a[np.arange(n), rng.integers(0, n, n)] += 0.5
-        mats.append(sp.csr_matrix(a / a.sum(axis=1, keepdims=True)))
-    return TransitionModel([f"a{i}" for i in range(k)], mats)
+    return random_model(n, k, density, initial="uniform", seed=rng, floor=0.5)
 
 
 @pytest.mark.parametrize("seed", range(15))
@@ -92,3 +86,41 @@ def test_analyze_with_initial_override():
     assert rep.holding_classes == [] and rep.reachable_classes == [0]
     with pytest.raises(ValueError, match="3 entries"):
         analyze_structure(model, initial=[1, 0, 0])
+
+
+# ----------------------------------------------------------------------------- the report's text and summary
+def test_describe_and_to_dict():
+    from kruskal_markov.structure import _describe
+
+    assert _describe(np.array([3])) == "{3} (1 state)"
+    assert _describe(np.array([1, 2])) == "{1, 2} (2 states)"
+    assert _describe(np.arange(5)) == "{0, 1, 2, 3, 4} (5 states)"
+    assert _describe(np.arange(6)) == "{0, 1, 2, 3, 4, ...} (6 states)"
+    # two absorbing states, each holding half the mass; a 3-state cycle reachable from nothing
+    model = model_from_automaton({"states": 5, "actions": {"a": [0, 1, 3, 4, 2]}})
+    rep = analyze_structure(model, initial=[0.5, 0.5, 0, 0, 0])
+    d = rep.to_dict(max_states=3)
+    assert set(d) == {"closed_classes", "reachable_classes", "holding_classes", "class_mass",
+                      "zero_entropy_excluded", "zero_cell_entropy_excluded", "message"}
+    assert d["closed_classes"][2] == {"size": 3, "states": [2, 3, 4], "truncated": False}
+    assert rep.to_dict(max_states=2)["closed_classes"][2] == {"size": 3, "states": [2, 3], "truncated": True}
+    assert d["holding_classes"] == [0, 1] and d["class_mass"] == [0.5, 0.5] and d["zero_entropy_excluded"]
+    assert rep.message == ("2 closed classes hold initial mass (class 0 holds mass 0.5; class 1 holds mass 0.5); "
+                           "mass never leaves a closed class, so the entropy on the states cannot reach zero. "
+                           "Reachable closed classes: class 0 = {0} (1 state); class 1 = {1} (1 state).")
+
+
+def test_messages_with_a_partition_and_without_held_mass():
+    base = {"states": 3, "actions": {"a": [0, 1, 0], "b": [0, 1, 1]}}
+    shared = model_from_automaton({**base, "partition": [0, 0, 1]})
+    rep = analyze_structure(shared, initial=[0.5, 0.5, 0.0])
+    assert rep.zero_entropy_excluded and not rep.zero_cell_entropy_excluded
+    assert ", but the report-grid entropy could (the classes share a report cell). Reachable closed classes: " \
+        in rep.message
+    apart = model_from_automaton({**base, "partition": [0, 1, 1]})
+    rep = analyze_structure(apart, initial=[0.5, 0.5, 0.0])
+    assert rep.zero_cell_entropy_excluded
+    assert " and neither can the report-grid entropy (the classes share no report cell). " in rep.message
+    rep = analyze_structure(model_from_automaton(base), initial=[0, 0, 1.0])
+    assert rep.message.startswith("2 closed classes are reachable (class 0 = {0} (1 state); class 1 = {1} "
+                                  "(1 state)) but at most one holds initial mass")

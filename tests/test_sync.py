@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from kruskal_markov.generators import cerny_table as cerny
+from kruskal_markov.generators import random_table as _random_table
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.sync import (
     SyncAutomaton,
@@ -22,13 +24,6 @@ from kruskal_markov.sync import (
 
 
 # ----------------------------------------------------------------------------- independent judges
-def cerny(n):
-    """Cerny automaton C_n: a = cyclic shift, b = identity except n-1 -> 0."""
-    a = [(i + 1) % n for i in range(n)]
-    b = [i if i != n - 1 else 0 for i in range(n)]
-    return np.array([a, b])
-
-
 def plain_image(table, states, word):
     cur = {int(s) for s in states}
     for a in word:
@@ -87,7 +82,7 @@ def brute_pair_mergeable(table, p, q):
 
 
 def random_table(rng, n, k):
-    return rng.integers(0, n, size=(k, n))
+    return _random_table(n, k, rng)
 
 
 # ----------------------------------------------------------------------------- Cerny automata
@@ -326,7 +321,7 @@ def test_start_set_of_model():
 def test_budget_fallback_is_greedy_and_verified():
     table = cerny(12)
     aut = SyncAutomaton.from_table(table)
-    res = shortest_synchronizing_word(aut, time_budget=1e-9)
+    res = shortest_synchronizing_word(aut, node_budget=64)     # a budget of work: the same on any machine
     assert res.word is not None and len(plain_image(table, range(12), res.word)) == 1
     assert res.lower_bound is not None and res.lower_bound <= 121 <= res.length
     assert res.exact == (res.length == res.lower_bound)
@@ -354,6 +349,9 @@ def test_bad_input():
         shortest_synchronizing_word(SyncAutomaton.from_table([[0, 1]]), start=[5])
     with pytest.raises(ValueError):
         shortest_synchronizing_word(SyncAutomaton.from_table([[0, 1]]), time_budget=0)
+    for bad in (0, -3, 2.5):
+        with pytest.raises(ValueError, match="node_budget"):
+            shortest_synchronizing_word(SyncAutomaton.from_table([[1, 0], [0, 0]]), node_budget=bad)
 
 
 def test_is_synchronizing_word():
@@ -515,3 +513,114 @@ def test_pair_by_pair_greedy_through_rows_spread_under_one_letter():
     assert not aut.deterministic
     word = _pair_merging_greedy(aut, np.arange(n))
     assert word is not None and is_synchronizing_word(aut, word, np.arange(n))
+
+
+# ----------------------------------------------------------------------------- values against brute force
+def brute_pair_distance(table, p, q):
+    """Shortest word merging states p and q: plain BFS over (unordered) pairs; -1 when none."""
+    start = (min(p, q), max(p, q))
+    seen = {start}
+    queue = deque([(start, 0)])
+    while queue:
+        (x, y), d = queue.popleft()
+        for a in range(len(table)):
+            u, v = int(table[a][x]), int(table[a][y])
+            if u == v:
+                return d + 1
+            nxt = (min(u, v), max(u, v))
+            if nxt not in seen:
+                seen.add(nxt)
+                queue.append((nxt, d + 1))
+    return -1
+
+
+def test_pair_distances_cerny4_match_brute_force():
+    """Cerny C_4, pairs in row order (0,1), (0,2), (0,3), (1,2), (1,3), (2,3)."""
+    table = cerny(4)
+    brute = [brute_pair_distance(table, p, q) for p, q in itertools.combinations(range(4), 2)]
+    assert brute == [4, 6, 1, 3, 5, 2]
+    dist, first = SyncAutomaton.from_table(table).pair_distances()
+    assert dist.tolist() == brute
+    # the first letter starts a shortest merging word: one step with it leaves a pair one closer
+    for (p, q), d, a in zip(itertools.combinations(range(4), 2), dist, first):
+        u, v = int(table[a][p]), int(table[a][q])
+        assert (u == v) if d == 1 else brute_pair_distance(table, u, v) == d - 1
+
+
+def test_pair_distances_random_match_brute_force():
+    rng = np.random.default_rng(4242)
+    never = 0
+    for _ in range(150):
+        n = int(rng.integers(2, 12))
+        k = int(rng.integers(1, 4))
+        table = random_table(rng, n, k)
+        dist, first = SyncAutomaton.from_table(table).pair_distances()
+        brute = [brute_pair_distance(table, p, q) for p, q in itertools.combinations(range(n), 2)]
+        assert dist.tolist() == brute
+        never += brute.count(-1)
+        for (p, q), d, a in zip(itertools.combinations(range(n), 2), dist, first):
+            if d > 0:
+                u, v = int(table[a][p]), int(table[a][q])
+                assert (u == v) if d == 1 else brute_pair_distance(table, u, v) == d - 1
+    assert never > 0      # some pairs never merge: the -1 branch is exercised
+
+
+def test_lower_bound_never_above_brute_force_and_exact_means_shortest():
+    """Stopped by a small budget of work, the proven lower bound never exceeds the true shortest
+    length (brute force), the word is never shorter than it, and ``exact`` holds only at equality."""
+    rng = np.random.default_rng(777)
+    stopped = exact_by_bound = 0
+    for _ in range(300):
+        n = int(rng.integers(4, 11))
+        table = random_table(rng, n, 2)
+        truth = brute_det(table)
+        if truth is None:
+            continue
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table), node_budget=int(rng.integers(n, 3 * n)))
+        assert len(plain_image(table, range(n), res.word)) == 1
+        assert res.length >= truth
+        if res.method.startswith("greedy"):
+            stopped += 1
+            assert 1 <= res.lower_bound <= truth
+            assert res.exact == (res.length == res.lower_bound)
+            exact_by_bound += res.exact
+        if res.exact:
+            assert res.length == truth
+    assert stopped > 50 and exact_by_bound > 0   # both budget outcomes were exercised
+    # Cerny automata stopped early: the bound is below the known (n - 1)^2, the greedy word above it
+    for n in (6, 8, 10):
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(cerny(n)), node_budget=2 * n)
+        assert res.exact is False and res.lower_bound <= (n - 1) ** 2 < res.length
+
+
+def test_lower_bound_after_a_time_budget_stop_never_above_brute_force(monkeypatch):
+    """The time-budget branches of the exact search, made deterministic by a fake clock that
+    advances one 'second' per reading: stopped at every point a budget can stop it, the proven
+    lower bound never exceeds the true shortest length and ``exact`` holds only at equality."""
+    import types
+
+    import kruskal_markov.sync.exact as sync_module
+
+    clock = {"t": 0.0}
+
+    def tick():
+        clock["t"] += 1.0
+        return clock["t"]
+    monkeypatch.setattr(sync_module, "time", types.SimpleNamespace(perf_counter=tick))
+    rng = np.random.default_rng(99)
+    stopped = 0
+    for _ in range(120):
+        n = int(rng.integers(4, 11))
+        table = random_table(rng, n, 2)
+        truth = brute_det(table)
+        if truth is None:
+            continue
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=float(rng.integers(2, 40)))
+        if res.word is not None:
+            assert len(plain_image(table, range(n), res.word)) == 1 and res.length >= truth
+        if res.lower_bound is not None:
+            assert res.lower_bound <= truth
+        if res.exact:
+            assert res.length == truth
+        stopped += res.method.startswith("greedy")
+    assert stopped > 20

@@ -18,7 +18,6 @@ from numba import njit, prange
 
 @njit(cache=True, parallel=True)
 def _sweep_counts(x, y, th, weight, start, period, r2, r):       # pragma: no cover - compiled
-    n = x.shape[0]
     counts = weight.copy()                                # every point is its own neighbour
     half = 0.5 * period
     for g in prange(start.shape[0] - 1):                  # groups are independent: threads

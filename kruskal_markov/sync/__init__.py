@@ -32,7 +32,6 @@ from __future__ import annotations
 
 # re-exports: every name the former module sync.py defined stays importable from here
 # ruff: noqa: F401
-
 from kruskal_markov._subsets import SubsetStore, as_start, pair_index
 from kruskal_markov.sync.automaton import (
     SyncAutomaton,

@@ -1,0 +1,216 @@
+"""Mutation testing of the core modules with mutmut (``make mutate``; docs/testing.md).
+
+Each module is mutated in a scratch copy of the project (``build/mutate/<module>/``, ignored by
+git) against only the tests that cover it, one mutant at a time (``--max-children 1`` unless
+``MUTATE_JOBS`` says otherwise). mutmut leaves decorated functions alone, so the Numba
+``@njit`` kernels are never mutated: the scores are for Python-level mutants only, and every
+mutant reuses the compiled kernels.
+
+    python tools/mutate.py                 # every module below
+    python tools/mutate.py ensemble grid   # the named ones
+    python tools/mutate.py --list
+    python tools/mutate.py --recheck ensemble   # the last run's survivors against the current tests
+
+Prints per module: mutants, killed, survived, timeouts, score; writes the survivors' diffs to
+``build/mutate/<module>/survivors.txt``. ``MUTATE_SAMPLE=k`` runs a deterministic sample (every
+k-th mutant in name order) of each module, for a quick estimate of the score.
+"""
+from __future__ import annotations
+
+import fnmatch
+import json
+import os
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+WORK = ROOT / "build" / "mutate"
+
+#: the simulator's fault tests without its long censuses (2,000 tilts; 16 shapes x 100 tilts), which
+#: check that no fault occurs and would cost a minute per mutant
+_FAULT_TESTS = [f"tests/test_sim_faults.py::{t}" for t in (
+    "test_same_input_same_output_across_processes", "test_invalid_and_faulted_trials_are_never_poses",
+    "test_escape_is_detected_without_walls_in_the_way", "test_unsettled_when_time_runs_out",
+    "test_unknown_action_is_a_clear_value_error", "test_subset_action_set_indexing", "test_bad_pose_shape",
+    "test_friction_map_changes_outcomes_but_stays_sane", "test_tipped_from_the_simulator_a_part_held_in_the_air_at_rest",
+    "test_tipping_threshold_is_the_lift_tolerance", "test_escaped_in_flight_below_the_floor",
+    "test_escaped_after_landing_from_the_simulator", "test_escaped_after_landing_by_construction",
+    "test_invalid_when_the_state_goes_non_finite_in_flight", "test_fault_counts")]
+
+#: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
+MODULES = {
+    "entropy": ("kruskal_markov/entropy.py", ["tests/test_entropy.py"], None),
+    "ensemble": ("kruskal_markov/ensemble.py", ["tests/test_ensemble.py"], None),
+    "convergence": ("kruskal_markov/convergence.py", ["tests/test_convergence.py"], None),
+    "model": ("kruskal_markov/model.py", ["tests/test_model.py"], None),
+    "structure": ("kruskal_markov/structure.py", ["tests/test_structure.py"], None),
+    "automaton": ("kruskal_markov/automaton.py", ["tests/test_automaton.py"], None),
+    "symmetry": ("transition_builder/symmetry.py", ["tests/test_snapping_symmetry.py"], None),
+    "grid": ("transition_builder/grid.py", ["tests/test_grid.py"], None),
+    "status": ("transition_builder/status.py", _FAULT_TESTS, None),
+    "posterior": ("kruskal_markov/posterior.py", ["tests/test_posterior.py"], None),
+    # the simulator: its fault classification only (the trial loop and the batch's landing check)
+    "sim": ("transition_builder/sim.py", _FAULT_TESTS,
+            ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
+             "transition_builder.sim.x_valid_start__mutmut_*"]),
+}
+
+PYPROJECT = """[tool.mutmut]
+source_paths = ["kruskal_markov/", "transition_builder/", "analysis/"]
+only_mutate = ["{file}"]
+pytest_add_cli_args_test_selection = {tests}
+pytest_add_cli_args = ["-p", "no:cacheprovider", "-q", "-x"]
+use_setproctitle = false
+# workers forked from a clean server (the default forks from a process whose Numba state made
+# children that compile a new specialisation die with SIGTERM: "suspicious", not a verdict)
+process_isolation = "forkserver"
+# a mutant that changes a dtype makes Numba compile a new specialisation (seconds): not a hang
+timeout_constant = 60.0
+timeout_multiplier = 10.0
+
+[tool.pytest.ini_options]
+testpaths = ["tests"]
+markers = ["slow: long-running tests"]
+addopts = "-m 'not slow'"
+"""
+
+
+def _workspace(name: str, file: str, tests: list[str]) -> pathlib.Path:
+    ws = WORK / name
+    if ws.exists():
+        shutil.rmtree(ws)
+    ws.mkdir(parents=True)
+    for d in ("kruskal_markov", "transition_builder", "analysis", "tests"):
+        shutil.copytree(ROOT / d, ws / d, ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+    (ws / "pyproject.toml").write_text(PYPROJECT.format(file=file, tests=repr(tests).replace("'", '"')))
+    return ws
+
+
+def _results(ws: pathlib.Path, globs: list[str] | None) -> dict:
+    out = subprocess.run([sys.executable, "-m", "mutmut", "results", "--all", "true"], cwd=ws,
+                         capture_output=True, text=True)
+    status = {}
+    for line in out.stdout.splitlines():
+        m = re.match(r"\s*(\S+__mutmut_\d+): (.+)$", line)
+        if m and (globs is None or any(fnmatch.fnmatchcase(m.group(1), g) for g in globs)):
+            status[m.group(1)] = m.group(2).strip()
+    return status
+
+
+def _natural(name: str):
+    head, _, num = name.rpartition("_")
+    return (head, int(num) if num.isdigit() else 0)
+
+
+def run_module(name: str) -> dict:
+    file, tests, globs = MODULES[name]
+    ws = _workspace(name, file, tests)
+    # one Numba cache per module run, kept across its mutants: the kernels are never mutated, so
+    # a specialisation compiled for one mutant is valid for the next
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(ws / ".numba-cache"))
+    jobs = os.environ.get("MUTATE_JOBS", "1")
+    t0 = time.perf_counter()
+    pattern = [file[:-3].replace("/", ".") + ".*"] if globs is None else globs
+    sample = int(os.environ.get("MUTATE_SAMPLE", "1"))
+    if sample > 1:
+        # a deterministic sample: every ``sample``-th mutant in name order (the names are known
+        # once mutmut has generated the mutants; a pattern that matches none runs nothing)
+        subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", jobs, "no-such-mutant"], cwd=ws,
+                       env=env, capture_output=True, text=True)
+        names = sorted(_results(ws, None if globs is None else globs), key=_natural)
+        names = [n for n in names if fnmatch.fnmatchcase(n, pattern[0]) or globs is not None]
+        pattern = names[::sample]
+        globs = pattern
+    proc = subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", jobs, *pattern], cwd=ws,
+                          env=env, capture_output=True, text=True)
+    seconds = time.perf_counter() - t0
+    status = _results(ws, globs)
+    counts = {}
+    for s in status.values():
+        counts[s] = counts.get(s, 0) + 1
+    survivors = [n for n, s in status.items() if s in ("survived", "no tests", "suspicious")]
+    with open(ws / "survivors.txt", "w") as fh:
+        for n in survivors:
+            diff = subprocess.run([sys.executable, "-m", "mutmut", "show", n], cwd=ws, capture_output=True,
+                                  text=True).stdout
+            fh.write(f"=== {n}\n{diff}\n")
+    killed = counts.get("killed", 0) + counts.get("timeout", 0)
+    # "no tests": no covering test calls the mutated function -- a survivor, counted as one
+    total = sum(counts.values()) - counts.get("skipped", 0) - counts.get("not checked", 0)
+    with open(WORK / "scores.jsonl", "a") as fh:
+        fh.write(json.dumps({"module": name, "sample": sample, "counts": counts, "seconds": round(seconds)}) + "\n")
+    row = {"module": name + (f" (1 in {sample})" if sample > 1 else ""), "file": file,
+           "mutants": sum(counts.values()), "counts": counts,
+           "score": killed / total if total else float("nan"), "seconds": round(seconds),
+           "returncode": proc.returncode}
+    if proc.returncode not in (0,):
+        row["stderr"] = proc.stderr[-1500:]
+    return row
+
+
+def recheck_survivors(name: str) -> dict:
+    """Run the last run's survivors of ``name`` again against the current tests (in the same
+    workspace, so the mutants are the same): the score after new tests."""
+    file, tests, _ = MODULES[name]
+    ws = WORK / name
+    shutil.rmtree(ws / "tests")
+    shutil.copytree(ROOT / "tests", ws / "tests", ignore=shutil.ignore_patterns("__pycache__"))
+    survivors = [line[4:].strip() for line in (ws / "survivors.txt").read_text().splitlines()
+                 if line.startswith("=== ")]
+    meta_path = next((ws / "mutants").rglob(pathlib.Path(file).name + ".meta"))
+    meta = json.loads(meta_path.read_text())
+    checked = {k: v for k, v in meta["exit_code_by_key"].items() if v is not None}
+    for n in survivors:
+        meta["exit_code_by_key"][n] = None
+    meta_path.write_text(json.dumps(meta))
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(ws / ".numba-cache"))
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", os.environ.get("MUTATE_JOBS", "1"),
+                    *survivors], cwd=ws, env=env, capture_output=True, text=True)
+    status = _results(ws, list(checked))
+    still = [n for n in survivors if status.get(n) in ("survived", "no tests", "suspicious")]
+    with open(ws / "survivors-after.txt", "w") as fh:
+        for n in still:
+            diff = subprocess.run([sys.executable, "-m", "mutmut", "show", n], cwd=ws, capture_output=True,
+                                  text=True).stdout
+            fh.write(f"=== {n}\n{diff}\n")
+    total = len(checked)
+    return {"module": name, "mutants": total, "survivors_before": len(survivors), "survivors_after": len(still),
+            "score_before": 1 - len(survivors) / total, "score_after": 1 - len(still) / total,
+            "seconds": round(time.perf_counter() - t0)}
+
+
+def main(argv: list[str]) -> int:
+    if argv[:1] == ["--recheck"]:
+        for name in argv[1:]:
+            r = recheck_survivors(name)
+            print(f"{name:12s} mutants {r['mutants']:4d}  survivors {r['survivors_before']:3d} -> "
+                  f"{r['survivors_after']:3d}  score {r['score_before']:.1%} -> {r['score_after']:.1%}  "
+                  f"({r['seconds']} s)", flush=True)
+        return 0
+    if argv == ["--list"]:
+        print("\n".join(f"{k}: {v[0]} <- {' '.join(v[1])}" for k, v in MODULES.items()))
+        return 0
+    names = argv or list(MODULES)
+    unknown = [n for n in names if n not in MODULES]
+    if unknown:
+        print(f"unknown module(s) {unknown}; known: {list(MODULES)}", file=sys.stderr)
+        return 2
+    for name in names:
+        row = run_module(name)
+        c = row["counts"]
+        print(f"{row['module']:18s} {row['file']:34s} mutants {row['mutants']:4d}  killed {c.get('killed', 0):4d}  "
+              f"timeout {c.get('timeout', 0):3d}  survived {c.get('survived', 0):3d}  "
+              f"other {sum(v for k, v in c.items() if k not in ('killed', 'timeout', 'survived')):3d}  "
+              f"score {row['score']:.1%}  ({row['seconds']} s)", flush=True)
+        if "stderr" in row:
+            print(row["stderr"], file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
