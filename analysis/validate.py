@@ -29,9 +29,9 @@ import time
 
 import numpy as np
 
-from kruskal_markov._checks import check_int
 from analysis.montecarlo import run_direct
 from analysis.sequences import random_sequences_for
+from kruskal_markov._checks import check_int
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model

@@ -35,6 +35,7 @@ import time
 from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+
 from kruskal_markov._checks import check_int
 
 __all__ = [

@@ -25,6 +25,7 @@ import math
 import re
 
 import numpy as np
+
 from kruskal_markov._checks import check_int
 
 __all__ = ["DEFAULT_GRID", "ReportGrid", "parse_grid"]

@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
 from kruskal_markov._checks import check_number, is_int
 
 __all__ = [

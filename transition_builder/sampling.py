@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from transition_builder.shapes import Shape, check_fits
 from kruskal_markov._checks import check_int
+from transition_builder.shapes import Shape, check_fits
 
 __all__ = ["is_collision_free", "sample_start_poses"]
 

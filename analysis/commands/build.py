@@ -10,8 +10,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import (add_contact, add_seed, check_positive, check_writable_file,
-                                       parse_resolution)
+from analysis.commands._common import add_contact, add_seed, check_positive, check_writable_file, parse_resolution
 from transition_builder.builder.options import BUILD_OPTIONS
 
 

@@ -10,8 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from analysis.commands._common import (add_contact, add_seed, check_positive, check_writable_dir,
-                                       parse_contact_arg)
+from analysis.commands._common import add_contact, add_seed, check_positive, check_writable_dir, parse_contact_arg
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

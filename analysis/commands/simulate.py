@@ -10,8 +10,15 @@ from __future__ import annotations
 import argparse
 import sys
 
-from analysis.commands._common import (add_contact, add_seed, check_positive, check_writable_file,
-                                       parse_sequence, scene_from_args, sequence_rng)
+from analysis.commands._common import (
+    add_contact,
+    add_seed,
+    check_positive,
+    check_writable_file,
+    parse_sequence,
+    scene_from_args,
+    sequence_rng,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

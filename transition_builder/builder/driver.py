@@ -23,11 +23,11 @@ from transition_builder.builder.representatives import _with_rotations
 from transition_builder.builder.settings import BuildResult, BuildSettings, build_key
 from transition_builder.builder.state import CheckpointError, _Exploration
 from transition_builder.executors import SchedulerLost, make_executor
-from transition_builder.status import OK
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import check_noise_for_tray
 from transition_builder.scene import Scene
 from transition_builder.snapping import PoseIndex
+from transition_builder.status import OK
 from transition_builder.symmetry import tray_symmetry
 
 

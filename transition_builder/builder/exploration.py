@@ -11,8 +11,13 @@ from transition_builder.builder.context import _BuildContext
 from transition_builder.builder.representatives import _offer, _recenter, _with_rotations
 from transition_builder.builder.state import NOT_DRAWN, _Exploration
 from transition_builder.builder.tasks import _KEY_ORBIT, _KEY_START, _orbit_jobs, _run_tilts, _stream_tilts
-from transition_builder.builder.weights import (_WEIGHT_THRESHOLD, _disputed_pairs, _heavy_orbits, _orbit_weights,
-                                                _proportional_samples)
+from transition_builder.builder.weights import (
+    _WEIGHT_THRESHOLD,
+    _disputed_pairs,
+    _heavy_orbits,
+    _orbit_weights,
+    _proportional_samples,
+)
 from transition_builder.sampling import sample_start_poses
 
 _START_STREAM = 11          # seed stream of the start poses
