@@ -104,6 +104,15 @@ def _figures(r: dict, out_dir: str) -> list[str]:
         ax.set_title("the key's synchronizing word (optimal sensorless plan) replayed", fontsize=10)
         _save(fig, out_dir, "fig_sync_replay.png", figures)
 
+    if r.get("plans"):
+        from analysis.figures import random_word_success_figure
+        pl = r["plans"]
+        optimum = {t: (pl[t]["plan"]["length"] if "plan" in pl[t] else r["key_metrics"].get("sync_length"))
+                   for t in pl}
+        path = random_word_success_figure({t: pl[t]["success"] for t in pl}, os.path.join(out_dir, "fig_plans.png"),
+                                          optimum=optimum, title="how rare are good plans (the key's model)")
+        figures.append(path)
+
     v = r["validation"]
     fig, axes = plt.subplots(1, len(v["per_sequence"]), figsize=(4.2 * len(v["per_sequence"]), 3.5),
                              sharey=True, squeeze=False)
@@ -315,6 +324,27 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
             "![sync](fig_sync_replay.png)",
             "",
         ]
+    if r.get("plans"):
+        pl = r["plans"]
+        lines += ["**Plans for every target** (`kruskal plan`, `docs/plans.md`): `state` drives every start state to "
+                  "one model state, `cell` into one report cell (the paper's \"all poses in one voxel\"), "
+                  "`probability:E` puts at least 1 - E of the start distribution into one cell.", "",
+                  "| target | shortest plan | length | proven shortest | model's success | random words of that "
+                  "length meeting it | at 20 / 50 tilts |", "|---|---|---|---|---|---|---|"]
+        for t, e in pl.items():
+            p_ = e.get("plan")
+            if p_ is None:
+                word, length, exact, succ = km.get("sync_word"), km.get("sync_length"), km.get("sync_exact"), None
+            else:
+                word, length, exact, succ = p_["word"], p_["length"], p_["exact"], p_["success_probability"]
+            prob = e["success"]["probability"]
+            at = prob[length] if length is not None and length < len(prob) else None
+            lines.append(f"| `{t}` | `{','.join(word) if word else '-'}` | {_fmt(length, 'd')} | "
+                         f"{'yes' if exact else 'no'} | {_fmt(succ, '.4f')} | {_fmt(at, '.4f')} | "
+                         f"{_fmt(prob[min(20, len(prob) - 1)], '.3f')} / {_fmt(prob[-1], '.3f')} |")
+        lines += ["", f"Converging plans are common only well beyond the optimum ({pl[next(iter(pl))]['success']['words']:,} "
+                  "random words per target): the paper's \"converging plans are common, optimal plans are rare\", "
+                  "measured.", "", "![plans](fig_plans.png)", ""]
     cm = r.get("contact_models", {})
     if len(cm) > 1 or r.get("contact_judges"):
         keys = list(cm)

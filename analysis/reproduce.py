@@ -110,6 +110,8 @@ class ReproduceSettings:
     #: when set, every shortest-word search stops after this many subsets per direction instead
     #: of at its time budget (results independent of the machine's speed; the tests use it)
     sync_node_budget: int | None = None
+    plan_targets: tuple = ("cell", "probability:0.001")
+    plan_words: int = 5000
     contact: str | None = None
     compare_contacts: tuple = (("sphere, 1/240 s (the old default)",
                                 {"contact": "sphere", "time_step_s": 1.0 / 240.0, "substeps": 4}),)
@@ -283,6 +285,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         replay = direct_summary(key_scene, km.sync_word, s.replay_trials, s.seed + 2, workers)
         replay["model_entropy_bits"] = model_curve.tolist()
         out["sync_replay"] = replay
+    out["plans"] = key_plans(key, s)
 
     # --- does the answer depend on the contact model? ------------------------------------------
     default_contact = key_scene.settings.contact
@@ -354,6 +357,24 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
                          workers=workers)
     out["validation"] = val
     out["seconds"] = time.perf_counter() - t_all
+    return out
+
+
+def key_plans(model, s: ReproduceSettings) -> dict:
+    """The shortest plan of every target of ``s.plan_targets`` (and ``state``) on ``model``, and how
+    rare good plans are: the probability that a random word of length L meets the target, L = 0..N,
+    from ``s.plan_words`` random words (:func:`kruskal_markov.sync.random_word_success`)."""
+    from kruskal_markov.sync import random_word_success, shortest_plan
+
+    out = {}
+    for i, target in enumerate(("state",) + tuple(s.plan_targets)):
+        entry = {"success": random_word_success(model, target, max_length=s.length, words=s.plan_words,
+                                                seed=[s.seed, 5, i])}
+        if target != "state":      # the state plan is the key's synchronizing word above
+            budget = {} if s.sync_node_budget is None else {"node_budget": s.sync_node_budget}
+            plan = shortest_plan(model, target, time_budget=s.sync_time_budget, **budget)
+            entry["plan"] = plan.to_dict()
+        out[target] = entry
     return out
 
 
