@@ -46,7 +46,7 @@ def test_build_once_then_reuse_by_key(stub_build, scene, tmp_path):
     key = build_key(scene, settings)
     result, path, cached = cache.cached_build(scene, settings, directory=str(tmp_path), workers=1)
     assert cached is False and path == str(tmp_path / f"{key}.npz") and os.path.exists(path)
-    assert stub_build == [{"checkpoint": str(tmp_path / f"{key}.ckpt.npz"), "workers": 1}]
+    assert stub_build == [{"checkpoint": str(tmp_path / f"{key}.ckpt.npz"), "resume": True, "workers": 1}]
     again, path2, cached2 = cache.cached_build(scene, settings, directory=str(tmp_path))
     assert cached2 is True and path2 == path and len(stub_build) == 1          # no second build
     assert again.model.same_arrays(result.model) and again.stats == {}
@@ -56,6 +56,7 @@ def test_build_once_then_reuse_by_key(stub_build, scene, tmp_path):
     # use_cache=False builds even with a cached model present
     _, _, cached4 = cache.cached_build(scene, settings, directory=str(tmp_path), use_cache=False)
     assert cached4 is False and len(stub_build) == 3
+    assert stub_build[-1]["resume"] is False               # --no-cache: no reuse of any kind
 
 
 def test_out_gets_a_copy(stub_build, scene, tmp_path):
