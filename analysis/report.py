@@ -329,8 +329,9 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         lines += ["**Plans for every target** (`kruskal plan`, `docs/plans.md`): `state` drives every start state to "
                   "one model state, `cell` into one report cell (the paper's \"all poses in one voxel\"), "
                   "`probability:E` puts at least 1 - E of the start distribution into one cell.", "",
-                  "| target | shortest plan | length | proven shortest | model's success | random words of that "
-                  "length meeting it | at 20 / 50 tilts |", "|---|---|---|---|---|---|---|"]
+                  "| target | shortest plan | length | proven shortest | model's success | replayed: trials in that "
+                  "cell, entropy after | random words of that length meeting it | at 20 / 50 tilts |",
+                  "|---|---|---|---|---|---|---|---|"]
         for t, e in pl.items():
             p_ = e.get("plan")
             if p_ is None:
@@ -339,8 +340,17 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
                 word, length, exact, succ = p_["word"], p_["length"], p_["exact"], p_["success_probability"]
             prob = e["success"]["probability"]
             at = prob[length] if length is not None and length < len(prob) else None
+            rp = e.get("replay")
+            if rp is None and p_ is None and "sync_replay" in r:      # the state plan: the replay above
+                replayed = f"entropy {r['sync_replay']['entropy_bits'][-1]:.3f} bits"
+            elif rp is not None:
+                disagree = " **(disagrees with the model)**" if rp["share_in_final_cell"] < rp["model_success"] - 0.01 else ""
+                replayed = (f"{rp['share_in_final_cell']:.2%} of {rp['trials']:,}, {rp['entropy_bits']:.3f} bits, "
+                            f"{sum(rp['faults'].values())} faults{disagree}")
+            else:
+                replayed = "-"
             lines.append(f"| `{t}` | `{','.join(word) if word else '-'}` | {_fmt(length, 'd')} | "
-                         f"{'yes' if exact else 'no'} | {_fmt(succ, '.4f')} | {_fmt(at, '.4f')} | "
+                         f"{'yes' if exact else 'no'} | {_fmt(succ, '.4f')} | {replayed} | {_fmt(at, '.4f')} | "
                          f"{_fmt(prob[min(20, len(prob) - 1)], '.3f')} / {_fmt(prob[-1], '.3f')} |")
         lines += ["", f"Converging plans are common only well beyond the optimum ({pl[next(iter(pl))]['success']['words']:,} "
                   "random words per target): the paper's \"converging plans are common, optimal plans are rare\", "

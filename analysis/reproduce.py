@@ -286,6 +286,10 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         replay["model_entropy_bits"] = model_curve.tolist()
         out["sync_replay"] = replay
     out["plans"] = key_plans(key, s)
+    for i, (target, entry) in enumerate(out["plans"].items()):
+        if entry.get("plan") and entry["plan"]["word"]:
+            _log(progress, f"{target} plan replayed with {s.replay_trials} trials")
+            entry["replay"] = plan_replay(key_scene, entry["plan"], s.replay_trials, s.seed + 10 + i, workers)
 
     # --- does the answer depend on the contact model? ------------------------------------------
     default_contact = key_scene.settings.contact
@@ -358,6 +362,20 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     out["validation"] = val
     out["seconds"] = time.perf_counter() - t_all
     return out
+
+
+def plan_replay(scene, plan: dict, trials: int, seed: int, workers) -> dict:
+    """Replay a plan in direct simulation: the entropy after its last tilt, the faults, and the share
+    of trials that end in the plan's final report cell (``final_cell``) as the model predicts."""
+    from analysis.montecarlo import run_direct
+
+    res = run_direct(scene, plan["word"], trials, seed=seed, workers=workers)
+    last = res.poses[:, -1, :]
+    ok = np.all(np.isfinite(last), axis=1)
+    cells = res.grid.voxel_index(last[ok])
+    share = float(np.count_nonzero(cells == plan["final_cell"]) / trials)
+    return {"entropy_bits": float(res.entropy_bits[-1]), "trials": int(trials), "faults": dict(res.faults),
+            "share_in_final_cell": share, "model_success": plan["success_probability"]}
 
 
 def key_plans(model, s: ReproduceSettings) -> dict:
