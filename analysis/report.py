@@ -167,14 +167,14 @@ def _contact_builds(s: dict) -> str:
             f"with `{s.get('key_build')}`, so part of a difference can be the resolution's:")
 
 
-_JUDGE_COLUMNS = (("slide_mm", "free slide, worst final distance (mm)", ".2f", 1.0),
-                  ("slide_deg", "free slide, worst final angle (deg)", ".2f", 1.0),
-                  ("disk_stop_gap", "disk: sliding and spinning stop apart (share of the time)", ".1%", 1.0),
-                  ("disk_ratio_error", "disk: late v / (R omega), relative error", ".1%", 1.0),
-                  ("pure_slide_error", "pure sliding: stopping time v0 / (mu g), relative error", ".1%", 1.0),
-                  ("pure_spin_error", "pure spinning: stopping time, relative error", ".1%", 1.0),
-                  ("isotropy_slide", "isotropy: slide turned by 45 deg, displacement change", ".1%", 1.0),
-                  ("isotropy_turn", "isotropy: slide turned by 45 deg, rotation change", ".1%", 1.0))
+_JUDGE_COLUMNS = (("slide_mm", "free slide, worst final distance (mm)", ".2f"),
+                  ("slide_deg", "free slide, worst final angle (deg)", ".2f"),
+                  ("disk_stop_gap", "disk: sliding and spinning stop apart (share of the time)", ".1%"),
+                  ("disk_ratio_error", "disk: late v / (R omega), relative error", ".1%"),
+                  ("pure_slide_error", "pure sliding: stopping time v0 / (mu g), relative error", ".1%"),
+                  ("pure_spin_error", "pure spinning: stopping time, relative error", ".1%"),
+                  ("isotropy_slide", "isotropy: slide turned by 45 deg, displacement change", ".1%"),
+                  ("isotropy_turn", "isotropy: slide turned by 45 deg, rotation change", ".1%"))
 
 
 def _judges_lines(judges: dict) -> list:
@@ -186,7 +186,7 @@ def _judges_lines(judges: dict) -> list:
              "that the engine's integrator error stays below the targets; a cell in bold misses its target):", "",
              "| judge | target | " + " | ".join(f"`{k}`" for k in keys) + " |",
              "|---|---|" + "---|" * len(keys)]
-    for key, label, f, _ in _JUDGE_COLUMNS:
+    for key, label, f in _JUDGE_COLUMNS:
         cells = []
         for k in keys:
             v = table[k][key]

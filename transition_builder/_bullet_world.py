@@ -171,14 +171,15 @@ class BulletWorld:
         """Time step, solver, contact threshold and the tilted gravity of this world."""
         a = math.radians(scene.tilt_deg)
         pb.resetSimulation(physicsClientId=cid)
-        # with a friction map or the coulomb contact the support's friction is updated before every
-        # step, so Python steps one physics step at a time; otherwise one call runs ``substeps``
+        # the coulomb contact updates its friction once per call of ``friction_substeps`` steps (on a
+        # map as well); the sphere or legs on a friction map get the tile's coefficient before every
+        # step; otherwise one call runs ``substeps`` steps
         self.substeps = st.substeps
         self.contact = parse_contact(st.contact)
-        self.per_step = parse_friction(scene.friction).kind == "map" or self.contact.kind == "coulomb"
-        n_sub = 1 if self.per_step else st.substeps
-        if self.contact.kind == "coulomb":     # one friction update per call (on a map as well)
+        if self.contact.kind == "coulomb":
             n_sub = st.friction_substeps
+        else:
+            n_sub = 1 if parse_friction(scene.friction).kind == "map" else st.substeps
         self.normal_force = scene.shape.mass_kg * G * st.world_units_per_m * math.cos(a)
         pb.setPhysicsEngineParameter(
             fixedTimeStep=st.time_step_s * n_sub, numSubSteps=n_sub,
@@ -412,15 +413,16 @@ class BulletWorld:
         joints = (J_X, J_Y, J_YAW)
         get_states, change, force, step = pb.getJointStates, pb.changeDynamics, pb.applyExternalForce, pb.stepSimulation
         mode = 0
+        s = get_states(ob, joints, physicsClientId=cid)
         if self._cb_free_factor > 1:
-            s = get_states(ob, joints, physicsClientId=cid)
             mode = self._free_flight(s[0][0], s[1][0], s[0][1], s[1][1])
             if mode != self._cb_mode:
                 dt, n_sub, _ = self._cb_modes[mode]
                 pb.setPhysicsEngineParameter(fixedTimeStep=dt * n_sub, numSubSteps=n_sub, physicsClientId=cid)
                 self._cb_mode = mode
-        for _ in range(self._cb_modes[mode][2]):
-            s = get_states(ob, joints, physicsClientId=cid)
+        for i in range(self._cb_modes[mode][2]):
+            if i:                   # the first update uses the state read above
+                s = get_states(ob, joints, physicsClientId=cid)
             sx, sy, sw = s
             _contact_update(sx[0], sy[0], sw[0], sx[1], sy[1], sw[1], mem, geom, grid, params, out)
             caps = (out[0], out[1])

@@ -8,11 +8,13 @@ wrenches is the limit surface). Here the integrals are quadratures over equal-ar
 footprint (:func:`footprint_points`); on a friction map every point carries the coefficient of the
 tile under it.
 
-The kernel :func:`_friction_wrench` is called before every physics step by
+The kernel :func:`_contact_update` is called before every friction update by
 :class:`transition_builder._bullet_world.BulletWorld` (contact ``coulomb``): its results set the
 lateral and spinning friction limits of the single implicit contact under the centroid and the
 explicit force that one contact cannot give (the part of the friction force perpendicular to the
-centroid's velocity). See docs/simulator.md.
+centroid's velocity). :func:`integrate_free_sliding` is the judges' ground truth and keeps its own
+quadrature loop on purpose: the judge shares no code with the contact it judges. See
+docs/simulator.md.
 """
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ import numpy as np
 import shapely
 from numba import njit
 
-__all__ = ["footprint_points", "coulomb_wrench", "integrate_free_sliding"]
+__all__ = ["footprint_points", "integrate_free_sliding"]
 
 
 def footprint_points(vertices, n_target: int = 400) -> tuple[np.ndarray, np.ndarray]:
@@ -51,61 +53,6 @@ def _points_of_outline(vertex_bytes: bytes, n_vertices: int, n_target: int):
     pts = pts - pts.mean(axis=0)
     w = np.full(len(pts), 1.0 / len(pts))
     return np.ascontiguousarray(pts), w
-
-
-@njit(cache=True)
-def _friction_wrench(vx, vy, wz, px, py, weights, mu):
-    """Mean over the points of ``-mu_i u_i`` and of ``-mu_i (r_i x u_i)``: the friction force per
-    unit normal force ``(fx, fy)`` and torque per unit normal force ``tz`` (length units of the
-    points). ``px, py`` are the points' offsets from the centroid in the world frame; ``mu`` the
-    coefficient under each point. A point at rest (speed exactly 0) contributes nothing."""
-    fx = 0.0
-    fy = 0.0
-    tz = 0.0
-    for i in range(px.shape[0]):
-        ux = vx - wz * py[i]
-        uy = vy + wz * px[i]
-        s = math.sqrt(ux * ux + uy * uy)
-        if s > 0.0:
-            c = weights[i] * mu[i] / s
-            ux *= c
-            uy *= c
-            fx -= ux
-            fy -= uy
-            tz -= px[i] * uy - py[i] * ux
-    return fx, fy, tz
-
-
-def coulomb_wrench(points, weights, mu, v, omega, yaw: float = 0.0):
-    """Friction force and torque per unit normal force of distributed Coulomb friction.
-
-    Parameters
-    ----------
-    points : ndarray (n, 2)
-        Quadrature points in the body frame, relative to the centroid.
-    weights : ndarray (n,)
-        Area weights summing to 1 (uniform pressure).
-    mu : float or ndarray (n,)
-        Friction coefficient under each point.
-    v : (float, float)
-        Velocity of the centroid.
-    omega : float
-        Yaw rate (rad per time unit).
-    yaw : float
-        Orientation of the body frame in the world frame (rad).
-
-    Returns
-    -------
-    (fx, fy, tz) : tuple of float
-        ``-(1/A) int mu u dA`` and ``-(1/A) int mu r x u dA`` by quadrature, in the world frame.
-    """
-    c, s = math.cos(yaw), math.sin(yaw)
-    p = np.asarray(points, dtype=np.float64)
-    px = np.ascontiguousarray(c * p[:, 0] - s * p[:, 1])
-    py = np.ascontiguousarray(s * p[:, 0] + c * p[:, 1])
-    w = np.ascontiguousarray(weights, dtype=np.float64)
-    m = np.broadcast_to(np.asarray(mu, dtype=np.float64), w.shape).copy()
-    return _friction_wrench(float(v[0]), float(v[1]), float(omega), px, py, w, m)
 
 
 #: resolution of the friction limits and of the explicit force per unit normal force.

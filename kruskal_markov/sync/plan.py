@@ -107,7 +107,7 @@ class PlanResult:
             object.__setattr__(self, "word", tuple(self.word))
 
     def to_dict(self) -> dict:
-        """JSON-ready dict with the keys of ``kruskal plan`` (SPEC.md)."""
+        """JSON-ready dict with the keys of ``kruskal plan`` (docs/commands.md)."""
         return {"word": None if self.word is None else list(self.word), "length": self.length,
                 "exact": self.exact, "lower_bound": self.lower_bound, "target": self.target,
                 "method": self.method, "final_cell": self.final_cell,
