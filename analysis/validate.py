@@ -19,8 +19,14 @@ reported too (``model_exact``).
 
 The model's band: ``bands`` draws from the Dirichlet posterior of its rows
 (:mod:`kruskal_markov.posterior`) give a 90% band of the exact curve; it is moved by the plug-in
-bias and widened by the reference's bootstrap noise in quadrature (``1.645 sd``), and
-``band_coverage`` is the share of steps 1..N at which the reference lies inside.
+bias and widened by the reference's bootstrap noise in quadrature (``1.645 sd``) — the
+``band_coverage_dirichlet`` band, which knows only sampling noise — and then by the model's
+structural error (:mod:`kruskal_markov.structural`: every report-cell distribution within a
+relative total-variation distance ``structural_delta`` of the model's). ``band_coverage`` is the
+share of steps 1..N at which the reference lies inside, with its Wilson 95% interval over steps
+(steps of one sequence are correlated, so the per-sequence coverages are given too). Each step's
+``structural_needed`` is the smallest ``delta`` whose band would have held the reference: their
+split-conformal 90% quantile (``structural_delta_q90``) is what this run would calibrate.
 """
 from __future__ import annotations
 
@@ -35,11 +41,13 @@ from kruskal_markov._checks import check_int
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model
+from kruskal_markov.structural import STRUCTURAL_DELTA, band_with_structure, conformal_quantile, structural_score
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene
 from transition_builder.status import OK
 
-__all__ = ["model_scene", "model_grid", "reference_seed", "validate_model", "random_sequences_for"]
+__all__ = ["model_scene", "model_grid", "reference_seed", "validate_model", "random_sequences_for",
+           "wilson_interval", "model_band"]
 
 _REFERENCE_STREAM = 2
 _PLUGIN_DRAWS = 200
@@ -87,6 +95,10 @@ def _bootstrap_sd(labels: np.ndarray, n_cells: int, rng) -> float:
     return float(hs.std(ddof=1))
 
 
+def _finite_or_none(x: float):
+    return float(x) if math.isfinite(x) else None
+
+
 def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
     """Mean plug-in entropy of ``m`` draws from the cell distribution ``q`` (Monte Carlo)."""
     if m <= 0:
@@ -97,9 +109,88 @@ def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
     return float(np.mean([histogram_entropy_bits(d) for d in draws]))
 
 
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (Wilson, JASA 22, 1927).
+
+    Parameters
+    ----------
+    successes, n : int
+        Successes out of ``n`` trials (``n >= 1``).
+    z : float
+        Normal quantile (default: 95%).
+
+    Returns
+    -------
+    (float, float)
+
+    Examples
+    --------
+    >>> [round(x, 3) for x in wilson_interval(54, 60)]
+    [0.799, 0.953]
+    """
+    if n < 1 or not 0 <= successes <= n:
+        raise ValueError(f"need 0 <= successes <= n and n >= 1, got {successes} of {n}")
+    p = successes / n
+    den = 1 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, mid - half), min(1.0, mid + half)
+
+
+def _inside(x, lo, hi) -> np.ndarray:
+    return (x >= lo - 1e-12) & (x <= hi + 1e-12)
+
+
+def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd, structural_delta: float,
+               rng) -> dict:
+    """The model's predictive 90% band of a plug-in entropy curve from ``surviving`` trials per step.
+
+    Parameters
+    ----------
+    model : TransitionModel
+        The model (its partition gives the report cells).
+    sequence : sequence of int
+        Action indices.
+    draws : list of TransitionModel or None
+        Posterior draws (:func:`kruskal_markov.posterior.resample_model`); an empty list means a
+        one-point posterior, None no band.
+    surviving : array_like of int
+        The reference's trial count at each step 0..N (the plug-in estimator's sample size).
+    reference_sd : array_like
+        The reference's sampling noise at each step (bootstrap standard deviation).
+    structural_delta : float
+        Relative structural error (:mod:`kruskal_markov.structural`).
+    rng : numpy.random.Generator
+        For the Monte Carlo of the plug-in estimator.
+
+    Returns
+    -------
+    dict
+        ``cells`` (steps x cells), ``exact`` (the model's curve), ``matched`` (its expected plug-in
+        curve at the reference's sample sizes) and, with draws, ``centre`` and ``width`` (the
+        Dirichlet band: posterior 5-95% quantiles moved by the plug-in bias, widened by ``1.645
+        reference_sd`` in quadrature) and ``lo``, ``hi`` (that band with the structural term).
+    """
+    traj = entropy_trajectory(model, sequence, return_distributions=True)
+    cells = np.stack([np.bincount(model.partition, weights=p, minlength=model.n_cells)
+                      for p in traj.distributions])
+    matched = np.array([_expected_plugin(cells[k], int(surviving[k]), rng) for k in range(len(cells))])
+    exact = traj.entropy_bits
+    out = {"cells": cells, "matched": matched, "exact": exact}
+    if draws is not None:
+        curves = np.stack([entropy_trajectory(d, sequence).entropy_bits for d in draws] or [exact])
+        post_sd = curves.std(axis=0, ddof=1) if len(curves) > 1 else np.zeros(len(exact))
+        centre = curves.mean(axis=0) + (matched - exact)
+        width = _Z90 * np.sqrt(post_sd ** 2 + np.asarray(reference_sd, dtype=np.float64) ** 2)
+        lo, hi = band_with_structure(cells, centre, width, structural_delta)
+        out.update(centre=centre, width=width, lo=lo, hi=hi)
+    return out
+
+
 def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 1000, seed: int = 0,
                    length: int = 50, spread: bool = False, bands: int = 40, workers=None, scheduler=None,
-                   progress: bool | None = False, simulate=None, contact: str | None = None) -> dict:
+                   progress: bool | None = False, simulate=None, contact: str | None = None,
+                   structural_delta: float = STRUCTURAL_DELTA) -> dict:
     """Compare ``model`` with direct simulation on ``sequences`` random sequences (see module docstring).
 
     ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
@@ -128,6 +219,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         Replaces the direct simulation.
     contact : str, optional
         The reference's floor contact (default the model's).
+    structural_delta : float
+        Relative structural error of the band (:mod:`kruskal_markov.structural`; 0: the
+        Dirichlet band alone).
 
     Returns
     -------
@@ -141,6 +235,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     for name, val, lo in (("sequences", sequences, 1), ("trials", trials, 2), ("length", length, 1),
                           ("bands", bands, 0)):
         check_int(val, name, lo=lo)
+    if not (isinstance(structural_delta, (int, float)) and not isinstance(structural_delta, bool)
+            and math.isfinite(structural_delta) and structural_delta >= 0):
+        raise ValueError(f"structural_delta must be a non-negative number, got {structural_delta!r}")
     scene = model_scene(model)
     model_contact = scene.settings.contact
     if contact is not None:
@@ -158,25 +255,19 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     model_seconds = time.perf_counter() - t_model
     sim_seconds = 0.0
     per_seq = []
-    all_err, all_err_exact, all_noise, covered, spread_diffs = [], [], [], [], []
+    all_err, all_err_exact, all_noise, covered, covered_dir, spread_diffs = [], [], [], [], [], []
+    scores = []
     tvs = []
     for i, seq in enumerate(seqs):
         t = time.perf_counter()
         ref = simulate(scene, seq, trials, reference_seed(seed, i), noise)
         sim_seconds += time.perf_counter() - t
         t = time.perf_counter()
-        traj = entropy_trajectory(model, seq, return_distributions=True)
-        cells = np.stack([np.bincount(model.partition, weights=p, minlength=grid.n_voxels)
-                          for p in traj.distributions])
-        matched = np.array([_expected_plugin(cells[k], int(ref.surviving[k]), rng) for k in range(len(cells))])
-        exact = traj.entropy_bits
-        lo = hi = None
-        if draws:
-            curves = np.stack([entropy_trajectory(d, seq).entropy_bits for d in draws])
-            lo, hi = np.quantile(curves, 0.05, axis=0), np.quantile(curves, 0.95, axis=0)
-        model_seconds += time.perf_counter() - t
         labels = _cell_labels(ref, grid)
         sd = np.array([_bootstrap_sd(lab, grid.n_voxels, rng) for lab in labels])
+        band = model_band(model, seq, draws if bands else None, ref.surviving, sd, structural_delta, rng)
+        cells, matched, exact = band["cells"], band["matched"], band["exact"]
+        model_seconds += time.perf_counter() - t
         href = ref.entropy_bits
         err = np.abs(matched - href)[1:]
         err_exact = np.abs(exact - href)[1:]
@@ -187,16 +278,21 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
                  "mean_abs_error_bits": float(err.mean()), "max_abs_error_bits": float(err.max()),
                  "reference_noise_bits": float(sd[1:].mean()), "final_tv_distance": tv,
                  "faults": ref.faults}
-        if lo is not None:
-            bias = matched - exact
-            half = 0.5 * (hi - lo)
-            centre = 0.5 * (hi + lo) + bias
-            width = np.sqrt(half ** 2 + (_Z90 * sd) ** 2)
-            inside = (href >= centre - width - 1e-12) & (href <= centre + width + 1e-12)
-            entry["band_lo"] = (centre - width).tolist()
-            entry["band_hi"] = (centre + width).tolist()
+        if bands:
+            inside_dir = _inside(href, band["centre"] - band["width"], band["centre"] + band["width"])
+            inside = _inside(href, band["lo"], band["hi"])
+            need = structural_score(cells, band["centre"], band["width"], href)
+            entry["band_centre"] = band["centre"].tolist()
+            entry["band_width"] = band["width"].tolist()
+            entry["band_lo"] = band["lo"].tolist()
+            entry["band_hi"] = band["hi"].tolist()
             entry["band_coverage"] = float(inside[1:].mean())
+            entry["band_coverage_dirichlet"] = float(inside_dir[1:].mean())
+            entry["structural_needed"] = [x if math.isfinite(x) else None for x in need.tolist()]
             covered.append(inside[1:])
+            covered_dir.append(inside_dir[1:])
+            scores.append(need[1:])
+        entry["reference_sd"] = sd.tolist()
         if spread:
             t = time.perf_counter()
             half_scene = scene.with_settings(time_step_s=scene.settings.time_step_s / 2,
@@ -225,6 +321,16 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         "reference_noise_bits": float(np.concatenate(all_noise).mean()),
         "reference_noise_bits_max": float(np.concatenate(all_noise).max()),
         "band_coverage": float(np.concatenate(covered).mean()) if covered else None,
+        "band_coverage_ci95": (list(wilson_interval(int(np.concatenate(covered).sum()), len(np.concatenate(covered))))
+                               if covered else None),
+        "band_coverage_dirichlet": float(np.concatenate(covered_dir).mean()) if covered_dir else None,
+        "band_coverage_dirichlet_ci95": (list(wilson_interval(int(np.concatenate(covered_dir).sum()),
+                                                              len(np.concatenate(covered_dir))))
+                                         if covered_dir else None),
+        "band_steps": int(sum(len(c) for c in covered)),
+        "structural_delta": float(structural_delta),
+        "structural_delta_q90": (_finite_or_none(conformal_quantile(np.concatenate(scores), 0.9))
+                                 if scores else None),
         "band_draws": len(draws),
         "per_sequence": per_seq,
         "sequences": sequences, "trials": trials, "length": length, "seed": seed, "noise": noise,

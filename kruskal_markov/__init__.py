@@ -25,7 +25,9 @@ Expected length of random synchronizing sequences
     :func:`expected_sync_length`, :func:`exact_expected_length`, :func:`monte_carlo_sync_length`,
     :func:`pair_chain_bounds`, :func:`monte_carlo_entropy_tilts`, :func:`default_mc_steps`.
 Error bands
-    :func:`resample_model` (Dirichlet posterior of a built model's rows).
+    :func:`resample_model` (Dirichlet posterior of a built model's rows), :func:`entropy_range_tv`,
+    :func:`band_with_structure`, :func:`structural_score`, :func:`conformal_quantile`,
+    :data:`STRUCTURAL_DELTA` (the model's structural error, calibrated by split conformal prediction).
 """
 from kruskal_markov.lazy import lazy_exports
 
@@ -67,6 +69,12 @@ _EXPORTS = {
     "pair_chain_bounds": "convergence",
     "monte_carlo_entropy_tilts": "convergence",
     "resample_model": "posterior",
+    "STRUCTURAL_DELTA": "structural",
+    "entropy_range_tv": "structural",
+    "structural_share": "structural",
+    "band_with_structure": "structural",
+    "structural_score": "structural",
+    "conformal_quantile": "structural",
 }
 __all__ = sorted(_EXPORTS)
 

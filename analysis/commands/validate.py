@@ -8,6 +8,7 @@ spread (``analysis.validate``).
 from __future__ import annotations
 
 import argparse
+import math
 
 from analysis.commands import InputError
 from analysis.commands._common import add_contact, add_seed, check_positive, parse_contact_arg
@@ -23,6 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also re-simulate the reference at half the time step")
     add_contact(parser)
     parser.add_argument("--bands", type=int, default=40, help="posterior draws for the model's band (default 40)")
+    parser.add_argument("--structural-delta", type=float, default=None, metavar="D",
+                        help="relative structural error of the band: the share of the probability outside "
+                             "the most likely cell the model may have misplaced (default: the calibrated "
+                             "kruskal_markov.structural.STRUCTURAL_DELTA; 0: the Dirichlet band alone)")
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask distributed scheduler")
     parser.add_argument("--progress", action="store_true", help="progress bar on standard error")
@@ -37,10 +42,15 @@ def run(args: argparse.Namespace) -> dict:
     if args.trials < 2:
         raise InputError("--trials must be at least 2 (the reference's noise is a bootstrap)")
     contact = parse_contact_arg(args.contact)     # checked before any work
+    from kruskal_markov.structural import STRUCTURAL_DELTA
+    delta = STRUCTURAL_DELTA if args.structural_delta is None else args.structural_delta
+    if not (math.isfinite(delta) and delta >= 0):
+        raise InputError(f"--structural-delta must be a non-negative number, got {args.structural_delta}")
     model = TransitionModel.load(args.model)
     return validate_model(model, args.sequences, args.trials, args.seed, args.length, spread=args.spread,
                           bands=args.bands, workers=args.workers, scheduler=args.scheduler,
-                          progress=True if args.progress else None, contact=contact)
+                          progress=True if args.progress else None, contact=contact,
+                          structural_delta=delta)
 
 
 def format_text(result: dict) -> str:
@@ -57,7 +67,16 @@ def format_text(result: dict) -> str:
         lines.append(line)
     lines.append(f"all: mean {result['mean_abs_error_bits']:.3f}  max {result['max_abs_error_bits']:.3f}  "
                  f"steps > 0.25: {100 * result['share_steps_above_0_25']:.1f}%  reference noise "
-                 f"{result['reference_noise_bits']:.3f}  band coverage {result['band_coverage']}")
+                 f"{result['reference_noise_bits']:.3f}")
+    if result.get("band_coverage") is not None:
+        lo, hi = result["band_coverage_ci95"]
+        dlo, dhi = result["band_coverage_dirichlet_ci95"]
+        q = result["structural_delta_q90"]
+        lines.append(f"90% band (structural delta {result['structural_delta']:g}): covers "
+                     f"{100 * result['band_coverage']:.0f}% of {result['band_steps']} steps (95% CI {100 * lo:.0f}-"
+                     f"{100 * hi:.0f}%); Dirichlet band alone {100 * result['band_coverage_dirichlet']:.0f}% "
+                     f"({100 * dlo:.0f}-{100 * dhi:.0f}%); this run would calibrate delta = "
+                     + ("inf" if q is None else f"{q:.3f}"))
     if "simulation_spread_bits" in result:
         sp = result["simulation_spread_bits"]
         lines.append(f"simulator half-time-step spread: mean {sp['mean']:.3f}  max {sp['max']:.3f}")
