@@ -64,6 +64,11 @@ class PartMetrics:
         The convergence threshold (bits).
     seconds : float
         Time taken.
+    sync_target : str
+        The plan target of ``sync_word``.
+    intervals : dict or None
+        Each answer's ``value``, ``mc_ci95``, ``posterior_ci90``, ``structural_range`` and
+        ``model_ci90`` (:func:`kruskal_markov.answers.answer_intervals`).
     """
 
     states: int
@@ -88,6 +93,9 @@ class PartMetrics:
     seconds: float
     #: the plan target of ``sync_word`` (kruskal_markov.sync.targets): every start state to one model state
     sync_target: str = "state"
+    #: :func:`kruskal_markov.answers.answer_intervals` of the converging share, the mean entropies and
+    #: the random tilts (Monte Carlo and model intervals); None when not computed
+    intervals: dict | None = None
 
     def to_dict(self) -> dict:
         """Plain JSON-ready dictionary of the fields."""
@@ -103,7 +111,8 @@ class PartMetrics:
 
 def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, runs: int = 500,
                  epsilon: float = CONVERGED_BITS, max_tilts: int = 1000, sync_time_budget: float = 30.0,
-                 threads: int | None = None, sync_node_budget: int | None = None) -> PartMetrics:
+                 threads: int | None = None, sync_node_budget: int | None = None, draws: int = 10,
+                 structural_delta: float | None = None) -> PartMetrics:
     """Orientability metrics of the part a model describes.
 
     Parameters
@@ -127,6 +136,10 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     sync_node_budget : int, optional
         Subsets per direction of the exact search; when given it replaces ``sync_time_budget``, so
         the metrics do not depend on the machine's speed.
+    draws : int
+        Posterior draws of the answers' model intervals (0: none).
+    structural_delta : float, optional
+        Relative structural error of those intervals (None: the calibrated default).
 
     Returns
     -------
@@ -173,6 +186,13 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     tilts = monte_carlo_entropy_tilts(model, epsilon, runs=runs, seed=[seed, 5], max_steps=max_tilts)
     rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=[seed, 6], max_steps=max_tilts)
     h0 = float(entropy_trajectory(model, []).entropy_bits[0])
+    from kruskal_markov.answers import answer_intervals
+    from kruskal_markov.structural import STRUCTURAL_DELTA
+
+    intervals = answer_intervals(model, seed=seed, count=count, length=50, epsilon=epsilon, runs=runs,
+                                 max_steps=max_tilts, draws=draws, draw_count=min(count, 1000),
+                                 structural_delta=STRUCTURAL_DELTA if structural_delta is None else structural_delta,
+                                 structural_sequences=100, ensemble=ens, entropy_tilts=tilts, threads=threads)
     return PartMetrics(
         states=model.n_states,
         sync_word=None if sync.word is None else [model.actions[a] for a in sync.word],
@@ -185,7 +205,7 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
         random_tilts_lower=_num(tilts["lower"]), random_sync_lower=_num(rsync["lower"]),
         mean_entropy_10=float(ens.mean[10]), mean_entropy_50=float(ens.mean[50]),
         converging_share_50=ens.converged / count, initial_entropy=h0, epsilon=float(epsilon),
-        seconds=time.perf_counter() - t0)
+        seconds=time.perf_counter() - t0, intervals=intervals)
 
 
 def _num(x):

@@ -134,7 +134,7 @@ def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tup
     den = 1 + z * z / n
     mid = (p + z * z / (2 * n)) / den
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return max(0.0, mid - half), min(1.0, mid + half)
+    return min(p, max(0.0, mid - half)), max(p, min(1.0, mid + half))
 
 
 def _inside(x, lo, hi) -> np.ndarray:

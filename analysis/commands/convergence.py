@@ -12,8 +12,10 @@ import argparse
 
 from analysis.commands import InputError
 from analysis.commands._common import (
+    add_interval_options,
     add_model_source,
     add_seed,
+    interval_settings,
     load_model_source,
     parse_weights,
     positive_float,
@@ -48,6 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the pair-chain bounds within all of it (default 2048)")
     parser.add_argument("--epsilon", type=float, default=None,
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
+    add_interval_options(parser)
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -90,6 +93,12 @@ def run(args: argparse.Namespace) -> dict:
         out["entropy_tilts"] = monte_carlo_entropy_tilts(model, args.epsilon, w, runs=min(args.runs, 1000),
                                                          seed=args.seed, max_steps=min(res["mc_max_steps"], 2000))
         out["epsilon"] = args.epsilon
+        from kruskal_markov.answers import answer_intervals
+        ans = answer_intervals(model, seed=args.seed, count=min(args.runs, 2000), length=50, epsilon=args.epsilon,
+                               runs=min(args.runs, 1000), max_steps=min(res["mc_max_steps"], 2000), weights=w,
+                               entropy_tilts=out["entropy_tilts"], **interval_settings(args))
+        out["entropy_tilts"]["intervals"] = ans["random_tilts"]
+        out["intervals"] = {"random_tilts": ans["random_tilts"], "settings": ans["settings"]}
     return out
 
 

@@ -8,7 +8,15 @@ from __future__ import annotations
 
 import argparse
 
-from analysis.commands._common import add_model_source, add_seed, check_positive, load_model_source, parse_weights
+from analysis.commands._common import (
+    add_interval_options,
+    add_model_source,
+    add_seed,
+    check_positive,
+    interval_settings,
+    load_model_source,
+    parse_weights,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="action probabilities (up to a factor): comma-separated in action order or "
                              "NAME=W pairs (default uniform)")
     parser.add_argument("--threads", type=int, default=None, help="Numba threads (default: all cores)")
+    add_interval_options(parser)
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -36,6 +45,9 @@ def run(args: argparse.Namespace) -> dict:
     res = run_ensemble(model, args.count, args.length, seed=args.seed, epsilon=args.epsilon,
                        weights=weights, threads=args.threads)
     steps = [None if s < 0 else int(s) for s in res.convergence_steps.tolist()]
+    from kruskal_markov.answers import answer_intervals
+    intervals = answer_intervals(model, seed=args.seed, count=args.count, length=args.length, epsilon=args.epsilon,
+                                 weights=weights, ensemble=res, threads=args.threads, **interval_settings(args))
     from kruskal_markov.structure import analyze_structure
 
     structure = analyze_structure(model)
@@ -57,7 +69,20 @@ def run(args: argparse.Namespace) -> dict:
         "zero_entropy_excluded": (structure.zero_cell_entropy_excluded if model.partition is not None
                                   else structure.zero_entropy_excluded),
         "structure": structure.message,
+        "intervals": intervals,
     }
+
+
+def format_intervals(intervals: dict) -> list[str]:
+    """One line per answer: the value, its Monte Carlo interval and its model interval."""
+    def rng(x):
+        return "-" if x is None or None in x else f"[{x[0]:.4g}, {x[1]:.4g}]"
+    out = ["answer                 value     MC 95%                model 90% (posterior + structure)"]
+    for k, v in intervals.items():
+        if k == "settings" or v.get("value") is None:
+            continue
+        out.append(f"{k:20s}  {v['value']:8.4g}  {rng(v['mc_ci95']):20s}  {rng(v['model_ci90'])}")
+    return out
 
 
 def format_text(result: dict) -> str:
@@ -69,6 +94,7 @@ def format_text(result: dict) -> str:
         lines.append(f"{t:4d}  {m:8.4f}  {a:8.4f}  {b:8.4f}")
     lines.append(f"converged (entropy <= {result['epsilon']:g}): {result['converged']} of {result['count']}")
     lines.append(f"best sequence: {','.join(result['best_sequence'])}")
+    lines += format_intervals(result["intervals"])
     lines.append(f"structure: {result['structure']}")
     lines.append(f"seconds: {result['seconds']:.2f}")
     return "\n".join(lines)

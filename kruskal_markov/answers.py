@@ -1,0 +1,265 @@
+"""The paper-level answers of a model, each with a Monte Carlo and a model-uncertainty interval.
+
+The answers: the converging share of random ``length``-tilt sequences (entropy <= epsilon at some
+tilt), the mean entropy at tilts 10, 20 and 50, and the expected random tilts until the entropy is
+<= epsilon. Each comes with
+
+* ``mc_ci95`` — the Monte Carlo interval of its estimate from finitely many random sequences
+  (Wilson for the share, ``1.96 sd / sqrt(n)`` for means);
+* ``posterior_ci90`` — the 5-95% spread of the answer over draws from the Dirichlet posterior of
+  the model's rows (:func:`kruskal_markov.posterior.resample_model`), each draw run on the same
+  random sequences as the model (common random numbers, so the spread is the model's, not the
+  sequences'); widened, where needed, to contain the point estimate;
+* ``structural_range`` — the answer's range when every step's report-cell distribution may lie
+  anywhere within the structural total-variation ball of :mod:`kruskal_markov.structural`
+  (smallest and largest entropy at each step, on a subsample of sequences, applied as a shift to
+  the point estimate);
+* ``model_ci90`` — the two model terms added end to end: ``posterior_ci90`` widened by the
+  structural range.
+
+The structural ball scales with the probability outside the most likely cell, so a converged
+distribution stays converged: the structural range of the converging share and of the expected
+tilts measures only how the ball moves the entropy across ``epsilon`` on the way.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from kruskal_markov.structural import STRUCTURAL_DELTA, entropy_range_tv, structural_share
+
+__all__ = ["answer_intervals", "plan_success_interval"]
+
+_ENTROPY_TILTS = (10, 20, 50)
+_STREAM_POSTERIOR = 7
+_STREAM_STRUCTURAL = 8
+
+
+def _wilson(k: int, n: int) -> list[float]:
+    z = 1.959963984540054
+    p = k / n
+    den = 1 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return [min(p, max(0.0, mid - half)), max(p, min(1.0, mid + half))]
+
+
+def _entropy(p: np.ndarray) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(p > 0, -p * np.log2(np.where(p > 0, p, 1.0)), 0.0)
+    return np.maximum(t.sum(-1), 0.0)
+
+
+def _cell_curves(model, sequences, delta: float):
+    """Per sequence and step: the entropy and the structural ball's smallest and largest entropy."""
+    from kruskal_markov.entropy import entropy_trajectory
+
+    ncells = int(model.n_cells) if model.partition is not None else model.n_states
+    part = np.asarray(model.partition) if model.partition is not None else np.arange(model.n_states)
+    cells = []
+    for seq in sequences:
+        tr = entropy_trajectory(model, seq, return_distributions=True)
+        cells.append(np.stack([np.bincount(part, weights=p, minlength=ncells) for p in tr.distributions]))
+    c = np.stack(cells)                                   # (sequences, steps + 1, cells)
+    flat = c.reshape(-1, c.shape[-1])
+    flat = flat / flat.sum(1, keepdims=True)
+    h = _entropy(flat)
+    hmin, hmax = entropy_range_tv(flat, delta * structural_share(flat)) if delta > 0 else (h, h)
+    shape = c.shape[:2]
+    return h.reshape(shape), np.minimum(hmin, h).reshape(shape), np.maximum(hmax, h).reshape(shape)
+
+
+def _first_hit(h: np.ndarray, epsilon: float) -> np.ndarray:
+    hit = h <= epsilon
+    first = np.argmax(hit, axis=1).astype(np.float64)
+    first[~hit.any(axis=1)] = np.nan
+    return first
+
+
+def _combine(value, mc, post, struct) -> dict:
+    lo_p, hi_p = post if post is not None else (value, value)
+    lo_s, hi_s = struct
+    value = float(value)
+    out = {"value": value, "mc_ci95": None if mc is None else [None if x is None else float(x) for x in mc],
+           "posterior_ci90": None if post is None else [float(min(lo_p, value)), float(max(hi_p, value))],
+           "structural_range": [float(min(lo_s, value)), float(max(hi_s, value))]}
+    out["model_ci90"] = [float(min(lo_p, value) - (value - out["structural_range"][0])),
+                         float(max(hi_p, value) + (out["structural_range"][1] - value))]
+    return out
+
+
+def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsilon: float = 1e-3,
+                     runs: int = 0, max_steps: int = 1000, draws: int = 20, draw_count: int = 2000,
+                     structural_delta: float = STRUCTURAL_DELTA, structural_sequences: int = 200,
+                     weights=None, ensemble=None, entropy_tilts=None, threads=None) -> dict:
+    """The converging share, mean entropies and expected random tilts, each with its intervals.
+
+    Parameters
+    ----------
+    model : TransitionModel
+        The model (a report partition: entropy on cells; otherwise on states).
+    seed : int or sequence of int
+        Seeds the random sequences (the ensemble: ``seed``, as :func:`run_ensemble`).
+    count, length : int
+        Random sequences of the ensemble and their length.
+    epsilon : float
+        Convergence threshold in bits.
+    runs : int
+        Monte Carlo runs of the expected random tilts (0: not computed).
+    max_steps : int
+        Censoring length of those runs.
+    draws : int
+        Posterior draws (0, or a model without counts: no ``posterior_ci90``).
+    draw_count : int
+        Sequences each draw is run on (and at most 200 Monte Carlo runs).
+    structural_delta : float
+        Relative structural error (0: empty structural ranges).
+    structural_sequences : int
+        Sequences of the structural subsample (they also give the mean entropies' Monte Carlo sd).
+    weights : array_like, optional
+        Action probabilities (default uniform).
+    ensemble : EnsembleResult, optional
+        The model's ensemble for these settings, if already run.
+    entropy_tilts : dict, optional
+        :func:`monte_carlo_entropy_tilts` of the model for these settings, if already run.
+    threads : int, optional
+        Numba threads.
+
+    Returns
+    -------
+    dict
+        ``converging_share``, ``mean_entropy_<t>`` for t in 10, 20, 50 up to ``length`` and, with
+        ``runs``, ``random_tilts``: each a dict of ``value``, ``mc_ci95``, ``posterior_ci90``,
+        ``structural_range`` and ``model_ci90``; and ``settings``.
+    """
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts
+    from kruskal_markov.ensemble import random_sequences, run_ensemble
+    from kruskal_markov.posterior import has_counts, resample_model
+
+    for name, v in (("count", count), ("length", length), ("structural_sequences", structural_sequences)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    if not (math.isfinite(structural_delta) and structural_delta >= 0):
+        raise ValueError(f"structural_delta must be a non-negative number, got {structural_delta!r}")
+    tilts = [t for t in _ENTROPY_TILTS if t <= length]
+    ens = ensemble if ensemble is not None else run_ensemble(model, count, length, seed=seed, epsilon=epsilon,
+                                                              weights=weights, threads=threads)
+
+    def answers(m, n, tilts_runs):
+        e = run_ensemble(m, n, length, seed=seed, epsilon=epsilon, weights=weights, threads=threads)
+        out = {"converging_share": e.converged / n, **{f"mean_entropy_{t}": float(e.mean[t]) for t in tilts}}
+        if tilts_runs:
+            r = monte_carlo_entropy_tilts(m, epsilon, weights, runs=tilts_runs, seed=[seed, 5] if np.isscalar(seed)
+                                          else [*seed, 5], max_steps=max_steps)
+            out["random_tilts"] = r["mean"] if r["mean"] is not None else r["lower"]
+        return out
+
+    point = {"converging_share": ens.converged / count, **{f"mean_entropy_{t}": float(ens.mean[t]) for t in tilts}}
+    if runs:
+        et = entropy_tilts if entropy_tilts is not None else monte_carlo_entropy_tilts(
+            model, epsilon, weights, runs=runs, seed=[seed, 5] if np.isscalar(seed) else [*seed, 5],
+            max_steps=max_steps)
+        point["random_tilts"] = et["mean"] if et["mean"] is not None else et["lower"]
+    # posterior: each draw against the model on the same sequences and runs
+    post = {k: None for k in point}
+    if draws and has_counts(model):
+        n = min(count, draw_count)
+        r = min(runs, 200)
+        base = answers(model, n, r)
+        diffs = {k: [] for k in point}
+        for i in range(draws):
+            d = answers(resample_model(model, np.random.default_rng([int(np.sum(seed)), _STREAM_POSTERIOR, i])), n, r)
+            for k in point:
+                if d.get(k) is not None and base.get(k) is not None:
+                    diffs[k].append(d[k] - base[k])
+        for k, v in diffs.items():
+            if v and point[k] is not None:
+                q = np.quantile(v, [0.05, 0.95])
+                post[k] = [point[k] + float(q[0]), point[k] + float(q[1])]
+    # structural: the ball's extremes on a subsample of sequences
+    cap = max(length, max_steps if runs else 0)
+    cap = min(cap, 400)
+    seqs = random_sequences(model.n_actions, structural_sequences, cap,
+                            seed=[int(np.sum(seed)), _STREAM_STRUCTURAL], weights=weights)
+    h, hmin, hmax = _cell_curves(model, seqs, structural_delta)
+    out = {}
+    conv = lambda a: (a[:, :length + 1] <= epsilon).any(1).mean()          # noqa: E731
+    share = point["converging_share"]
+    out["converging_share"] = _combine(
+        share, _wilson(ens.converged, count), post["converging_share"],
+        (max(0.0, share + conv(hmax) - conv(h)), min(1.0, share + conv(hmin) - conv(h))))
+    for t in tilts:
+        k = f"mean_entropy_{t}"
+        v = point[k]
+        sd = float(h[:, t].std(ddof=1)) if len(h) > 1 else 0.0
+        half = 1.96 * sd / math.sqrt(count)
+        out[k] = _combine(v, [v - half, v + half], post[k],
+                          (max(0.0, v + float(np.mean(hmin[:, t] - h[:, t]))), v + float(np.mean(hmax[:, t] - h[:, t]))))
+    if runs:
+        v = point["random_tilts"]
+        t0, t_lo, t_hi = _first_hit(h, epsilon), _first_hit(hmin, epsilon), _first_hit(hmax, epsilon)
+        fill = lambda a: np.where(np.isnan(a), cap, a)                     # noqa: E731
+        mc = et["ci95"] if et["mean"] is not None else [None, None]
+        if v is None:
+            out["random_tilts"] = {"value": None, "mc_ci95": mc, "posterior_ci90": None,
+                                   "structural_range": None, "model_ci90": None}
+        else:
+            out["random_tilts"] = _combine(v, mc, post["random_tilts"],
+                                           (max(0.0, v + float(np.mean(fill(t_lo) - fill(t0)))),
+                                            v + float(np.mean(fill(t_hi) - fill(t0)))))
+            out["random_tilts"]["censored"] = int(et["censored"])
+    out["settings"] = {"count": count, "length": length, "epsilon": epsilon, "runs": runs, "draws":
+                       draws if has_counts(model) else 0, "draw_count": min(count, draw_count),
+                       "structural_delta": structural_delta, "structural_sequences": structural_sequences}
+    return out
+
+
+def plan_success_interval(model, word, success: float, draws: int = 20, seed=0,
+                          structural_delta: float = STRUCTURAL_DELTA, final_cell: int | None = None) -> dict:
+    """A plan's success probability with its posterior and structural intervals.
+
+    Parameters
+    ----------
+    model : TransitionModel
+    word : sequence of int
+        The plan (action indices).
+    success : float
+        Its success probability in the model (the probability in ``final_cell`` after the word).
+    draws : int
+        Posterior draws (none without counts).
+    seed : int
+    structural_delta : float
+    final_cell : int, optional
+        The target cell (default: the most likely cell after the word).
+
+    Returns
+    -------
+    dict
+        ``value``, ``posterior_ci90`` (or None), ``structural_range`` (the final distribution's
+        probability outside its most likely cell, times ``structural_delta``, either way) and
+        ``model_ci90``; probabilities clipped to [0, 1].
+    """
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.posterior import has_counts, resample_model
+
+    part = np.asarray(model.partition) if model.partition is not None else np.arange(model.n_states)
+    ncells = int(model.n_cells) if model.partition is not None else model.n_states
+
+    def final(m):
+        p = entropy_trajectory(m, list(word), return_distributions=True).distributions[-1]
+        return np.bincount(part, weights=p, minlength=ncells)
+
+    c = final(model)
+    cell = int(np.argmax(c)) if final_cell is None else int(final_cell)
+    post = None
+    if draws and has_counts(model):
+        vals = [final(resample_model(model, np.random.default_rng([int(seed), _STREAM_POSTERIOR, i])))[cell]
+                for i in range(draws)]
+        q = np.quantile(np.asarray(vals) - c[cell], [0.05, 0.95])
+        post = [max(0.0, success + float(q[0])), min(1.0, success + float(q[1]))]
+    share = float(structural_share(c / c.sum())[0])
+    s = structural_delta * share
+    out = _combine(float(success), None, post, (max(0.0, success - s), min(1.0, success + s)))
+    out["model_ci90"] = [max(0.0, out["model_ci90"][0]), min(1.0, out["model_ci90"][1])]
+    return out
