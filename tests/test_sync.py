@@ -39,10 +39,13 @@ def plain_union_image(supports, states, word):
     return cur
 
 
-def brute_shortest(step, k, start):
-    """Plain BFS over frozensets; step(set, a) -> frozenset. Returns the length or None."""
-    s = frozenset(int(x) for x in start)
-    if len(s) == 1:
+def brute_shortest(step, k, start, single=None):
+    """Plain BFS over sets of states; step(set, a) -> set. Returns the length or None. The sets are
+    frozensets (``start``: the states), or whatever ``step`` maps (``start``: one such set, and
+    ``single(set)`` says whether it holds one state)."""
+    s = frozenset(int(x) for x in start) if single is None else start
+    single = single or (lambda x: len(x) == 1)
+    if single(s):
         return 0
     seen = {s}
     queue = deque([(s, 0)])
@@ -50,7 +53,7 @@ def brute_shortest(step, k, start):
         x, d = queue.popleft()
         for a in range(k):
             y = step(x, a)
-            if len(y) == 1:
+            if single(y):
                 return d + 1
             if y not in seen:
                 seen.add(y)
@@ -133,7 +136,7 @@ def test_random_small_automata_match_brute_force():
 
 
 def brute_bitmask(table, start=None):
-    """Plain BFS with subsets as Python ints; images via per-letter, per-byte lookup tables."""
+    """BFS with subsets as Python ints; images via per-letter, per-byte lookup tables."""
     table = np.asarray(table)
     k, n = table.shape
     nb = (n + 7) // 8
@@ -145,25 +148,17 @@ def brute_bitmask(table, start=None):
                 low = v & -v
                 q = b * 8 + low.bit_length() - 1
                 t[v] = t[v ^ low] | ((1 << int(table[a][q])) if q < n else 0)
+
+    def step(x, a):
+        ta, y, b = tabs[a], 0, 0
+        while x:
+            y |= ta[b][x & 255]
+            x >>= 8
+            b += 1
+        return y
+
     s = sum(1 << int(q) for q in (range(n) if start is None else start))
-    if s & (s - 1) == 0:
-        return 0
-    seen = {s}
-    queue = deque([(s, 0)])
-    while queue:
-        x, d = queue.popleft()
-        for a in range(k):
-            ta, y, b, xx = tabs[a], 0, 0, x
-            while xx:
-                y |= ta[b][xx & 255]
-                xx >>= 8
-                b += 1
-            if y & (y - 1) == 0:
-                return d + 1
-            if y not in seen:
-                seen.add(y)
-                queue.append((y, d + 1))
-    return None
+    return brute_shortest(step, k, s, single=lambda y: y & (y - 1) == 0)
 
 
 def test_bitmask_brute_agrees_with_frozenset_brute():
