@@ -32,7 +32,7 @@ def _fields_from_options(cls):
     cls.__annotations__ = {o.name: o.annotation for o in BUILD_OPTIONS}
     for o in BUILD_OPTIONS:
         setattr(cls, o.name, o.default)
-    cls.__doc__ = (cls.__doc__.rstrip() + "\n\n    Attributes\n    ----------\n"
+    cls.__doc__ = ((cls.__doc__ or "").rstrip() + "\n\n    Attributes\n    ----------\n"
                    + "\n".join(o.attribute_doc() for o in BUILD_OPTIONS) + "\n    ")
     return dataclass(frozen=True)(cls)
 
