@@ -8,13 +8,15 @@ one-line error are the same everywhere::
 
 Both return the value converted (``int`` / ``float``), raise ``ValueError`` (or ``error``), and
 refuse ``bool`` (a ``True`` is not a count) and, for numbers, NaN and the infinities.
+:func:`check_fields` checks the keys of a settings table read from a file.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 
-__all__ = ["check_int", "check_number", "is_int", "is_number"]
+__all__ = ["check_int", "check_number", "check_fields", "is_int", "is_number"]
 
 
 def is_int(value) -> bool:
@@ -118,3 +120,40 @@ def check_number(value, name: str, *, lo: float | None = None, hi: float | None 
     if not ok:
         raise error(f"{name} must be {_describe('number', lo, hi, lo_open, hi_open)}, got {value!r}")
     return float(value)
+
+
+def check_fields(data, cls, what: str) -> dict:
+    """``data`` if it is a dict whose keys are all fields of the dataclass ``cls``.
+
+    Parameters
+    ----------
+    data : object
+        What was read (e.g. the ``sim`` table of a scene file).
+    cls : type
+        A dataclass.
+    what : str
+        How the message names one key (``"sim setting"``).
+
+    Returns
+    -------
+    dict
+        ``data`` itself.
+
+    Examples
+    --------
+    >>> from dataclasses import dataclass
+    >>> @dataclass
+    ... class Point:
+    ...     x: float = 0.0
+    >>> check_fields({"y": 1}, Point, "point setting")
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown point setting(s) y; known: x
+    """
+    if not isinstance(data, dict):
+        raise ValueError(f"{what}s must be a table/object, got {type(data).__name__}")
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ValueError(f"unknown {what}(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    return data

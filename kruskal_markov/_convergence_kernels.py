@@ -197,17 +197,21 @@ def pair_images(delta, pairs, local):
     return out
 
 
+@njit(cache=True, inline="always")
+def _pair_gather(img, w, x, i, s):
+    """``s + sum_a w_a x[image of pair i under a]`` (merged images contribute 0), summed in order."""
+    for a in range(img.shape[1]):
+        j = img[i, a]
+        if j >= 0:
+            s += w[a] * x[j]
+    return s
+
+
 @njit(cache=True)
 def pair_value_step(img, w, h, out):
     """``out = 1 + Q h`` on the pair chain (merged pairs contribute 0)."""
-    R, k = img.shape
-    for i in range(R):
-        s = 1.0
-        for a in range(k):
-            j = img[i, a]
-            if j >= 0:
-                s += w[a] * h[j]
-        out[i] = s
+    for i in range(img.shape[0]):
+        out[i] = _pair_gather(img, w, h, i, 1.0)
 
 
 @njit(cache=True)
@@ -275,14 +279,9 @@ def start_pair_stats(delta, start_pairs, local, w, h, v1):
 def pair_survival_step(img, w, u, out, v1):
     """``out = Q u`` (gather form: ``out[i] = sum_a w_a u[image of i under a]``, merged = 0);
     returns ``v1 . out``. Independent outputs, so ``prange`` is safe."""
-    R, k = img.shape
     tot = 0.0
-    for i in prange(R):
-        s = 0.0
-        for a in range(k):
-            j = img[i, a]
-            if j >= 0:
-                s += w[a] * u[j]
+    for i in prange(img.shape[0]):
+        s = _pair_gather(img, w, u, i, 0.0)
         out[i] = s
         tot += v1[i] * s
     return tot

@@ -101,7 +101,9 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
     n = delta.shape[1]
     W = store.shape[1]
     cnt = np.zeros(n, dtype=np.int64)
+    elems = np.empty(n, dtype=np.int64)
     for i in range(lo, hi):
+        m = _members(store, i, elems)
         for a in range(k):
             if count >= max_count:
                 return -1
@@ -109,40 +111,28 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
                 store[count, w] = _ZERO
             empty = True
             if forward:
-                for w in range(W):
-                    x = store[i, w]
-                    while x != _ZERO:
-                        b = _ctz(x)
-                        x &= x - _ONE
-                        q = w * 64 + b
-                        if det:
-                            r = delta[a, q]
-                            store[count, r >> 6] |= _ONE << np.uint64(r & 63)
-                        else:
-                            for v in range(W):
-                                store[count, v] |= sup[a, q, v]
+                for t in range(m):
+                    q = elems[t]
+                    if det:
+                        r = delta[a, q]
+                        store[count, r >> 6] |= _ONE << np.uint64(r & 63)
+                    else:
+                        for v in range(W):
+                            store[count, v] |= sup[a, q, v]
                 empty = False
             else:
-                for w in range(W):
-                    x = store[i, w]
-                    while x != _ZERO:
-                        b = _ctz(x)
-                        x &= x - _ONE
-                        r = w * 64 + b
-                        for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                            q = inv_idx[e]
-                            cnt[q] += 1
-                            if cnt[q] == supcount[a, q]:
-                                store[count, q >> 6] |= _ONE << np.uint64(q & 63)
-                                empty = False
-                for w in range(W):          # reset the counters touched above
-                    x = store[i, w]
-                    while x != _ZERO:
-                        b = _ctz(x)
-                        x &= x - _ONE
-                        r = w * 64 + b
-                        for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                            cnt[inv_idx[e]] = 0
+                for t in range(m):
+                    r = elems[t]
+                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                        q = inv_idx[e]
+                        cnt[q] += 1
+                        if cnt[q] == supcount[a, q]:
+                            store[count, q >> 6] |= _ONE << np.uint64(q & 63)
+                            empty = False
+                for t in range(m):          # reset the counters touched above
+                    r = elems[t]
+                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                        cnt[inv_idx[e]] = 0
             if empty:
                 continue
             if _insert_last(store, count, table):
@@ -153,23 +143,31 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
 
 
 @njit(cache=True, inline="always")
-def _elems_by_freq(rows, i, freq, elems):
-    """The states of row ``i`` into ``elems[:m]``, rarest first (insertion sort by ``freq``: rare
-    states first make the AND over their inverted-index rows vanish sooner); returns ``m``."""
-    W = rows.shape[1]
+def _members(rows, i, elems):
+    """The states of bitset row ``i`` into ``elems[:m]``, in increasing order; returns ``m``."""
     m = 0
-    for w in range(W):
+    for w in range(rows.shape[1]):
         x = rows[i, w]
         while x != _ZERO:
             b = _ctz(x)
             x &= x - _ONE
-            e = w * 64 + b
-            t = m
-            while t > 0 and freq[elems[t - 1]] > freq[e]:
-                elems[t] = elems[t - 1]
-                t -= 1
-            elems[t] = e
+            elems[m] = w * 64 + b
             m += 1
+    return m
+
+
+@njit(cache=True, inline="always")
+def _elems_by_freq(rows, i, freq, elems):
+    """The states of row ``i`` into ``elems[:m]``, rarest first (insertion sort by ``freq``: rare
+    states first make the AND over their inverted-index rows vanish sooner); returns ``m``."""
+    m = _members(rows, i, elems)
+    for u in range(1, m):
+        e = elems[u]
+        t = u
+        while t > 0 and freq[elems[t - 1]] > freq[e]:
+            elems[t] = elems[t - 1]
+            t -= 1
+        elems[t] = e
     return m
 
 
@@ -230,19 +228,14 @@ _meet_query_seq = njit(cache=True)(_meet_query_py)
 
 @njit(cache=True)
 def _meet_index(bstore, blo, order, start, stop, inv, freq):
-    W = bstore.shape[1]
     inv[:, :] = _ZERO
     freq[:] = 0
+    elems = np.empty(freq.shape[0], dtype=np.int64)
     for jj in range(stop - start):
-        j = blo + order[start + jj]
         bit = _ONE << np.uint64(jj & 63)
-        for w in range(W):
-            x = bstore[j, w]
-            while x != _ZERO:
-                b = _ctz(x)
-                x &= x - _ONE
-                inv[w * 64 + b, jj >> 6] |= bit
-                freq[w * 64 + b] += 1
+        for t in range(_members(bstore, blo + order[start + jj], elems)):
+            inv[elems[t], jj >> 6] |= bit
+            freq[elems[t]] += 1
 
 
 @njit(cache=True)
@@ -288,25 +281,22 @@ def meet(fstore, flo, fhi, bstore, blo, bhi, n, block, chunk=256, parallel=None)
 def apply_word(bits, word, delta, sup, det):
     """Image of the bitset ``bits`` under ``word`` (returns a new bitset)."""
     W = bits.shape[0]
-    cur = bits.copy()
+    cur = bits.copy().reshape(1, W)
     nxt = np.zeros(W, dtype=np.uint64)
+    elems = np.empty(W * 64, dtype=np.int64)
     for t in range(word.shape[0]):
         a = word[t]
         nxt[:] = _ZERO
-        for w in range(W):
-            x = cur[w]
-            while x != _ZERO:
-                b = _ctz(x)
-                x &= x - _ONE
-                q = w * 64 + b
-                if det:
-                    r = delta[a, q]
-                    nxt[r >> 6] |= _ONE << np.uint64(r & 63)
-                else:
-                    for v in range(W):
-                        nxt[v] |= sup[a, q, v]
-        cur[:] = nxt
-    return cur
+        for u in range(_members(cur, 0, elems)):
+            q = elems[u]
+            if det:
+                r = delta[a, q]
+                nxt[r >> 6] |= _ONE << np.uint64(r & 63)
+            else:
+                for v in range(W):
+                    nxt[v] |= sup[a, q, v]
+        cur[0, :] = nxt
+    return cur[0].copy()
 
 
 # ----------------------------------------------------------------------------- pair graph
@@ -319,23 +309,14 @@ def pair_index(p, q, n):
 
 
 @njit(cache=True)
-def pair_merge_distance(indptr, indices, n):
-    """Shortest merging length of every pair (``-1`` if no word merges it) by inverse BFS.
-
-    Edges: pair {p,q} --a--> {p',q'} for p' in supp(p,a), q' in supp(q,a) (for deterministic
-    automata exactly the pair automaton). A pair is merged in one step if some choice gives p'=q'.
-    Returns ``(dist, nxt_letter)`` over pair indices (``pair_index``), ``nxt_letter`` being the first
-    letter of a shortest merging word.
-    """
-    k = indptr.shape[0]
-    P = n * (n - 1) // 2
-    dist = np.full(P, -1, dtype=np.int64)
-    nxt = np.full(P, -1, dtype=np.int32)
-    # reverse adjacency in CSR: count in-degrees first
-    indeg = np.zeros(P + 1, dtype=np.int64)
-    queue = np.empty(P, dtype=np.int64)
+def _pair_edges(indptr, indices, n, counting, indeg, dist, nxt, queue, fill, radj, rlet):
+    """Walk the pair graph's edges {p,q} --a--> {p',q'} in a fixed order (action, p < q, then
+    their successors). ``counting``: count each edge into an unmerged pair in ``indeg[target + 1]``
+    and queue every pair that some letter merges (``dist`` 1, ``nxt`` that letter), returning the
+    queue's length; otherwise write each edge's source and letter at ``fill[target]`` of
+    ``radj`` / ``rlet`` (the reverse adjacency), returning 0."""
     qlen = 0
-    for a in range(k):
+    for a in range(indptr.shape[0]):
         for p in range(n):
             for q in range(p + 1, n):
                 src = pair_index(p, q, n)
@@ -344,31 +325,45 @@ def pair_merge_distance(indptr, indices, n):
                         pp = indices[s]
                         qq = indices[t]
                         if pp == qq:
-                            if dist[src] == -1:
+                            if counting and dist[src] == -1:
                                 dist[src] = 1
                                 nxt[src] = a
                                 queue[qlen] = src
                                 qlen += 1
-                        else:
+                        elif counting:
                             indeg[pair_index(pp, qq, n) + 1] += 1
+                        else:
+                            d = pair_index(pp, qq, n)
+                            radj[fill[d]] = src
+                            rlet[fill[d]] = a
+                            fill[d] += 1
+    return qlen
+
+
+@njit(cache=True)
+def pair_merge_distance(indptr, indices, n):
+    """Shortest merging length of every pair (``-1`` if no word merges it) by inverse BFS.
+
+    Edges: pair {p,q} --a--> {p',q'} for p' in supp(p,a), q' in supp(q,a) (for deterministic
+    automata exactly the pair automaton). A pair is merged in one step if some choice gives p'=q'.
+    Returns ``(dist, nxt_letter)`` over pair indices (``pair_index``), ``nxt_letter`` being the first
+    letter of a shortest merging word.
+    """
+    P = n * (n - 1) // 2
+    dist = np.full(P, -1, dtype=np.int64)
+    nxt = np.full(P, -1, dtype=np.int32)
+    queue = np.empty(P, dtype=np.int64)
+    # reverse adjacency in CSR: count in-degrees (and queue the pairs merged in one step) first
+    indeg = np.zeros(P + 1, dtype=np.int64)
+    radj = np.empty(0, dtype=np.int64)
+    rlet = np.empty(0, dtype=np.int32)
+    qlen = _pair_edges(indptr, indices, n, True, indeg, dist, nxt, queue, indeg, radj, rlet)
     for i in range(P):
         indeg[i + 1] += indeg[i]
     fill = indeg[:P].copy()
     radj = np.empty(indeg[P], dtype=np.int64)
     rlet = np.empty(indeg[P], dtype=np.int32)
-    for a in range(k):
-        for p in range(n):
-            for q in range(p + 1, n):
-                src = pair_index(p, q, n)
-                for s in range(indptr[a, p], indptr[a, p + 1]):
-                    for t in range(indptr[a, q], indptr[a, q + 1]):
-                        pp = indices[s]
-                        qq = indices[t]
-                        if pp != qq:
-                            d = pair_index(pp, qq, n)
-                            radj[fill[d]] = src
-                            rlet[fill[d]] = a
-                            fill[d] += 1
+    _pair_edges(indptr, indices, n, False, indeg, dist, nxt, queue, fill, radj, rlet)
     head = 0
     while head < qlen:
         cur = queue[head]
@@ -442,17 +437,9 @@ def max_pair_distance_rows(rows, dist, n, out):
     """``out[i]``: the largest pair-merging distance among the states of bitset row ``i`` (``-1`` if
     some pair never merges; 0 for a single state): a lower bound on the length of every word
     that synchronizes the set (each pair must merge)."""
-    W = rows.shape[1]
     elems = np.empty(n, dtype=np.int64)
     for i in range(rows.shape[0]):
-        m = 0
-        for w in range(W):
-            x = rows[i, w]
-            while x != _ZERO:
-                b = _ctz(x)
-                x &= x - _ONE
-                elems[m] = w * 64 + b
-                m += 1
+        m = _members(rows, i, elems)
         best = 0
         for s in range(m):
             if best < 0:

@@ -208,48 +208,44 @@ def test_load_rejects_missing_corrupt_and_foreign(tmp_path, small_model):
         TransitionModel.load(truncated)
 
 
-def test_load_rejects_tampered_arrays(tmp_path, small_model):
+def _saved_arrays(model, tmp_path):
+    """The arrays of ``model`` as saved (to tamper with), and the path :func:`_refused` writes to."""
     good = tmp_path / "good.npz"
-    small_model.save(good)
+    model.save(good)
     with np.load(good) as z:
-        arrays = {k: z[k] for k in z.files}
-    arrays["data_1"] = arrays["data_1"] * 2
-    bad = tmp_path / "bad.npz"
+        return {k: z[k] for k in z.files}, tmp_path / "bad.npz"
+
+
+def _refused(bad, arrays, match):
+    """``arrays`` written to ``bad`` do not load: a ModelError matching ``match``."""
     np.savez(bad, **arrays)
-    with pytest.raises(ModelError, match=r"bad.npz: invalid model: action 'b': row \d+ sums to 2"):
+    with pytest.raises(ModelError, match=match):
         TransitionModel.load(bad)
-    arrays = {k: v for k, v in arrays.items()}
+
+
+def test_load_rejects_tampered_arrays(tmp_path, small_model):
+    arrays, bad = _saved_arrays(small_model, tmp_path)
+    arrays["data_1"] = arrays["data_1"] * 2
+    _refused(bad, arrays, r"bad.npz: invalid model: action 'b': row \d+ sums to 2")
     arrays["data_1"] = arrays["data_1"] / 2
     arrays["indices_0"] = arrays["indices_0"] + 100
-    np.savez(bad, **arrays)
-    with pytest.raises(ModelError, match="corrupt sparse arrays for action 'a'"):
-        TransitionModel.load(bad)
+    _refused(bad, arrays, "corrupt sparse arrays for action 'a'")
     arrays["indices_0"] = arrays["indices_0"] - 100
     arrays["header"] = np.frombuffer(b"\xff\xfe", dtype=np.uint8)
-    np.savez(bad, **arrays)
-    with pytest.raises(ModelError, match="unreadable header"):
-        TransitionModel.load(bad)
+    _refused(bad, arrays, "unreadable header")
 
 
 def test_a_file_cannot_switch_off_its_own_validation(tmp_path, small_model):
     """A header asking for tolerance 10 does not make rows summing to 5 acceptable."""
-    good = tmp_path / "good.npz"
-    small_model.save(good)
-    with np.load(good) as z:
-        arrays = {k: z[k] for k in z.files}
+    arrays, bad = _saved_arrays(small_model, tmp_path)
     header = json.loads(arrays["header"].tobytes().decode())
     header["tol"] = 10
     arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
     arrays["data_0"] = arrays["data_0"] * 5
-    bad = tmp_path / "bad.npz"
-    np.savez(bad, **arrays)
-    with pytest.raises(ModelError, match=r"row \d+ sums to 5.*the tolerance 1e-06"):
-        TransitionModel.load(bad)
+    _refused(bad, arrays, r"row \d+ sums to 5.*the tolerance 1e-06")
     header["tol"] = "lots"
     arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
-    np.savez(bad, **arrays)
-    with pytest.raises(ModelError, match="header tolerance"):
-        TransitionModel.load(bad)
+    _refused(bad, arrays, "header tolerance")
 
 
 def test_saved_file_is_a_plain_npz_without_pickles(tmp_path, small_model):

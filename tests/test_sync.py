@@ -39,10 +39,13 @@ def plain_union_image(supports, states, word):
     return cur
 
 
-def brute_shortest(step, k, start):
-    """Plain BFS over frozensets; step(set, a) -> frozenset. Returns the length or None."""
-    s = frozenset(int(x) for x in start)
-    if len(s) == 1:
+def brute_shortest(step, k, start, single=None):
+    """Plain BFS over sets of states; step(set, a) -> set. Returns the length or None. The sets are
+    frozensets (``start``: the states), or whatever ``step`` maps (``start``: one such set, and
+    ``single(set)`` says whether it holds one state)."""
+    s = frozenset(int(x) for x in start) if single is None else start
+    single = single or (lambda x: len(x) == 1)
+    if single(s):
         return 0
     seen = {s}
     queue = deque([(s, 0)])
@@ -50,7 +53,7 @@ def brute_shortest(step, k, start):
         x, d = queue.popleft()
         for a in range(k):
             y = step(x, a)
-            if len(y) == 1:
+            if single(y):
                 return d + 1
             if y not in seen:
                 seen.add(y)
@@ -85,6 +88,17 @@ def random_table(rng, n, k):
     return _random_table(n, k, rng)
 
 
+def random_tables(seed, trials, n_range, k=2):
+    """``trials`` random automata ``(rng, n, table)`` from one seeded stream: ``n`` drawn from the
+    half-open ``n_range``, then the letter count from ``k`` (an int, or a half-open range drawn
+    from), then the table; a test may draw more from ``rng`` between automata."""
+    rng = np.random.default_rng(seed)
+    for _ in range(trials):
+        n = int(rng.integers(*n_range))
+        letters = k if isinstance(k, int) else int(rng.integers(*k))
+        yield rng, n, random_table(rng, n, letters)
+
+
 # ----------------------------------------------------------------------------- Cerny automata
 @pytest.mark.parametrize("n", list(range(2, 17)) + [20])
 def test_cerny_exact(n):
@@ -102,12 +116,8 @@ def test_cerny_small_cross_check_brute():
 
 # ----------------------------------------------------------------------------- random small, brute force
 def test_random_small_automata_match_brute_force():
-    rng = np.random.default_rng(20240501)
     checked_none = 0
-    for _ in range(400):
-        n = int(rng.integers(1, 11))
-        k = int(rng.integers(1, 4))
-        table = random_table(rng, n, k)
+    for rng, n, table in random_tables(20240501, 400, (1, 11), k=(1, 4)):
         start = None
         if rng.random() < 0.4:
             start = rng.choice(n, size=int(rng.integers(1, n + 1)), replace=False)
@@ -126,7 +136,7 @@ def test_random_small_automata_match_brute_force():
 
 
 def brute_bitmask(table, start=None):
-    """Plain BFS with subsets as Python ints; images via per-letter, per-byte lookup tables."""
+    """BFS with subsets as Python ints; images via per-letter, per-byte lookup tables."""
     table = np.asarray(table)
     k, n = table.shape
     nb = (n + 7) // 8
@@ -138,32 +148,21 @@ def brute_bitmask(table, start=None):
                 low = v & -v
                 q = b * 8 + low.bit_length() - 1
                 t[v] = t[v ^ low] | ((1 << int(table[a][q])) if q < n else 0)
+
+    def step(x, a):
+        ta, y, b = tabs[a], 0, 0
+        while x:
+            y |= ta[b][x & 255]
+            x >>= 8
+            b += 1
+        return y
+
     s = sum(1 << int(q) for q in (range(n) if start is None else start))
-    if s & (s - 1) == 0:
-        return 0
-    seen = {s}
-    queue = deque([(s, 0)])
-    while queue:
-        x, d = queue.popleft()
-        for a in range(k):
-            ta, y, b, xx = tabs[a], 0, 0, x
-            while xx:
-                y |= ta[b][xx & 255]
-                xx >>= 8
-                b += 1
-            if y & (y - 1) == 0:
-                return d + 1
-            if y not in seen:
-                seen.add(y)
-                queue.append((y, d + 1))
-    return None
+    return brute_shortest(step, k, s, single=lambda y: y & (y - 1) == 0)
 
 
 def test_bitmask_brute_agrees_with_frozenset_brute():
-    rng = np.random.default_rng(2)
-    for _ in range(50):
-        n = int(rng.integers(1, 12))
-        table = random_table(rng, n, int(rng.integers(1, 4)))
+    for rng, n, table in random_tables(2, 50, (1, 12), k=(1, 4)):
         assert brute_bitmask(table) == brute_det(table)
 
 
@@ -235,10 +234,7 @@ def test_two_closed_classes_witness():
 
 
 def test_synchronizability_agrees_with_brute_force():
-    rng = np.random.default_rng(11)
-    for _ in range(200):
-        n = int(rng.integers(2, 9))
-        table = random_table(rng, n, 2)
+    for rng, n, table in random_tables(11, 200, (2, 9)):
         verdict = synchronizability(SyncAutomaton.from_table(table))["synchronizing"]
         assert verdict == (brute_det(table) is not None)
 
@@ -328,10 +324,7 @@ def test_budget_fallback_is_greedy_and_verified():
 
 
 def test_greedy_words_synchronize():
-    rng = np.random.default_rng(9)
-    for _ in range(50):
-        n = int(rng.integers(2, 30))
-        table = random_table(rng, n, 2)
+    for rng, n, table in random_tables(9, 50, (2, 30)):
         aut = SyncAutomaton.from_table(table)
         word = greedy_synchronizing_word(aut)
         if brute_det(table) is None if n <= 12 else synchronizability(aut)["synchronizing"] is False:
@@ -548,12 +541,8 @@ def test_pair_distances_cerny4_match_brute_force():
 
 
 def test_pair_distances_random_match_brute_force():
-    rng = np.random.default_rng(4242)
     never = 0
-    for _ in range(150):
-        n = int(rng.integers(2, 12))
-        k = int(rng.integers(1, 4))
-        table = random_table(rng, n, k)
+    for rng, n, table in random_tables(4242, 150, (2, 12), k=(1, 4)):
         dist, first = SyncAutomaton.from_table(table).pair_distances()
         brute = [brute_pair_distance(table, p, q) for p, q in itertools.combinations(range(n), 2)]
         assert dist.tolist() == brute
@@ -568,11 +557,8 @@ def test_pair_distances_random_match_brute_force():
 def test_lower_bound_never_above_brute_force_and_exact_means_shortest():
     """Stopped by a small budget of work, the proven lower bound never exceeds the true shortest
     length (brute force), the word is never shorter than it, and ``exact`` holds only at equality."""
-    rng = np.random.default_rng(777)
     stopped = exact_by_bound = 0
-    for _ in range(300):
-        n = int(rng.integers(4, 11))
-        table = random_table(rng, n, 2)
+    for rng, n, table in random_tables(777, 300, (4, 11)):
         truth = brute_det(table)
         if truth is None:
             continue
@@ -607,11 +593,8 @@ def test_lower_bound_after_a_time_budget_stop_never_above_brute_force(monkeypatc
         clock["t"] += 1.0
         return clock["t"]
     monkeypatch.setattr(sync_module, "time", types.SimpleNamespace(perf_counter=tick))
-    rng = np.random.default_rng(99)
     stopped = 0
-    for _ in range(120):
-        n = int(rng.integers(4, 11))
-        table = random_table(rng, n, 2)
+    for rng, n, table in random_tables(99, 120, (4, 11)):
         truth = brute_det(table)
         if truth is None:
             continue

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields
 
+from kruskal_markov._checks import check_fields
+
 __all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES"]
 
 #: the contact models ``--contact`` accepts (``legs:K`` with an integer K from 2 to 64).
@@ -178,17 +180,11 @@ class SimSettings:
     @classmethod
     def from_dict(cls, data: dict) -> "SimSettings":
         """Inverse of :meth:`to_dict`; unknown keys are an error."""
-        if not isinstance(data, dict):
-            raise ValueError(f"sim settings must be a table/object, got {type(data).__name__}")
-        known = {f.name for f in fields(cls)}
-        if "support_points" in data and "contact" not in data:     # scene files before version 4
+        if isinstance(data, dict) and "support_points" in data and "contact" not in data:  # before version 4
             data = dict(data)
             k = data.pop("support_points")
             data["contact"] = "sphere" if k == 1 else f"legs:{k}"
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ValueError(f"unknown sim setting(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
-        return cls(**data)
+        return cls(**check_fields(data, cls, "sim setting"))
 
     @property
     def check_interval_s(self) -> float:

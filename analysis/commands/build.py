@@ -14,6 +14,11 @@ from analysis.commands._common import add_contact, add_seed, check_positive, che
 from transition_builder.builder.options import BUILD_OPTIONS
 
 
+def _flagged():
+    """The build options with a flag of their own, the ones set apart last."""
+    return sorted((o for o in BUILD_OPTIONS if o.flag), key=lambda o: o.set_apart)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shape", default=None, help="allen-key | triangle:SEED | rectangle:WxH | "
                         "polygon:x1,y1;x2,y2;... | FILE.json (default allen-key)")
@@ -24,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", default=None, metavar="MM,DEG",
                         help="snapping tolerance of representative rest poses, mm and degrees "
                              "(default 0.25,0.25 without noise, 0.75,0.75 with noise)")
-    for option in BUILD_OPTIONS:        # each defined once, in transition_builder.builder.settings
+    for option in _flagged():           # each defined once, in transition_builder.builder.options
         if option.type is bool:
             parser.add_argument(option.flag, action=argparse.BooleanOptionalAction, default=None, help=option.help)
         else:
@@ -67,7 +72,7 @@ def run(args: argparse.Namespace) -> dict:
     check_writable_file(args.out, "--out")
     scene = scene_for(args)
     mm, deg = parse_resolution(args.resolution) if args.resolution is not None else (None, None)
-    chosen = {o.name: getattr(args, o.name) for o in BUILD_OPTIONS if getattr(args, o.name) is not None}
+    chosen = {o.name: getattr(args, o.name) for o in _flagged() if getattr(args, o.name) is not None}
     settings = BuildSettings(tol_mm=mm, tol_deg=deg, symmetry=not args.no_symmetry, noise=args.noise, seed=args.seed,
                              **chosen)
     result, path, cached = cached_build(scene, settings, args.out, use_cache=not args.no_cache,

@@ -159,6 +159,26 @@ def support_automaton(model, threshold: float = 0.0) -> SyncAutomaton:
     Keeps, per action and row, the entries ``>= threshold`` (always at least the largest entry of
     the row, so no row is empty); ``mass_dropped`` is the largest probability mass removed from
     one row. A model whose kept rows are all single entries gives a deterministic automaton.
+
+    Parameters
+    ----------
+    model : TransitionModel
+        The model; its actions become the letters.
+    threshold : float, default 0.0
+        Entries below this are dropped (0: keep every non-zero entry); in [0, 1].
+
+    Returns
+    -------
+    SyncAutomaton
+        Set-valued unless every kept row is a single entry; ``mass_dropped`` and
+        ``mass_dropped_mean`` say how much probability the threshold removed.
+
+    Examples
+    --------
+    >>> from kruskal_markov.generators import cerny_model
+    >>> aut = support_automaton(cerny_model(3))
+    >>> aut.n, aut.k, aut.deterministic
+    (3, 2, True)
     """
     threshold = float(threshold)
     if not (0.0 <= threshold <= 1.0) or math.isnan(threshold):
@@ -195,7 +215,18 @@ def support_automaton(model, threshold: float = 0.0) -> SyncAutomaton:
 def start_set(model, whole: bool | None = None) -> np.ndarray:
     """The start set: the support of ``model.initial``, or all states when ``whole``.
 
-    ``whole=None`` means: all states for a deterministic automaton, the initial support otherwise.
+    Parameters
+    ----------
+    model : TransitionModel
+        The model.
+    whole : bool or None, default None
+        True: every state; False: the support of ``model.initial``; None: every state for a
+        deterministic model, the initial support otherwise.
+
+    Returns
+    -------
+    ndarray of int
+        The start states, increasing.
     """
     if whole is None:
         whole = model.is_deterministic()
@@ -208,7 +239,25 @@ def as_automaton(aut, start=None):
     """``(automaton, start)`` for the sync and convergence functions, which take a
     :class:`SyncAutomaton` or a :class:`~kruskal_markov.model.TransitionModel` alike: a model
     stands for its support automaton (:func:`support_automaton`, kept on the model) and, when
-    ``start`` is None, for its start set (:func:`start_set`)."""
+    ``start`` is None, for its start set (:func:`start_set`).
+
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        What the caller was given.
+    start : array_like of int, optional
+        Start states; None: all states of an automaton, the start set of a model.
+
+    Returns
+    -------
+    tuple of (SyncAutomaton, array_like of int or None)
+        The automaton and the start states (None still means all states).
+
+    Raises
+    ------
+    TypeError
+        For anything else.
+    """
     if isinstance(aut, SyncAutomaton):
         return aut, start
     if hasattr(aut, "matrices") and hasattr(aut, "memo"):
@@ -219,6 +268,27 @@ def as_automaton(aut, start=None):
 
 
 def is_synchronizing_word(aut: SyncAutomaton | TransitionModel, word, start=None) -> bool:
-    """True if ``word`` maps the start set (default: all states) onto one state."""
+    """True if ``word`` maps the start set (default: all states) onto one state.
+
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        The automaton, or a model standing for its support automaton (:func:`as_automaton`).
+    word : sequence of int
+        Letter indices.
+    start : array_like of int, optional
+        Start states (default: all states of an automaton, the start set of a model).
+
+    Returns
+    -------
+    bool
+        Whether the image of the start set under ``word`` is a single state.
+
+    Examples
+    --------
+    >>> a = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])   # Cerny C_3
+    >>> is_synchronizing_word(a, [1, 0, 0, 1]), is_synchronizing_word(a, [1])
+    (True, False)
+    """
     aut, start = as_automaton(aut, start)
     return len(aut.image(as_start(aut, start), word)) == 1

@@ -29,6 +29,28 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
     (equal after rounding to ``decimals``) merged. ``exact`` is True only when the search was
     exhaustive up to the returned length (the first level with a hit). If no hit exists and the
     set of reachable distributions is exhausted, the answer is "none" (exact).
+
+    Parameters
+    ----------
+    model : TransitionModel
+        Searched from ``model.initial``.
+    epsilon : float
+        The entropy (bits, >= 0) a word must reach.
+    max_length : int, default 30
+        Longest word tried.
+    time_budget : float, default 30.0
+        Seconds before the search gives up.
+    max_nodes : int, default 2,000,000
+        Distributions kept before the search gives up.
+    decimals : int, default 12
+        Distributions equal after rounding to this many decimals count as one.
+
+    Returns
+    -------
+    SyncResult
+        ``word`` (letter indices) of the first level with a hit, ``method`` ``distribution-bfs``;
+        when a budget ran out, ``word`` None, ``exact`` False and ``best_word`` the lowest-entropy
+        word seen.
     """
     epsilon = float(epsilon)
     if not epsilon >= 0:

@@ -226,6 +226,34 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     ``exact=False`` and a proven ``lower_bound``; once the search proves that no word is shorter
     than the greedy word, the greedy word is exact.
 
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        The automaton, or a model standing for its support automaton and start set.
+    start : array_like of int, optional
+        The set to synchronize (default: all states of an automaton, the start set of a model); a
+        single state gives the empty word (``method`` ``trivial``).
+    time_budget : float or None, default 60.0
+        Seconds; None: no limit.
+    memory_budget_mb : float, default 2048.0
+        Memory of the subset stores.
+    node_budget : int or None, default None
+        Subsets generated before the search stops (None: no limit).
+
+    Returns
+    -------
+    SyncResult
+        ``word`` as letter indices; ``exact`` True with the shortest word (or with ``word`` None
+        and a ``witness`` when none exists); otherwise the greedy word with a ``lower_bound``.
+
+    References
+    ----------
+    A. Kisielewicz, J. Kowalski and M. Szykula, "Computing the shortest reset words of
+    synchronizing automata", J. Comb. Optim. 29 (2015) 88-124. M. Szykula and A. Zyzik, "An
+    improved algorithm for finding the shortest synchronizing words", ESA 2022.
+
+    Examples
+    --------
     >>> a = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])   # Cerny C_3
     >>> r = shortest_synchronizing_word(a)
     >>> r.length, r.exact

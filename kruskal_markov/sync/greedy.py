@@ -35,6 +35,34 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
     search of at most ``node_budget`` subsets (fewer if ``memory_budget_mb`` says so) from the
     current set to the nearest strictly smaller image, until ``deadline`` (a
     ``time.perf_counter()`` value; None if it passes). The returned word is verified.
+
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        The automaton, or a model standing for its support automaton and start set (:func:`as_automaton`).
+    start : array_like of int, optional
+        Start states (default: all states of an automaton, a model's start set); one state gives ``[]``.
+    node_budget : int, default 200,000
+        Subsets per breadth-first search of the greedy descent.
+    memory_budget_mb : float or None, default None
+        Memory the tables may take (None: no limit).
+    deadline : float or None, default None
+        A ``time.perf_counter()`` value after which the search gives up.
+
+    Returns
+    -------
+    list of int or None
+        A synchronizing word (letter indices; ``[]`` for a single start state), or None.
+
+    References
+    ----------
+    D. Eppstein, "Reset sequences for monotonic automata", SIAM J. Comput. 19 (1990) 500-510.
+
+    Examples
+    --------
+    >>> from kruskal_markov.generators import cerny_automaton
+    >>> len(greedy_synchronizing_word(cerny_automaton(4))) >= 9
+    True
     """
     aut, start = as_automaton(aut, start)
     s = as_start(aut, start)

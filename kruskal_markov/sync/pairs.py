@@ -21,11 +21,30 @@ PAIR_CHECK_BYTES = 40
 def synchronizability(aut: SyncAutomaton | TransitionModel, start=None) -> dict:
     """Polynomial synchronizability test via the pair graph.
 
-    Returns ``{"synchronizing": True | False | None, "witness": dict | None}``. ``False`` comes with
-    a pair of start states that no word merges; ``None`` means the pair test cannot decide (a proper
-    start subset, or a set-valued automaton: those questions are PSPACE-complete in general and
-    are settled by the exhaustive search of :func:`shortest_synchronizing_word`).
+    Parameters
+    ----------
+    aut : SyncAutomaton or TransitionModel
+        Deterministic automata are decided; for a set-valued one only a "no" is certain.
+    start : array_like of int, optional
+        Start states (default: all of an automaton's, a model's start set); on a proper subset the
+        test may leave the question open.
 
+    Returns
+    -------
+    dict
+        ``{"synchronizing": True | False | None, "witness": dict | None}``. ``False`` comes with
+        a pair of start states that no word merges; ``None`` means the pair test cannot decide (a
+        proper start subset, or a set-valued automaton: those questions are PSPACE-complete in
+        general and are settled by the exhaustive search of :func:`shortest_synchronizing_word`).
+
+    References
+    ----------
+    J. Černý, "Poznámka k homogénnym experimentom s konečnými automatmi", Matematicko-fyzikálny
+    časopis 14 (1964) 208-216; D. Eppstein, "Reset sequences for monotonic automata", SIAM J.
+    Comput. 19 (1990) 500-510.
+
+    Examples
+    --------
     >>> a = SyncAutomaton.from_table([[1, 2, 3, 0], [0, 1, 2, 0]])   # Cerny C_4
     >>> synchronizability(a)["synchronizing"]
     True
@@ -80,7 +99,18 @@ def _reachable_states(aut: SyncAutomaton, s) -> np.ndarray:
 
 
 def pair_check_memory_mb(n: int) -> float:
-    """Memory (MB) of the pair table on ``n`` states (the pair-graph check and Eppstein's greedy)."""
+    """Memory (MB) of the pair table on ``n`` states (the pair-graph check and Eppstein's greedy).
+
+    Parameters
+    ----------
+    n : int
+        States.
+
+    Returns
+    -------
+    float
+        ``n (n - 1) / 2`` pairs at :data:`PAIR_CHECK_BYTES` each, in MiB.
+    """
     return n * (n - 1) / 2 * PAIR_CHECK_BYTES / 2 ** 20
 
 

@@ -10,9 +10,31 @@ __all__ = ["SyncResult"]
 class SyncResult:
     """Outcome of a synchronizing-word search (immutable).
 
-    ``word`` (letter indices) and ``length`` are None when no word exists (``exact`` True, with a
-    ``witness``) or when none was found within the budgets (``exact`` False). ``best_word`` is
-    the lowest-entropy word an epsilon search had seen when its budget ran out (else None).
+    Attributes
+    ----------
+    word : list of int or None
+        The word, as letter indices; None when no word exists (``exact`` True, with a ``witness``)
+        or when none was found within the budgets (``exact`` False).
+    length : int or None
+        ``len(word)``.
+    exact : bool
+        True only when the search proved that no shorter word exists (or that none exists).
+    method : str
+        The search that answered (``bidirectional-bfs``, ``greedy``, ``pair-graph``, ...).
+    witness : dict or None
+        Why no word exists, when none does (e.g. a pair of states that no word merges).
+    lower_bound : int or None
+        Proven: no synchronizing word is shorter than this.
+    greedy_length : int or None
+        Length of the greedy word found on the way, if any.
+    states_explored : int
+        Subsets (or distributions) the search generated.
+    seconds : float
+        Wall time of the search.
+    notes : tuple of str
+        What else the search has to say (budgets hit, entropies reached).
+    best_word : list of int or None
+        The lowest-entropy word an epsilon search had seen when its budget ran out (else None).
     """
 
     word: list | None
@@ -31,6 +53,7 @@ class SyncResult:
         object.__setattr__(self, "notes", tuple(self.notes))
 
     def as_dict(self, actions=None) -> dict:
+        """JSON-ready dict (the keys of ``kruskal sync``); ``actions`` names the letters of ``word``."""
         word = self.word
         if word is not None and actions is not None:
             word = [actions[a] for a in word]

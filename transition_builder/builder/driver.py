@@ -32,7 +32,13 @@ from transition_builder.symmetry import tray_symmetry
 
 
 class BuildWarning(UserWarning):
-    """Something a build recovered from (a checkpoint set aside, a cached model rebuilt)."""
+    """Something a build recovered from (a checkpoint set aside, a cached model rebuilt).
+
+    Parameters
+    ----------
+    message : str
+        One line in the project's words, naming the file concerned (as for any :class:`Warning`).
+    """
 
 
 def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor=None, workers=None,

@@ -118,7 +118,26 @@ def _snap_spread(ex: _Exploration, index: PoseIndex, sym: TraySymmetry) -> tuple
 def compensated_noise(noise: NoiseSpec, spread_mm: float, spread_deg: float) -> NoiseSpec:
     """The noise to add to a representative so that, with the snapping offset it stands for, the
     total perturbation has the variance of ``noise``: ``sigma' = sqrt(max(0, sigma^2 - spread^2))``
-    per coordinate (variances of independent offsets add)."""
+    per coordinate (variances of independent offsets add; ``BuildSettings.snap_compensation``).
+
+    Parameters
+    ----------
+    noise : NoiseSpec
+        The process noise.
+    spread_mm, spread_deg : float
+        Root mean square snapping offset (mm in x and y, degrees in theta).
+
+    Returns
+    -------
+    NoiseSpec
+        The reduced noise (``noise`` itself when it is zero).
+
+    Examples
+    --------
+    >>> from transition_builder.noise import parse_noise
+    >>> str(compensated_noise(parse_noise("pose:0.5,1"), 0.3, 0.0))
+    'pose:0.4,1'
+    """
     if noise.is_zero:
         return noise
     return NoiseSpec("pose", math.sqrt(max(0.0, noise.sigma_mm ** 2 - spread_mm ** 2)),

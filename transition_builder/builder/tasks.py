@@ -19,9 +19,30 @@ def tilt_chunk(scene: Scene, action: str, poses: np.ndarray, noise_text: str, se
                keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Tilt every pose under ``action`` after perturbing it with the noise stream of its key.
 
-    Runs in a worker (one cached simulator per scene and process). ``keys[i]`` (ints) names the
-    noise stream of tilt ``i`` (:func:`transition_builder.noise.noise_rng`); with zero noise the
-    poses are tilted as given.
+    Runs in a worker (one cached simulator per scene and process); a task's result depends on its
+    own tilts only.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    action : str
+        The tilt action's name.
+    poses : ndarray, shape (n, 3)
+        Start poses ``(x_mm, y_mm, theta_rad)``.
+    noise_text : str
+        The process noise spec (``none``: the poses are tilted as given).
+    seed : int
+        The build's seed.
+    keys : ndarray of int, shape (n, m)
+        ``keys[i]`` names the noise stream of tilt ``i`` (:func:`transition_builder.noise.noise_rng`).
+
+    Returns
+    -------
+    rest : ndarray of float64, shape (n, 3)
+        Rest poses.
+    status : ndarray of int8, shape (n,)
+        :mod:`transition_builder.status` codes.
     """
     noise = parse_noise(noise_text)
     p = np.array(poses, dtype=np.float64)
