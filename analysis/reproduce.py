@@ -80,6 +80,9 @@ class ReproduceSettings:
         and the comparison's ensemble size.
     epsilon : float
         The convergence threshold (bits).
+    sensitivity, sensitivity_noise, sensitivity_mu, sensitivity_check_mu, sensitivity_check_sequences, sensitivity_check_trials
+        The sensitivity study (:mod:`analysis.sensitivity`): whether it runs, the pose noises and floor
+        friction coefficients the key is rebuilt under, and the direct checks of the friction curve.
     """
 
     quick: bool = False
@@ -121,6 +124,14 @@ class ReproduceSettings:
         "tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1, "start_samples": 2000})
     contact_ensemble_count: int = 100_000
     epsilon: float = CONVERGED_BITS
+    #: the sensitivity study (analysis.sensitivity): the key rebuilt at ``contact_build`` under half the
+    #: time step, each pose noise and each floor friction coefficient; direct checks at ``sensitivity_check_mu``
+    sensitivity: bool = True
+    sensitivity_noise: tuple = ("pose:0.2,0.2", "pose:0.5,0.5")
+    sensitivity_mu: tuple = (0.15, 0.2, 0.4, 0.5)
+    sensitivity_check_mu: tuple = (0.15, 0.3, 0.5)
+    sensitivity_check_sequences: int = 12
+    sensitivity_check_trials: int = 60
 
     @classmethod
     def full(cls, seed: int = 0) -> "ReproduceSettings":
@@ -136,7 +147,7 @@ class ReproduceSettings:
                    a_check_trials=200, b_trials=100, c_trials=60, replay_trials=500, validate_sequences=2,
                    validate_trials=200, validate_length=20, metrics_count=500, metrics_runs=200,
                    sync_time_budget=20.0, part_sync_time_budget=10.0, compare_contacts=(),
-                   compare_refine=(), judges=False)
+                   compare_refine=(), judges=False, sensitivity=False)
 
 
 def _log(progress, text):
@@ -313,6 +324,13 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         _log(progress, "the contact judges (free sliding against the integration of Coulomb's law)")
         out["contact_judges"] = {"table": judges_table((default_contact, "sphere", "legs:4", "legs:25")),
                                  "targets": JUDGE_TARGETS}
+
+    if s.sensitivity:
+        from analysis.sensitivity import sensitivity_study
+
+        out["sensitivity"] = sensitivity_study(
+            key_scene, s, workers=workers, progress=progress,
+            build=lambda sc, changes, what: _build(sc, changes, s.seed, workers, progress, what))
 
     # --- B: the best sequence on other parts ---------------------------------------------------
     parts = {}
