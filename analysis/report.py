@@ -356,8 +356,8 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
         lines += ["**Plans for every target** (`kruskal plan`, `docs/plans.md`): `state` drives every start state to "
                   "one model state, `cell` into one report cell (the paper's \"all poses in one voxel\"), "
                   "`probability:E` puts at least 1 - E of the start distribution into one cell.", "",
-                  "| target | shortest plan | length | proven shortest | model's success | replayed: trials in that "
-                  "cell, entropy after | random words of that length meeting it | at 20 / 50 tilts |",
+                  "| target | shortest plan | length | proven shortest | model's success (model 90%) | replayed: trials "
+                  "in that cell, entropy after | random words of that length meeting it | at 20 / 50 tilts |",
                   "|---|---|---|---|---|---|---|---|"]
         for t, e in pl.items():
             p_ = e.get("plan")
@@ -377,7 +377,10 @@ def _markdown(r: dict, figures: list[str], out_dir: str) -> str:
             else:
                 replayed = "-"
             lines.append(f"| `{t}` | `{','.join(word) if word else '-'}` | {_fmt(length, 'd')} | "
-                         f"{'yes' if exact else 'no'} | {_fmt(succ, '.4f')} | {replayed} | {_fmt(at, '.4f')} | "
+                         f"{'yes' if exact else 'no'} | {_fmt(succ, '.4f')}"
+                         + (f" ({_interval(p_['success_interval']['model_ci90'], '.4f')})"
+                            if p_ is not None and p_.get("success_interval") else "")
+                         + f" | {replayed} | {_fmt(at, '.4f')} | "
                          f"{_fmt(prob[min(20, len(prob) - 1)], '.3f')} / {_fmt(prob[-1], '.3f')} |")
         lines += ["", f"Converging plans are common only well beyond the optimum ({pl[next(iter(pl))]['success']['words']:,} "
                   "random words per target): the paper's \"converging plans are common, optimal plans are rare\", "

@@ -410,6 +410,12 @@ def key_plans(model, s: ReproduceSettings) -> dict:
             budget = {} if s.sync_node_budget is None else {"node_budget": s.sync_node_budget}
             plan = shortest_plan(model, target, time_budget=s.sync_time_budget, **budget)
             entry["plan"] = plan.to_dict()
+            if plan.word:
+                from kruskal_markov.answers import plan_success_interval
+
+                entry["plan"]["success_interval"] = plan_success_interval(
+                    model, [model.actions.index(a) if isinstance(a, str) else int(a) for a in plan.word],
+                    plan.success_probability, draws=20, seed=s.seed, final_cell=plan.final_cell)
         out[target] = entry
     return out
 
