@@ -511,11 +511,12 @@ def write_report(result: dict, out_dir: str) -> dict:
         ``report``: the path of ``index.md``; ``figures``: the figures written.
     """
     os.makedirs(out_dir, exist_ok=True)
+    # the numbers first: an hour of simulation is never lost to a figure or a line of text
+    atomic_write_text(os.path.join(out_dir, "results.json"), json.dumps(result, indent=1, default=_jsonable))
     figures = _figures(result, out_dir)
     text = _markdown(result, figures, out_dir)
     index = os.path.join(out_dir, "index.md")
     atomic_write_text(index, text)
-    atomic_write_text(os.path.join(out_dir, "results.json"), json.dumps(result, indent=1, default=_jsonable))
     return {"report": index, "figures": figures}
 
 
