@@ -3,7 +3,7 @@
 ``python -m benchmarks.bench_coverage run MODEL LABEL SEED [SEED ...]`` validates a built model on
 random sequences of each seed (``kruskal validate``'s code: M = 2,000 trials, 30 tilts, 2 sequences per
 seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps each run's JSON in
-``benchmarks/results/coverage/`` (a run already there is not repeated).
+``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
 
 ``python -m benchmarks.bench_coverage calibrate [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
@@ -11,7 +11,7 @@ the coverage of the Dirichlet band alone (before) and with the default structura
 each with its Wilson interval. ``main()`` (``make bench``) prints the summary of what is kept.
 
 Seeds: the default's ``STRUCTURAL_DELTA`` was calibrated on seeds 2031 and 3 of the allen key's
-default model (``benchmarks/results/coverage_calibration/``: ``kruskal validate`` at seed 2031, 3 x 1,000 x 30,
+default model (``benchmarks/data/coverage_calibration/``: ``kruskal validate`` at seed 2031, 3 x 1,000 x 30,
 and the report's validation at seed 3, 2 x 300 x 30); the held-out test seeds 5821 and 7349 were named
 before any of their results
 (docs/uncertainty.md).
@@ -26,7 +26,7 @@ import sys
 
 import numpy as np
 
-HERE = pathlib.Path(__file__).parent / "results" / "coverage"
+HERE = pathlib.Path(__file__).parent / "data" / "coverage"
 
 
 def _runs() -> list[pathlib.Path]:
