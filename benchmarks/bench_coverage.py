@@ -110,6 +110,10 @@ def summary() -> None:
     pooled: dict[str, list] = {}
     for f in runs:
         res = json.load(open(f))
+        if not os.path.exists(res.get("model_path", "")):
+            print(f"| {res['label']} | {res['seed']} | model not built here ({res.get('model_path')}: "
+                  "`kruskal build --shape allen-key --seed 0 [--noise pose:0.5,0.5]` builds it to that path) |")
+            continue
         model = _model(res)
         before, scores = _steps(res, 0.0, model)
         after, _ = _steps(res, STRUCTURAL_DELTA, model)
