@@ -38,6 +38,7 @@ import numpy as np
 from analysis.montecarlo import run_direct
 from analysis.sequences import random_sequences_for
 from kruskal_markov._checks import check_int
+from kruskal_markov.answers import wilson_interval
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model
@@ -107,34 +108,6 @@ def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
     q = q / q.sum()
     draws = rng.multinomial(m, q, size=_PLUGIN_DRAWS)
     return float(np.mean([histogram_entropy_bits(d) for d in draws]))
-
-
-def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (Wilson, JASA 22, 1927).
-
-    Parameters
-    ----------
-    successes, n : int
-        Successes out of ``n`` trials (``n >= 1``).
-    z : float
-        Normal quantile (default: 95%).
-
-    Returns
-    -------
-    (float, float)
-
-    Examples
-    --------
-    >>> [round(x, 3) for x in wilson_interval(54, 60)]
-    [0.799, 0.953]
-    """
-    if n < 1 or not 0 <= successes <= n:
-        raise ValueError(f"need 0 <= successes <= n and n >= 1, got {successes} of {n}")
-    p = successes / n
-    den = 1 + z * z / n
-    mid = (p + z * z / (2 * n)) / den
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return min(p, max(0.0, mid - half)), max(p, min(1.0, mid + half))
 
 
 def _inside(x, lo, hi) -> np.ndarray:

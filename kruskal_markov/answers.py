@@ -27,28 +27,41 @@ import math
 
 import numpy as np
 
-from kruskal_markov.structural import STRUCTURAL_DELTA, entropy_range_tv, structural_share
+from kruskal_markov.structural import STRUCTURAL_DELTA, _entropy_rows, entropy_range_tv, structural_share
 
-__all__ = ["answer_intervals", "plan_success_interval"]
+__all__ = ["answer_intervals", "plan_success_interval", "wilson_interval"]
 
 _ENTROPY_TILTS = (10, 20, 50)
 _STREAM_POSTERIOR = 7
 _STREAM_STRUCTURAL = 8
 
 
-def _wilson(k: int, n: int) -> list[float]:
-    z = 1.959963984540054
-    p = k / n
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (Wilson, JASA 22, 1927), holding ``successes / n``.
+
+    Parameters
+    ----------
+    successes, n : int
+        Successes out of ``n`` trials (``n >= 1``).
+    z : float
+        Normal quantile (default: 95%).
+
+    Returns
+    -------
+    (float, float)
+
+    Examples
+    --------
+    >>> [round(x, 3) for x in wilson_interval(54, 60)]
+    [0.799, 0.953]
+    """
+    if n < 1 or not 0 <= successes <= n:
+        raise ValueError(f"need 0 <= successes <= n and n >= 1, got {successes} of {n}")
+    p = successes / n
     den = 1 + z * z / n
     mid = (p + z * z / (2 * n)) / den
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return [min(p, max(0.0, mid - half)), max(p, min(1.0, mid + half))]
-
-
-def _entropy(p: np.ndarray) -> np.ndarray:
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(p > 0, -p * np.log2(np.where(p > 0, p, 1.0)), 0.0)
-    return np.maximum(t.sum(-1), 0.0)
+    return min(p, max(0.0, mid - half)), max(p, min(1.0, mid + half))
 
 
 def _cell_curves(model, sequences, delta: float):
@@ -64,7 +77,7 @@ def _cell_curves(model, sequences, delta: float):
     c = np.stack(cells)                                   # (sequences, steps + 1, cells)
     flat = c.reshape(-1, c.shape[-1])
     flat = flat / flat.sum(1, keepdims=True)
-    h = _entropy(flat)
+    h = _entropy_rows(flat)
     hmin, hmax = entropy_range_tv(flat, delta * structural_share(flat)) if delta > 0 else (h, h)
     shape = c.shape[:2]
     return h.reshape(shape), np.minimum(hmin, h).reshape(shape), np.maximum(hmax, h).reshape(shape)
@@ -187,7 +200,7 @@ def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsi
     conv = lambda a: (a[:, :length + 1] <= epsilon).any(1).mean()          # noqa: E731
     share = point["converging_share"]
     out["converging_share"] = _combine(
-        share, _wilson(ens.converged, count), post["converging_share"],
+        share, list(wilson_interval(ens.converged, count)), post["converging_share"],
         (max(0.0, share + conv(hmax) - conv(h)), min(1.0, share + conv(hmin) - conv(h))))
     for t in tilts:
         k = f"mean_entropy_{t}"
