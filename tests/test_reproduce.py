@@ -46,7 +46,8 @@ def report(cache_dir, tmp_path_factory):
                           part_sync_time_budget=10, sync_node_budget=100_000,
                           compare_contacts=(("sphere", {"contact": "sphere"}),), compare_refine=(), judges=False,
                           contact_ensemble_count=200,
-                          contact_build=CONTACT)
+                          contact_build=CONTACT, sensitivity_noise=(), sensitivity_mu=(0.2,),
+                          sensitivity_check_mu=(0.1,), sensitivity_check_sequences=2, sensitivity_check_trials=10)
     result = reproduce(s, workers=2)
     out = tmp_path_factory.mktemp("report")
     return result, write_report(result, str(out)), out
@@ -167,3 +168,31 @@ def test_bad_input_is_one_line_exit_2(argv, needle):
     assert res.returncode == 2, res.stderr
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and needle in lines[0]
+
+
+def test_sensitivity_study_and_uncertainty_section(report):
+    """The sensitivity study's table, conclusions and paper coefficient agree with its own rows."""
+    result, paths, out = report
+    sens = result["sensitivity"]
+    assert list(sens["settings"]) == ["default", "half time step", "mu 0.2"]
+    assert sorted(sens["friction_curve"], key=float) == ["0.1", "0.2"]
+    for label, row in sens["settings"].items():
+        for k in ("converging_share", "mean_entropy_10"):
+            v = row[k]
+            assert v["model_ci90"][0] <= v["value"] <= v["model_ci90"][1]
+        assert 0 <= row["a_converged"] <= row["a_sequences"]
+    for k, c in sens["conclusions"].items():
+        if isinstance(c, dict):
+            vals = [row[k]["value"] for row in sens["settings"].values()]
+            assert c["min"] == min(vals) and c["max"] == max(vals) and c["default"] == sens["settings"]["default"][k]["value"]
+    pm = sens["paper_mu"]
+    by = {float(mu): n for mu, n in pm["a_converged_by_mu"].items()}
+    assert abs(by[pm["closest_mu"]] - 29) == min(abs(n - 29) for n in by.values())
+    ch = sens["friction_checks"]["0.1"]
+    assert ch["direct"]["sequences"] == 2 and ch["direct"]["trials"] == 10
+    assert 0 <= ch["direct"]["ended_at_zero"] <= 2
+    text = (out / "index.md").read_text()
+    assert "## How sure are these answers?" in text and "fig_friction.png" in text
+    assert (out / "fig_friction.png").exists()
+    iv = result["key_metrics"]["intervals"]
+    assert iv["converging_share"]["mc_ci95"][0] <= iv["converging_share"]["value"] <= iv["converging_share"]["mc_ci95"][1]
