@@ -15,7 +15,7 @@ import sys
 import time
 import warnings
 
-from analysis.commands import COMMANDS, InputError
+from analysis.commands import COMMANDS, InputError, strict_json
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -120,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
     result["seconds"] = time.perf_counter() - start
     result = _json_safe(result)
     if args.json:
-        sys.stdout.write(json.dumps(result) + "\n")
+        sys.stdout.write(strict_json(result) + "\n")
     else:
         formatter = getattr(args._module, "format_text", _format_text)
         sys.stdout.write(formatter(result) + "\n")

@@ -6,11 +6,11 @@ the result dictionary, which is also written beside it as ``results.json``.
 """
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
 
+from analysis.commands import strict_json
 from analysis.orientability import random_tilts_text
 from kruskal_markov.model import atomic_write_text
 
@@ -514,20 +514,12 @@ def write_report(result: dict, out_dir: str) -> dict:
     """
     os.makedirs(out_dir, exist_ok=True)
     # the numbers first: an hour of simulation is never lost to a figure or a line of text
-    atomic_write_text(os.path.join(out_dir, "results.json"), json.dumps(result, indent=1, default=_jsonable))
+    atomic_write_text(os.path.join(out_dir, "results.json"), strict_json(result, indent=1))
     figures = _figures(result, out_dir)
     text = _markdown(result, figures, out_dir)
     index = os.path.join(out_dir, "index.md")
     atomic_write_text(index, text)
     return {"report": index, "figures": figures}
-
-
-def _jsonable(x):
-    if hasattr(x, "tolist"):
-        return x.tolist()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return str(x)
 
 
 def _interval(x, f=".3g") -> str:

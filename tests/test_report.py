@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 
-from analysis.report import _contact_builds, _expected, _fmt, _jsonable
+from analysis.commands import strict_json
+from analysis.report import _contact_builds, _expected, _fmt
 
 
 def test_fmt():
@@ -34,10 +35,10 @@ def test_contact_builds_names_the_settings_only_when_they_differ():
     assert "{'tol_mm': 2.0}" in text and "{'tol_mm': 1.0}" in text
 
 
-def test_results_json_fallback():
-    """Arrays and numpy scalars become lists and numbers (json calls the fallback only for types it
-    cannot write itself; a plain float NaN is written as NaN by json, not through it)."""
-    doc = {"a": np.arange(3), "c": np.float32(2.5)}
-    assert json.loads(json.dumps(doc, default=_jsonable)) == {"a": [0, 1, 2], "c": 2.5}
-    assert _jsonable(float("nan")) is None and _jsonable(math.inf) is None
-    assert _jsonable(np.array([1.5])) == [1.5] and _jsonable(object()).startswith("<object")
+def test_results_json_is_strict_json():
+    """Arrays and numpy scalars become lists and numbers; NaN and infinities (which json would write as
+    NaN and Infinity, refused by strict readers) become null; other objects their text."""
+    doc = {"a": np.arange(3), "c": np.float32(2.5), "n": [float("nan"), math.inf, -math.inf], "m": np.array([1.5])}
+    assert json.loads(strict_json(doc)) == {"a": [0, 1, 2], "c": 2.5, "n": [None, None, None], "m": [1.5]}
+    assert "NaN" not in strict_json({"x": np.float64("nan")}) and "Infinity" not in strict_json([math.inf])
+    assert json.loads(strict_json({"o": object()}))["o"].startswith("<object")

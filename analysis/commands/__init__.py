@@ -6,6 +6,30 @@ class InputError(ValueError):
     """Bad input from the user: the CLI prints its message as one line and exits with status 2."""
 
 
+def strict_json(value, indent=None) -> str:
+    """``json.dumps`` that writes strict JSON: NaN and infinities become ``null`` (Python's default
+    writes ``NaN``/``Infinity``, which other JSON readers refuse); numpy scalars and arrays as numbers.
+
+    >>> strict_json({"a": float("inf"), "b": [1.5, float("nan")]})
+    '{"a": null, "b": [1.5, null]}'
+    """
+    import json
+    import math
+
+    def clean(x):
+        if hasattr(x, "tolist") and not isinstance(x, (str, bytes)):
+            x = x.tolist()
+        if isinstance(x, float):
+            return x if math.isfinite(x) else None
+        if isinstance(x, dict):
+            return {k: clean(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [clean(v) for v in x]
+        return x
+
+    return json.dumps(clean(value), indent=indent, allow_nan=False, default=str)
+
+
 #: command name -> (module, one-line help). Order is the order shown by ``kruskal --help``.
 COMMANDS: dict[str, tuple[str, str]] = {}
 
