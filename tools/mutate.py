@@ -58,10 +58,9 @@ MODULES = {
     # the synchronizing-word search, one module per method, against the sync and plan tests
     **{f"sync_{m}": (f"kruskal_markov/sync/{m}.py", _SYNC_TESTS, None)
        for m in ("automaton", "pairs", "exact", "greedy", "epsilon", "targets", "plan", "result")},
-    # the builder's assembly (counts -> model): its unit tests on hand-made explorations, then the
-    # builds of test_builder.py that read the assembled model
-    "assembly": ("transition_builder/builder/assembly.py", ["tests/test_builder_assembly.py", "tests/test_builder.py"],
-                 None),
+    # the builder's assembly (counts -> model), against its unit tests on hand-made explorations
+    # (test_builder.py's physics builds read the assembled model too, but a build per mutant does not fit)
+    "assembly": ("transition_builder/builder/assembly.py", ["tests/test_builder_assembly.py"], None),
     # the simulator: its fault classification only (the trial loop and the batch's landing check)
     "sim": ("transition_builder/sim.py", _FAULT_TESTS,
             ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
