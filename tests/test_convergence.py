@@ -526,6 +526,31 @@ def test_iterative_pair_solve_falls_back_to_gmres(monkeypatch):
     assert pb["lower"] == pytest.approx(want["lower"], rel=1e-8) and pb["upper"] == pytest.approx(want["upper"], rel=1e-8)
 
 
+def test_gmres_fallback_restarts_to_full_accuracy(monkeypatch):
+    """A chain of 69 pairs, more than GMRES's 50-vector restart: from BiCGSTAB's useless iterate,
+    GMRES must restart until the residual is at round-off (rtol 1e-12), not stop at 1e-5."""
+    conv = _big_pair_solve(monkeypatch)
+    table = random_table(14, 2, np.random.default_rng(0))
+    want = _pair_chain_judge(table, [1, 1], range(14))
+    assert want["pairs"] > 50
+    monkeypatch.setattr(conv.spla, "bicgstab", lambda A, b, **kw: (np.zeros_like(b), 7))
+    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf)
+    assert pb["residual"] < 1e-9
+    assert pb["lower"] == pytest.approx(want["lower"], rel=1e-9) and pb["upper"] == pytest.approx(want["upper"], rel=1e-9)
+
+
+def test_residual_is_that_of_the_solution_used(monkeypatch):
+    """A solver that claims convergence with every merging time 0.25 too high: the residual
+    reported is max |1 + Q h - h| of that h, i.e. 0.25 times the largest merge probability in one step."""
+    conv = _big_pair_solve(monkeypatch)
+    table = [[1, 2, 3, 0], [0, 1, 2, 0]]
+    monkeypatch.setattr(conv.spla, "bicgstab",
+                        lambda A, b, **kw: (conv.spla.spsolve(A.tocsc(), b) + 0.25, 0))
+    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf)
+    # Cerny C_4 under uniform letters: only the pair {0, 3} can merge (under b, probability 1/2)
+    assert pb["residual"] == pytest.approx(0.25 * 0.5, rel=1e-12)
+
+
 def test_iterative_pair_solve_stops_at_the_time_budget(monkeypatch):
     """A fake clock (one second per reading): GMRES, the fallback, checks the budget between its
     iterations and the answer says what stopped it."""
