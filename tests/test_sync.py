@@ -624,3 +624,90 @@ def test_lower_bound_after_a_time_budget_stop_never_above_brute_force(monkeypatc
             assert res.length == truth
         stopped += res.method.startswith("greedy")
     assert stopped > 20
+
+
+# ----------------------------------------------------------------------------- the pair test: every answer, whole
+def _brute_reachable(table, start):
+    seen, todo = set(int(s) for s in start), list(int(s) for s in start)
+    while todo:
+        q = todo.pop()
+        for row in table:
+            r = int(row[q])
+            if r not in seen:
+                seen.add(r)
+                todo.append(r)
+    return sorted(seen)
+
+
+def test_synchronizability_of_start_subsets_follows_its_definition():
+    """For a start subset of a deterministic automaton: False (with the first non-merging start pair)
+    when some start pair never merges; True when every pair of the states reachable from the start
+    merges (then greedy merging synchronizes it: checked by brute force); None otherwise."""
+    from kruskal_markov.sync.pairs import _reachable_states
+
+    rng = np.random.default_rng(2024)
+    seen = {True: 0, False: 0, None: 0}
+    for _ in range(400):
+        n, k = int(rng.integers(3, 9)), int(rng.integers(1, 3))
+        table = random_table(rng, n, k)
+        start = sorted(int(x) for x in rng.choice(n, size=int(rng.integers(2, n)), replace=False))
+        aut = SyncAutomaton.from_table(table)
+        reach = _brute_reachable(table, start)
+        assert _reachable_states(aut, np.array(start)).tolist() == reach
+        bad = [(p, q) for p, q in itertools.combinations(start, 2) if not brute_pair_mergeable(table, p, q)]
+        got = synchronizability(aut, start)
+        if bad:
+            p, q = bad[0]
+            want = {"synchronizing": False, "witness": {"kind": "pair", "states": [p, q],
+                                                        "reason": f"no word merges states {p} and {q}"}}
+        elif all(brute_pair_mergeable(table, p, q) for p, q in itertools.combinations(reach, 2)):
+            want = {"synchronizing": True, "witness": None}
+            assert brute_det(table, start) is not None
+        else:
+            want = {"synchronizing": None, "witness": None}
+        assert got == want
+        seen[want["synchronizing"]] += 1
+    assert min(seen.values()) >= 10, seen
+
+
+def test_synchronizability_whole_answers():
+    cerny4 = SyncAutomaton.from_table(cerny(4))
+    assert synchronizability(cerny4) == {"synchronizing": True, "witness": None}
+    assert synchronizability(cerny4, [2]) == {"synchronizing": True, "witness": None}
+    # 0 <-> 1 swapped by every letter, 2 and 3 absorbing into 2: the pair {0, 1} never merges
+    table = [[1, 0, 2, 2], [1, 0, 2, 2]]
+    assert synchronizability(SyncAutomaton.from_table(table)) == {
+        "synchronizing": False,
+        "witness": {"kind": "pair", "states": [0, 1], "reason": "no word merges states 0 and 1"}}
+    assert synchronizability(SyncAutomaton.from_table(table), [2, 3]) == {"synchronizing": True, "witness": None}
+    # set-valued, every pair merges: the pair test cannot decide
+    sup = [[frozenset({0, 1}), frozenset({1}), frozenset({2})], [frozenset({1}), frozenset({2}), frozenset({0})]]
+    aut = support_automaton(model_from_support(sup))
+    assert not aut.deterministic
+    assert synchronizability(aut) == {"synchronizing": None, "witness": None}
+
+
+def test_the_start_subset_path_checks_pairs_among_reachable_states_only():
+    """Start {0, 1} of a 5-state automaton: both go to 1 under ``a``, and 1 only reaches itself; the
+    pair {0, 4}, of a state that is neither, never merges (4 is fixed, 0 goes to 1 and 1 stays).
+    Reachable states {0, 1}: their only pair merges, so True."""
+    table = [[1, 1, 3, 2, 4], [0, 1, 3, 2, 4]]
+    aut = SyncAutomaton.from_table(table)
+    assert not brute_pair_mergeable(table, 0, 4) and not brute_pair_mergeable(table, 2, 3)
+    assert synchronizability(aut, [0, 1]) == {"synchronizing": True, "witness": None}
+
+
+def test_pair_table_memory_by_hand():
+    from kruskal_markov.sync.pairs import PAIR_CHECK_BYTES, _eppstein_fits, eppstein_memory_mb, pair_check_memory_mb
+
+    assert PAIR_CHECK_BYTES == 40
+    for n in (2, 1000):
+        pairs = n * (n - 1) // 2
+        assert pair_check_memory_mb(n) == pytest.approx(pairs * 40 / 2 ** 20, rel=1e-12)
+        assert eppstein_memory_mb(n) == pytest.approx((pairs * 40 + 16 * n * n) / 2 ** 20, rel=1e-12)
+    aut = SyncAutomaton.from_table(cerny(5))
+    need = eppstein_memory_mb(5)
+    assert _eppstein_fits(aut, need) and _eppstein_fits(aut, None)
+    assert not _eppstein_fits(aut, need * (1 - 1e-12))
+    sup = [[frozenset({0, 1}), frozenset({1})]]
+    assert not _eppstein_fits(support_automaton(model_from_support(sup)), None)
