@@ -210,6 +210,11 @@ def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, we
 
 
 # ----------------------------------------------------------------------------- pair chain
+#: pair chains up to this many pairs are solved directly (sparse LU); larger ones iteratively
+#: (BiCGSTAB, then GMRES from its iterate), checking the time budget between iterations
+_DIRECT_SOLVE_MAX_PAIRS = 30_000
+
+
 class _OverBudget(Exception):
     """Raised inside an iterative solver's callback when the time budget has passed."""
 
@@ -286,7 +291,7 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
         Q = sp.csr_matrix((np.tile(w_use, R)[keep], (rows[keep], img.ravel()[keep])), shape=(R, R))
         A = sp.identity(R, format="csr") - Q
         mem += (Q.data.nbytes + Q.indices.nbytes + Q.indptr.nbytes) * 2 / 2 ** 20
-        if R <= 30_000:
+        if R <= _DIRECT_SOLVE_MAX_PAIRS:
             h = spla.spsolve(A.tocsc(), np.ones(R))
         else:
             def stop_at_budget(*_):

@@ -152,3 +152,95 @@ def test_memory_is_checked_before_building(monkeypatch):
     monkeypatch.setattr(limits, "available_memory_bytes", lambda: 111 / limits.MEMORY_SHARE)
     with pytest.raises(ModelError, match="^automaton: an automaton of 2 states needs "):
         model_from_automaton(doc)
+
+
+# ----------------------------------------------------------------------------- whole messages and boundaries
+def _error(source, **kw):
+    with pytest.raises(ModelError) as info:
+        model_from_automaton(source, **kw)
+    return str(info.value)
+
+
+def test_json_text_is_recognised_after_leading_whitespace_and_labelled_automaton():
+    doc = {"states": 2, "actions": {"a": [1, 1]}}
+    m = model_from_automaton("  \n\t" + json.dumps(doc))
+    np.testing.assert_array_equal(m.deterministic_table(), [[1, 1]])
+    assert _error('{"states": 0, "actions": {"a": []}}') == \
+        "automaton: 'states' must be a positive integer, got 0"
+
+
+def test_file_errors_are_named_exactly(tmp_path):
+    latin = tmp_path / "latin.json"
+    latin.write_bytes(b'{"states": 1, "actions": {"\xe9": [0]}}')          # not UTF-8
+    assert _error(latin).startswith(f"cannot read automaton file {latin}: 'utf-8' codec can't decode byte 0xe9")
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 200_000 + "]" * 200_000)
+    assert _error(deep) == f"automaton {deep}: JSON nested too deeply"
+    assert _error(42) == "automaton must be a path, a JSON string or a dict, got int"
+    assert _error(b"{}") == "automaton must be a path, a JSON string or a dict, got bytes"
+
+
+def test_utf8_action_names_read_from_a_file(tmp_path):
+    path = tmp_path / "names.json"
+    path.write_bytes(json.dumps({"states": 1, "actions": {"Ω": [0]}}, ensure_ascii=False).encode("utf-8"))
+    assert model_from_automaton(path).actions == ("Ω",)
+
+
+@pytest.mark.parametrize("doc, message", [
+    ({"states": 2, "actions": {"a": {"rows": 5, "cols": [0], "probs": [1]}}},
+     "automaton: action 'a': 'rows' must be a list of integers"),
+    ({"states": 2, "actions": {"a": [0, 1]}, "partition": [0, float("nan")]},
+     "automaton: 'partition' has a non-finite entry nan at position 1"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 1], "cols": [0, "x"], "probs": [1, 1]}}},
+     "automaton: action 'a': 'cols' must contain integers only, found 'x' at position 1"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 2], "cols": [0, 1], "probs": [1, 1]}}},
+     "automaton: action 'a': row index 2 out of range [0, 2)"),
+    ({"states": 2, "actions": {"a": {"rows": [0, 1], "cols": [0, 2], "probs": [1, 1]}}},
+     "automaton: action 'a': column index 2 out of range [0, 2)"),
+    ({"states": 1, "actions": {"a": {"rows": [], "cols": [], "probs": []}}},
+     "automaton: action 'a': row 0 sums to 0.0, off by -1, more than the tolerance 1e-09"),
+    ({"states": 2, "actions": {"a": [-200, 2 ** 63]}},
+     "automaton: action 'a': next-state list has an entry 9223372036854775808 beyond any state index"),
+    ({"states": 2, "actions": {"a": [200, 2 ** 63]}},
+     "automaton: action 'a': next-state list has an entry 9223372036854775808 beyond any state index"),
+    ({"states": 2, "actions": {"a": [-2 ** 63, 2 ** 63]}},
+     "automaton: action 'a': next-state list has an entry 9223372036854775808 beyond any state index"),
+    ({"states": 2, "actions": {"a": [0, -2 ** 63 - 1]}},
+     "automaton: action 'a': next-state list has an entry -9223372036854775809 beyond any state index"),
+])
+def test_more_bad_automata_are_named_exactly(doc, message):
+    assert _error(doc) == message
+
+
+def test_integral_floats_are_integers_and_unused_last_states_keep_the_shape():
+    """1.0 is an integer in JSON's sense; a last state no transition enters still has its row and column."""
+    m = model_from_automaton({"states": 3, "actions": {"a": [0, 1.0, 0],
+                                                       "b": {"rows": [0, 1, 2], "cols": [0, 0, 1], "probs": [1, 1, 1]}}})
+    assert m.n_states == 3 and all(x.shape == (3, 3) for x in m.matrices)
+    np.testing.assert_array_equal(m.deterministic_table(), [[0, 1, 0], [0, 0, 1]])
+
+
+def test_tolerance_is_passed_through():
+    doc = {"states": 1, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1.0005]}}}
+    assert model_from_automaton(doc, tol=1e-3).n_states == 1
+    assert _error(doc) == "automaton: action 'a': row 0 sums to 1.0005, off by +0.0005, more than the tolerance 1e-09"
+    tight = {"states": 1, "actions": {"a": {"rows": [0], "cols": [0], "probs": [1 + 5e-10]}}}
+    assert _error(tight, tol=1e-12).startswith("automaton: action 'a': row 0 sums to 1")
+
+
+def test_memory_refusal_names_the_option(monkeypatch):
+    import kruskal_markov.limits as limits
+
+    monkeypatch.setattr(limits, "available_memory_bytes", lambda: 100)
+    assert _error({"states": 2, "actions": {"a": [0, 1]}}) == (
+        "automaton: an automaton of 2 states needs 112 B of memory, more than this machine has available "
+        "(100 B); is 'states' right?")
+
+
+def test_written_json_uses_integers_for_indices():
+    m = TransitionModel(["a", "b"], [np.array([[0.5, 0.5], [0.0, 1.0]]), np.eye(2)], partition=[1, 0], n_cells=2)
+    doc = automaton_from_model(m)
+    for key in ("rows", "cols"):
+        assert all(type(v) is int for v in doc["actions"]["a"][key])
+    assert all(type(v) is int for v in doc["partition"]) and doc["cells"] == 2
+    assert json.dumps(doc["actions"]["a"]) == '{"rows": [0, 0, 1], "cols": [0, 1, 1], "probs": [0.5, 0.5, 1.0]}'

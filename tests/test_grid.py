@@ -142,3 +142,75 @@ def test_grid_boundaries_and_messages():
     c = g.centres(np.arange(g.n_voxels))
     assert c.shape == (g.n_voxels, 3)
     np.testing.assert_array_equal(g.voxel_index(c), np.arange(g.n_voxels))      # each centre in its voxel
+
+
+# ----------------------------------------------------------------------------- whole messages, boundaries, defaults
+def _message(fn, *args, **kw):
+    with pytest.raises(ValueError) as info:
+        fn(*args, **kw)
+    return str(info.value)
+
+
+def test_parse_grid_voxel_limit_is_2_to_the_40():
+    assert parse_grid("5x5x5") == (5, 5, 5)                               # 125 voxels
+    assert parse_grid("1024x1024x1048576") == (1024, 1024, 1048576)      # exactly 2^40
+    assert _message(parse_grid, "1025x1024x1048576") == "bad grid '1025x1024x1048576': too many voxels"
+    assert _message(parse_grid, 444) == "bad grid 444: expected AxBxG, e.g. 4x4x4"
+
+
+def test_constructor_messages_name_each_argument():
+    assert _message(ReportGrid, 0, 200, 4, 4, 4) == "tray x size must be a positive number of mm, got 0"
+    assert _message(ReportGrid, 200, -1.0, 4, 4, 4) == "tray y size must be a positive number of mm, got -1.0"
+    assert ReportGrid(0.5, 0.25, 1, 1, 1).tray_y_mm == 0.25                 # a tray under 1 mm is still a size
+    args = {"nx": 2, "ny": 2, "ntheta": 2, "symmetry_order": 1}
+    for label in args:
+        kw = {**args, label: 0}
+        assert _message(ReportGrid, 200.0, 100.0, kw["nx"], kw["ny"], kw["ntheta"],
+                        symmetry_order=kw["symmetry_order"]) == f"grid {label} must be a positive integer, got 0"
+
+
+def test_from_spec_passes_symmetry_and_offset():
+    g = ReportGrid.from_spec("4x4x4", 200.0, 200.0)
+    assert g.symmetry_order == 1 and g.theta_offset == pytest.approx(math.pi / 4)
+    h = ReportGrid.from_spec("4x4x4", 200.0, 200.0, symmetry_order=2, theta_offset=0.0)
+    assert h.symmetry_order == 2 and h.theta_offset == 0.0 and h.theta_period == pytest.approx(math.pi)
+
+
+def test_reduce_theta_never_returns_the_period():
+    """np.mod of a tiny negative angle rounds up to the period itself: reduced to 0."""
+    g = ReportGrid(200, 200, 4, 4, 4)
+    assert np.mod(-1e-20, 2 * math.pi) == 2 * math.pi                     # the round-up this guards against
+    out = g.reduce_theta(np.array([-1e-20, 1.0]))
+    assert out.dtype == np.float64 and out.tolist() == [0.0, 1.0]
+
+
+def test_one_pose_and_the_first_bad_pose():
+    g = ReportGrid(200, 200, 4, 4, 4)
+    assert [int(a[0]) for a in g.bin_indices([150.0, 20.0, 0.0])] == [3, 0, 0]          # a single (3,) pose
+    assert _message(g.bin_indices, [[1.0, 2.0, 0.0], [1.0, np.inf, 0.0]]) == \
+        "pose 1 is not finite (NaN or infinity); drop faulted trials first"
+
+
+def test_edge_tolerance_boundaries_and_the_pose_named():
+    """Exactly at -tol and at size + tol a pose is inside; the message names the first pose beyond."""
+    g = ReportGrid(200, 100, 4, 2, 4)
+    tol_x, tol_y = 1e-6 * 200.0, 1e-6 * 100.0
+    ix, iy, _ = g.bin_indices([[-tol_x, 100.0 + tol_y, 0.0], [200.0 + tol_x, -tol_y, 0.0]])
+    assert ix.tolist() == [0, 3] and iy.tolist() == [1, 0]
+    for xs in ([-tol_x, 250.0], [10.0, 0.0, 250.0], [200.0 + tol_x, 250.0], [200.0, 250.0]):
+        poses = [[x, 50.0, 0.0] for x in xs]
+        bad = len(xs) - 1
+        assert _message(g.bin_indices, poses) == f"pose {bad}: x = 250 mm lies outside the tray [0, 200]"
+
+
+def test_unravel_range():
+    g = ReportGrid(200, 100, 4, 2, 3)
+    assert [a.tolist() for a in g.unravel([0, 23])] == [[0, 3], [0, 1], [0, 2]]
+    for bad in ([-1], [24], [0, 24]):
+        assert _message(g.unravel, bad) == "voxel index out of range [0, 24)"
+
+
+def test_counts_are_int64_over_every_voxel():
+    g = ReportGrid(200, 200, 2, 2, 1)
+    c = g.counts([[10, 10, 0], [10, 10, 1]])
+    assert c.dtype == np.int64 and c.tolist() == [2, 0, 0, 0]

@@ -178,3 +178,53 @@ def test_rotate_poses_is_the_rotation_about_the_tray_centre(tray, order):
         dth = np.angle(np.exp(1j * (got[:, 2] - (p[:, 2] + phi))))
         np.testing.assert_allclose(dth, 0.0, atol=1e-9)
         assert np.all((got[:, 2] >= 0) & (got[:, 2] < 2 * math.pi))
+
+
+# ----------------------------------------------------------------------------- the group, whole
+def _fields(sym):
+    return sym.order, sym.centre, sym.action_map.tolist(), sym.action_map.dtype, sym.reason
+
+
+def test_every_group_whole_with_its_reason():
+    ident = [list(range(8))]
+    cases = [
+        (scene_from_options("allen-key"), True,
+         (4, (100.0, 100.0), None, np.int64, "square tray, uniform friction")),
+        (scene_from_options("allen-key", tray_mm=(200.0, 150.0)), True,
+         (2, (100.0, 75.0), None, np.int64, "rectangular tray, uniform friction")),
+        (scene_from_options("allen-key", actions="N,S"), True,
+         (2, (100.0, 100.0), [[0, 1], [1, 0]], np.int64, "square tray, but the action set is only closed under half turns")),
+        (scene_from_options("allen-key", tray_mm=(200.0, 150.0)), False,
+         (1, (100.0, 75.0), ident, np.int64, "symmetry reduction switched off")),
+        (scene_from_options("allen-key", friction_spec="map:low:1"), True,
+         (1, (100.0, 100.0), ident, np.int64, "friction map: the floor has no symmetry")),
+        (scene_from_options("allen-key", actions="N,E"), True,
+         (1, (100.0, 100.0), [[0, 1]], np.int64, "the action set is not closed under the tray's rotations")),
+    ]
+    for scene, enabled, want in cases:
+        got = _fields(tray_symmetry(scene, enabled=enabled))
+        assert got[:2] == want[:2] and got[3:] == want[3:]
+        if want[2] is not None:
+            assert got[2] == want[2]
+    names = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+    half = tray_symmetry(scene_from_options("allen-key", tray_mm=(200.0, 150.0)))
+    assert [names[half.rotate_action(a, 1)] for a in range(8)] == ["S", "SW", "W", "NW", "N", "NE", "E", "SE"]
+
+
+def test_square_means_within_a_nanometre_absolutely():
+    """The tray is square when its sides differ by at most 1e-9 mm, with no relative tolerance."""
+    def order(y):
+        return tray_symmetry(scene_from_options("allen-key", tray_mm=(200.0, y))).order
+
+    assert order(200.0 + 1e-10) == 4
+    assert order(200.0 + 1e-7) == 2 and order(200.5) == 2
+
+
+def test_rotated_theta_is_in_range_and_integer_poses_are_rotated_as_floats():
+    sym = tray_symmetry(scene_from_options("allen-key"))
+    # theta + a quarter turn = -2.2e-16: np.mod rounds it up to 2 pi itself, which must read 0
+    theta = np.nextafter(-math.pi / 2, -math.inf)
+    assert np.mod(theta + math.pi / 2, 2 * math.pi) == 2 * math.pi
+    assert sym.rotate_poses([[100.0, 100.0, theta]], 1)[0, 2] == 0.0
+    got = sym.rotate_poses([[150, 120, 0]], 1)
+    assert got.dtype == np.float64 and got.tolist() == [[80.0, 150.0, math.pi / 2]]

@@ -124,3 +124,58 @@ def test_messages_with_a_partition_and_without_held_mass():
     rep = analyze_structure(model_from_automaton(base), initial=[0, 0, 1.0])
     assert rep.message.startswith("2 closed classes are reachable (class 0 = {0} (1 state); class 1 = {1} "
                                   "(1 state)) but at most one holds initial mass")
+
+
+# ----------------------------------------------------------------------------- values the reports rest on
+def test_support_graph_is_an_int8_zero_one_pattern():
+    """One byte per edge, every entry 1 however many actions share the edge (memory: the support
+    graph of a 100,000-state model is built whole)."""
+    model = model_from_automaton({"states": 3, "actions": {"a": [1, 1, 2], "b": [1, 2, 2], "c": [1, 1, 2]}})
+    g = support_graph(model)
+    assert g.dtype == np.int8 and np.all(g.data == 1)
+    assert g.toarray().tolist() == [[0, 1, 0], [0, 1, 1], [0, 0, 1]]
+
+
+def test_closed_classes_are_listed_by_smallest_state_on_a_large_graph():
+    """Three closed classes of 1,000 interleaved states each (cycles over the states = r mod 3)
+    and 1,000 transient states: listed by their smallest state, each sorted (a large graph, where
+    an unstable sort of the labels would scramble the members)."""
+    n = 4000
+    nxt = np.empty(n, dtype=np.int64)
+    for r in range(3):
+        members = np.arange(r, 3000, 3)[::-1]                         # a cycle through the class
+        nxt[members] = np.roll(members, 1)
+    nxt[3000:] = np.random.default_rng(2).integers(0, 3000, 1000)    # transient: into some class
+    model = model_from_automaton({"states": n, "actions": {"a": nxt.tolist()}})
+    classes = closed_classes(support_graph(model))
+    assert [c.tolist() for c in classes] == [list(range(r, 3000, 3)) for r in range(3)]
+
+
+def test_reachability_follows_the_edges_forward_only():
+    """State 3 leads into the start's class and into another closed class; the start (state 0)
+    cannot reach state 3, so that other class is not reachable from it."""
+    model = model_from_automaton({"states": 4, "actions": {"a": [1, 1, 2, 0], "b": [0, 1, 2, 2]}})
+    rep = analyze_structure(model, initial=[1, 0, 0, 0])
+    assert [c.tolist() for c in rep.closed_classes] == [[1], [2]]
+    assert rep.reachable_classes == [0] and rep.holding_classes == []
+
+
+def test_to_dict_lists_twenty_states_by_default():
+    n = 21
+    model = model_from_automaton({"states": n, "actions": {"a": [(i + 1) % n for i in range(n)]}})
+    d = analyze_structure(model).to_dict()
+    assert d["closed_classes"] == [{"size": 21, "states": list(range(20)), "truncated": True}]
+
+
+def test_whole_messages_of_the_three_cases():
+    model = model_from_automaton({"states": 3, "actions": {"a": [0, 1, 0], "b": [0, 1, 1]},
+                                  "partition": [0, 1, 1]})
+    rep = analyze_structure(model, initial=[0.5, 0.5, 0.0])
+    assert rep.message == ("2 closed classes hold initial mass (class 0 holds mass 0.5; class 1 holds mass 0.5); "
+                           "mass never leaves a closed class, so the entropy on the states cannot reach zero "
+                           "and neither can the report-grid entropy (the classes share no report cell). "
+                           "Reachable closed classes: class 0 = {0} (1 state); class 1 = {1} (1 state).")
+    one = model_from_automaton({"states": 2, "actions": {"a": [1, 0], "b": [0, 0]}})
+    assert analyze_structure(one).message == (
+        "one closed class is reachable (class 0 = {0, 1} (2 states)): zero entropy is not excluded by the "
+        "class structure (whether a sequence reaches it is a synchronization question).")

@@ -607,3 +607,276 @@ def test_lower_bound_after_a_time_budget_stop_never_above_brute_force(monkeypatc
             assert res.length == truth
         stopped += res.method.startswith("greedy")
     assert stopped > 20
+
+
+# ----------------------------------------------------------------------------- the pair test: every answer, whole
+def _brute_reachable(table, start):
+    seen, todo = set(int(s) for s in start), list(int(s) for s in start)
+    while todo:
+        q = todo.pop()
+        for row in table:
+            r = int(row[q])
+            if r not in seen:
+                seen.add(r)
+                todo.append(r)
+    return sorted(seen)
+
+
+def test_synchronizability_of_start_subsets_follows_its_definition():
+    """For a start subset of a deterministic automaton: False (with the first non-merging start pair)
+    when some start pair never merges; True when every pair of the states reachable from the start
+    merges (then greedy merging synchronizes it: checked by brute force); None otherwise."""
+    from kruskal_markov.sync.pairs import _reachable_states
+
+    rng = np.random.default_rng(2024)
+    seen = {True: 0, False: 0, None: 0}
+    for _ in range(400):
+        n, k = int(rng.integers(3, 9)), int(rng.integers(1, 3))
+        table = random_table(rng, n, k)
+        start = sorted(int(x) for x in rng.choice(n, size=int(rng.integers(2, n)), replace=False))
+        aut = SyncAutomaton.from_table(table)
+        reach = _brute_reachable(table, start)
+        assert _reachable_states(aut, np.array(start)).tolist() == reach
+        bad = [(p, q) for p, q in itertools.combinations(start, 2) if not brute_pair_mergeable(table, p, q)]
+        got = synchronizability(aut, start)
+        if bad:
+            p, q = bad[0]
+            want = {"synchronizing": False, "witness": {"kind": "pair", "states": [p, q],
+                                                        "reason": f"no word merges states {p} and {q}"}}
+        elif all(brute_pair_mergeable(table, p, q) for p, q in itertools.combinations(reach, 2)):
+            want = {"synchronizing": True, "witness": None}
+            assert brute_det(table, start) is not None
+        else:
+            want = {"synchronizing": None, "witness": None}
+        assert got == want
+        seen[want["synchronizing"]] += 1
+    assert min(seen.values()) >= 10, seen
+
+
+def test_synchronizability_whole_answers():
+    cerny4 = SyncAutomaton.from_table(cerny(4))
+    assert synchronizability(cerny4) == {"synchronizing": True, "witness": None}
+    assert synchronizability(cerny4, [2]) == {"synchronizing": True, "witness": None}
+    # 0 <-> 1 swapped by every letter, 2 and 3 absorbing into 2: the pair {0, 1} never merges
+    table = [[1, 0, 2, 2], [1, 0, 2, 2]]
+    assert synchronizability(SyncAutomaton.from_table(table)) == {
+        "synchronizing": False,
+        "witness": {"kind": "pair", "states": [0, 1], "reason": "no word merges states 0 and 1"}}
+    assert synchronizability(SyncAutomaton.from_table(table), [2, 3]) == {"synchronizing": True, "witness": None}
+    # set-valued, every pair merges: the pair test cannot decide
+    sup = [[frozenset({0, 1}), frozenset({1}), frozenset({2})], [frozenset({1}), frozenset({2}), frozenset({0})]]
+    aut = support_automaton(model_from_support(sup))
+    assert not aut.deterministic
+    assert synchronizability(aut) == {"synchronizing": None, "witness": None}
+
+
+def test_the_start_subset_path_checks_pairs_among_reachable_states_only():
+    """Start {0, 1} of a 5-state automaton: both go to 1 under ``a``, and 1 only reaches itself; the
+    pair {0, 4}, of a state that is neither, never merges (4 is fixed, 0 goes to 1 and 1 stays).
+    Reachable states {0, 1}: their only pair merges, so True."""
+    table = [[1, 1, 3, 2, 4], [0, 1, 3, 2, 4]]
+    aut = SyncAutomaton.from_table(table)
+    assert not brute_pair_mergeable(table, 0, 4) and not brute_pair_mergeable(table, 2, 3)
+    assert synchronizability(aut, [0, 1]) == {"synchronizing": True, "witness": None}
+
+
+def test_pair_table_memory_by_hand():
+    from kruskal_markov.sync.pairs import PAIR_CHECK_BYTES, _eppstein_fits, eppstein_memory_mb, pair_check_memory_mb
+
+    assert PAIR_CHECK_BYTES == 40
+    for n in (2, 1000):
+        pairs = n * (n - 1) // 2
+        assert pair_check_memory_mb(n) == pytest.approx(pairs * 40 / 2 ** 20, rel=1e-12)
+        assert eppstein_memory_mb(n) == pytest.approx((pairs * 40 + 16 * n * n) / 2 ** 20, rel=1e-12)
+    aut = SyncAutomaton.from_table(cerny(5))
+    need = eppstein_memory_mb(5)
+    assert _eppstein_fits(aut, need) and _eppstein_fits(aut, None)
+    assert not _eppstein_fits(aut, need * (1 - 1e-12))
+    sup = [[frozenset({0, 1}), frozenset({1})]]
+    assert not _eppstein_fits(support_automaton(model_from_support(sup)), None)
+
+
+# ----------------------------------------------------------------------------- the exact search: budgets and answers, whole
+def _fake_clock(monkeypatch, *modules, start=10.0 ** 6):
+    """A clock far from zero (like a real monotonic one) that advances one second per reading."""
+    import types
+
+    clock = itertools.count(start)
+    fake = types.SimpleNamespace(perf_counter=lambda: float(next(clock)))
+    for m in modules:
+        monkeypatch.setattr(m, "time", fake)
+
+
+def test_every_result_kind_reports_its_seconds_and_work(monkeypatch):
+    """Trivial, pair-graph, found, exhaustive none, upper (the greedy word proven shortest) and
+    budget answers, whole where they are fixed, on a fake clock (seconds: a few readings, never
+    the clock's own value)."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    _fake_clock(monkeypatch, exact_mod)
+
+    def run(table, **kw):
+        return shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, **kw)
+
+    trivial = run(cerny(3), start=[1])
+    assert (trivial.word, trivial.length, trivial.exact, trivial.method) == ([], 0, True, "trivial")
+    swaps = [[1, 0, 3, 2], [0, 1, 2, 3]]                     # {0, 1} and {2, 3} swapped or fixed
+    never = run(swaps)
+    assert (never.word, never.exact, never.method) == (None, True, "pair-graph")
+    assert never.witness == {"kind": "pair", "states": [0, 1], "reason": "no word merges states 0 and 1"}
+    assert run(swaps, start=[2, 3]).witness["states"] == [2, 3]          # the start's own pair
+    found = run(cerny(5))
+    assert (found.length, found.exact, found.method, found.lower_bound) == (16, True, "bidirectional-bfs", 16)
+    upper = run(cerny(3))                                    # Eppstein's word (4 letters) is shortest
+    assert (upper.length, upper.exact, upper.method, upper.lower_bound, upper.greedy_length, upper.notes) == \
+        (4, True, "greedy-eppstein+lower-bound", 4, 4, ())
+    assert upper.states_explored > 0
+    budget = run(cerny(6), node_budget=5)
+    assert not budget.exact and budget.method == "greedy-eppstein"
+    assert budget.greedy_length == len(budget.word) == budget.length
+    assert budget.notes[0] == f"exact search stopped by its budget; no synchronizing word is shorter than " \
+                              f"{budget.lower_bound}"
+    for r in (trivial, never, found, upper, budget):
+        assert 0 < r.seconds < 1000
+
+
+def test_exhaustive_none_when_the_pair_check_does_not_fit(monkeypatch):
+    """Two swapped pairs on 20 states: the pair table (190 pairs, 0.0072 MB) needs more than half of
+    a 0.01 MB budget, so the pair check is skipped and the exhaustive search answers; with room
+    for it the pair check does."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    _fake_clock(monkeypatch, exact_mod)
+    n = 20
+    table = [[(q + 1) % 10 + 10 * (q >= 10) for q in range(n)], list(range(n))]     # two 10-cycles
+    aut = SyncAutomaton.from_table(table)
+    r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.01)
+    assert (r.word, r.length, r.exact, r.method) == (None, None, True, "bidirectional-bfs")
+    assert r.witness == {"kind": "exhaustive", "subsets_explored": r.states_explored,
+                         "reason": "exhaustive subset search: no image of the start set is a single state"}
+    assert r.states_explored > 0 and 0 < r.seconds < 1000
+    assert shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.015).method == "pair-graph"
+
+
+def test_without_room_for_eppsteins_tables_the_method_and_notes_say_so():
+    aut = SyncAutomaton.from_table(cerny(5))
+    r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.0007, node_budget=1)
+    assert r.method == "greedy" and not r.exact and r.lower_bound == 1 and r.greedy_length == r.length == len(r.word)
+    assert r.notes == ("exact search stopped by its budget; no synchronizing word is shorter than 1",
+                       "greedy by merging one pair at a time (pair graph searched from each pair): Eppstein's "
+                       "tables would need about 0 MB (over the memory budget)")
+
+
+def test_greedy_gets_forty_percent_of_the_time_budget(monkeypatch):
+    """Set-valued rows: the greedy word comes from pair merging, which checks its deadline (t0 + 40%
+    of the budget) on every step; on a fake clock with 1,000 readings of budget it finishes."""
+    import kruskal_markov.sync.exact as exact_mod
+    import kruskal_markov.sync.greedy as greedy_mod
+
+    _fake_clock(monkeypatch, exact_mod, greedy_mod)
+    sup = [[frozenset({1}), frozenset({2}), frozenset({0, 3}), frozenset({3})],
+           [frozenset({0}), frozenset({1}), frozenset({3}), frozenset({0})]]
+    aut = support_automaton(model_from_support(sup))
+    assert not aut.deterministic
+    r = shortest_synchronizing_word(aut, time_budget=1000.0, node_budget=1)
+    assert r.word is not None and r.greedy_length == len(r.word)
+    assert not any("greedy word not found" in note for note in r.notes)
+
+
+def test_stores_follow_the_memory_budget():
+    """Three eighths of the budget per direction, 8 W + 44 bytes a row (bitset, parent, letter, hash
+    slots), at least 1,024 rows; an automaton whose n backward roots do not fit gets no exact search."""
+    from kruskal_markov.sync.exact import _exact_search
+
+    n = 2000
+    aut = SyncAutomaton.from_table(np.random.default_rng(0).integers(0, n, size=(2, n)))
+    row = 8 * 32 + 44
+
+    def mb_for(rows):           # the budget whose three eighths hold ``rows`` rows (and a half)
+        return (rows + 0.5) * row * 8 / 3 / 2 ** 20
+
+    s = np.arange(n)
+    assert _exact_search(aut, s, None, mb_for(n), node_budget=1) == (None, "budget", 0, 1)
+    word, status, explored, lower = _exact_search(aut, s, None, mb_for(n + 1), node_budget=1)
+    assert (word, status, lower) == (None, "budget", 1) and explored == n + 1      # one root each way
+    small = SyncAutomaton.from_table(np.random.default_rng(0).integers(0, 1024, size=(2, 1024)))
+    assert _exact_search(small, np.arange(1024), None, 1e-3, node_budget=1) == (None, "budget", 0, 1)
+
+
+def test_depth_first_phase_stops_at_its_node_budget():
+    """Past the breadth-first stores (a 0.05 MB budget), the depth-first phase counts the subsets it
+    generates against the node budget: a budget between what the breadth-first phase used and what
+    the whole search needs stops it there, with a proven lower bound at most the shortest length."""
+    rng = np.random.default_rng(1)
+    n = 60
+    table = rng.integers(0, n, size=(2, n))
+    aut = SyncAutomaton.from_table(table)
+    full = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=10**8)
+    assert full.method == "bidirectional-bfs+dfs" and full.exact
+    stops = 0
+    for budget in (2100, 2500, 4000, (2048 + full.states_explored) // 2, full.states_explored - 1):
+        r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=budget)
+        assert r.lower_bound <= full.length and r.length >= full.length
+        assert r.exact == (r.length == full.length == r.lower_bound)
+        if not r.exact:
+            stops += 1
+            assert r.states_explored >= budget
+    assert stops >= 3
+
+
+def test_levels_of_more_than_ten_thousand_subsets():
+    """The search re-measures its cost per subset on levels over 10,000 (n = 64, k = 4 reaches 12,316).
+    13 letters: the plain breadth-first search's answer (``brute_bitmask``, 10 s, run once)."""
+    table = np.random.default_rng(0).integers(0, 64, size=(4, 64))
+    r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None)
+    assert r.exact and r.length == 13 and len(plain_image(table, range(64), r.word)) == 1
+
+
+# ----------------------------------------------------------------------------- greedy words: which method, and its edge cases
+def test_greedy_word_is_eppsteins_when_its_tables_fit_else_pair_merging():
+    """The documented order: Eppstein's word when his tables fit the memory budget, else the word of
+    merging one pair at a time."""
+    from kruskal_markov import _sync_kernels as _k
+    from kruskal_markov.sync import _pair_merging_greedy
+    from kruskal_markov.sync.pairs import eppstein_memory_mb
+
+    rng = np.random.default_rng(17)
+    pair_merged = 0
+    for table in [cerny(6), cerny(7)] + [random_table(rng, 12, 2) for _ in range(6)]:
+        aut = SyncAutomaton.from_table(table)
+        n = aut.n
+        if brute_det(table) is None:
+            continue
+        dist, nxt = aut.pair_distances()
+        out = np.empty(max(16, n ** 3 // 6 + n), dtype=np.int32)
+        length = _k.eppstein_greedy(aut.delta, np.arange(n, dtype=np.int64), dist, nxt, out)
+        assert greedy_synchronizing_word(aut) == [int(x) for x in out[:length]]
+        tight = eppstein_memory_mb(n) * 0.99
+        merged = _pair_merging_greedy(aut, np.arange(n))       # None past 4 n letters (Cerny C_6 needs 25)
+        if merged is not None:
+            assert greedy_synchronizing_word(aut, memory_budget_mb=tight) == merged
+            pair_merged += 1
+    assert pair_merged >= 4
+
+
+def test_pair_merging_on_deterministic_rows_and_merges_into_state_zero():
+    """Deterministic rows are single-valued rows: pair merging follows them (Cerny C_3 and C_4: the
+    smallest-image rule of set-valued starts would cycle through the rotation). A pair that merges
+    only into state 0 is merged."""
+    from kruskal_markov.sync import _pair_merging_greedy
+
+    for n in (3, 4):
+        aut = SyncAutomaton.from_table(cerny(n))
+        word = _pair_merging_greedy(aut, np.arange(n))
+        assert word is not None and is_synchronizing_word(aut, word)
+    into_zero = SyncAutomaton.from_table([[1, 2, 3, 0], [0, 0, 0, 0]])
+    assert _pair_merging_greedy(into_zero, np.arange(4)) == [1]
+
+
+def test_greedy_descent_searches_on_when_no_letter_shrinks_the_set():
+    """Cerny C_5: after b, no single letter shrinks {1, 2, 3, 4}; the descent goes on breadth-first."""
+    from kruskal_markov.sync import _greedy_descent
+
+    aut = SyncAutomaton.from_table(cerny(5))
+    word = _greedy_descent(aut, np.arange(5), 10 ** 5)
+    assert word is not None and is_synchronizing_word(aut, word)

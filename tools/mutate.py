@@ -41,6 +41,8 @@ _FAULT_TESTS = [f"tests/test_sim_faults.py::{t}" for t in (
     "test_escaped_after_landing_from_the_simulator", "test_escaped_after_landing_by_construction",
     "test_invalid_when_the_state_goes_non_finite_in_flight", "test_fault_counts")]
 
+_SYNC_TESTS = ["tests/test_sync.py", "tests/test_plan.py"]
+
 #: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
 MODULES = {
     "entropy": ("kruskal_markov/entropy.py", ["tests/test_entropy.py"], None),
@@ -53,6 +55,12 @@ MODULES = {
     "grid": ("transition_builder/grid.py", ["tests/test_grid.py"], None),
     "status": ("transition_builder/status.py", _FAULT_TESTS, None),
     "posterior": ("kruskal_markov/posterior.py", ["tests/test_posterior.py"], None),
+    # the synchronizing-word search, one module per method, against the sync and plan tests
+    **{f"sync_{m}": (f"kruskal_markov/sync/{m}.py", _SYNC_TESTS, None)
+       for m in ("automaton", "pairs", "exact", "greedy", "epsilon", "targets", "plan", "result")},
+    # the builder's assembly (counts -> model), against its unit tests on hand-made explorations
+    # (test_builder.py's physics builds read the assembled model too, but a build per mutant does not fit)
+    "assembly": ("transition_builder/builder/assembly.py", ["tests/test_builder_assembly.py"], None),
     # the simulator: its fault classification only (the trial loop and the batch's landing check)
     "sim": ("transition_builder/sim.py", _FAULT_TESTS,
             ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
