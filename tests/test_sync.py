@@ -880,3 +880,52 @@ def test_greedy_descent_searches_on_when_no_letter_shrinks_the_set():
     aut = SyncAutomaton.from_table(cerny(5))
     word = _greedy_descent(aut, np.arange(5), 10 ** 5)
     assert word is not None and is_synchronizing_word(aut, word)
+
+
+# ----------------------------------------------------------------------------- the support automaton, whole
+def test_automaton_messages_and_default_names():
+    import re
+
+    for table, message in (([[]], "a transition table must have shape (letters, states) with both > 0"),
+                           ([[0.5, 1.0]], "a transition table must hold integer state indices"),
+                           ([[0, 2]], "transition table entries must lie in [0, 2)")):
+        with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
+            SyncAutomaton.from_table(table)
+    aut = SyncAutomaton.from_table([[1, 0], [0, 0]])
+    assert aut.actions == ("0", "1")
+    for word in ([2], [-1], [0, 2]):
+        with pytest.raises(ValueError, match=r"^letters must lie in \[0, 2\)$"):
+            aut.image([0, 1], word)
+
+
+def test_support_threshold_keeps_entries_equal_to_it_and_reports_mean_mass_dropped():
+    """Entries >= threshold are kept (0.25 at threshold 0.25 stays); mass_dropped is the largest mass
+    removed from one row, mass_dropped_mean the mass removed per (state, action)."""
+    a = np.array([[0.5, 0.25, 0.25], [0.0, 1.0, 0.0], [0.1, 0.0, 0.9]])
+    b = np.eye(3)
+    model = TransitionModel(["a", "b"], [a, b])
+    at = support_automaton(model, 0.25)
+    assert at.image([0], [0]) == [0, 1, 2]
+    assert (at.mass_dropped, at.mass_dropped_mean) == (0.1, pytest.approx(0.1 / 6, rel=1e-12))
+    above = support_automaton(model, 0.3)
+    assert above.image([0], [0]) == [0]
+    assert above.mass_dropped == 0.5 and above.mass_dropped_mean == pytest.approx(0.6 / 6, rel=1e-12)
+    none = support_automaton(model)
+    assert (none.mass_dropped, none.mass_dropped_mean) == (0.0, 0.0)
+
+
+def test_as_automaton_takes_models_with_their_start_or_a_given_one():
+    import types
+
+    from kruskal_markov.sync import as_automaton
+
+    model = TransitionModel(["a", "b"], [np.eye(3)[[1, 2, 0]], np.eye(3)[[0, 0, 2]]], initial=[0.5, 0.5, 0.0])
+    aut, start = as_automaton(model)
+    assert aut.deterministic and list(start) == [0, 1, 2]        # deterministic: every state
+    # cached on the model under the key plan.py uses for threshold 0 (one support automaton per threshold)
+    assert model.memo(("support_automaton", 0.0), lambda: pytest.fail("not cached")) is aut
+    assert as_automaton(model, [1, 2])[1] == [1, 2]
+    with pytest.raises(TypeError, match="^expected a SyncAutomaton or a TransitionModel, got int$"):
+        as_automaton(3)
+    with pytest.raises(TypeError, match="got SimpleNamespace$"):
+        as_automaton(types.SimpleNamespace(matrices=[]))
