@@ -522,3 +522,30 @@ def test_plans_share_the_models_support_automaton():
     shortest_plan(model, "state")
     cached = model.memo(("support_automaton", 0.0), lambda: pytest.fail("the plan did not cache it"))
     assert as_automaton(model)[0] is cached
+
+
+def test_targets_whole_messages_and_types():
+    import re
+
+    from kruskal_markov.sync import Target
+    from kruskal_markov.sync.targets import model_cells
+
+    def refused(fn, message):
+        with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
+            fn()
+
+    refused(lambda: Target("probability", 1.0), "probability target: E must lie in [0, 1), got 1.0")
+    refused(lambda: Target("cell", 0.1), "target cell takes no epsilon")
+    refused(lambda: parse_target(3), "bad plan target 3: expected state, cell or probability:E")
+    refused(lambda: parse_target("probability:x"),
+            "bad plan target 'probability:x': E in probability:E must be a number in [0, 1)")
+    refused(lambda: parse_target("probability:0.1:0.2"),
+            "bad plan target 'probability:0.1:0.2': E in probability:E must be a number in [0, 1)")
+    t = Target("probability", 0)
+    assert type(t.epsilon) is float and t.epsilon == 0.0 and t.threshold == 1.0
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    refused(lambda: model_cells(model, parse_target("cell"), [0, 1]), "cells must be 4 integers (one per state), got "
+                                                                       "shape (2,)")
+    refused(lambda: model_cells(model, parse_target("cell"), [0, -1, 0, 0]), "cells must be non-negative")
+    c, n = model_cells(model, parse_target("cell"), np.array([0, 2, 2, 1], dtype=np.int32))
+    assert c.dtype == np.int64 and c.tolist() == [0, 2, 2, 1] and n == 3

@@ -972,6 +972,7 @@ def test_epsilon_word_answers_whole(monkeypatch):
     assert (found.word, found.length, found.exact, found.method, found.lower_bound) == \
         (plain_shortest_word(cerny(3)), 4, True, "distribution-bfs", 4)
     assert found.notes == ("entropy 0 bits",) and found.states_explored > 4 and 0 < found.seconds < 1000
+    assert epsilon_synchronizing_word(cerny3, 0.0, max_length=4).length == 4        # max_length is inclusive
     cerny5 = _det_model(cerny(5))
     stop = epsilon_synchronizing_word(cerny5, 0.0, max_nodes=3)
     assert (stop.word, stop.length, stop.exact, stop.method) == (None, None, False, "distribution-bfs")
