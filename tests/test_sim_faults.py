@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -278,3 +279,29 @@ def test_fault_counts():
     assert fault_counts([]) == {"tipped": 0, "escaped": 0, "unsettled": 0, "invalid": 0}
     with pytest.raises(ValueError, match=r"^unknown status code\(s\) \[5, 7\]$"):
         fault_counts([0, 5, 7, 5])
+
+
+def test_rest_needs_the_dwell_in_consecutive_still_intervals():
+    """By construction (a scripted engine): still for one interval short of the dwell, a 10 mm jump,
+    then still: the rest test counts from zero again after the jump and stops after exactly the dwell
+    of consecutive still intervals (2 x dwell intervals in all), reading the rest pose then."""
+    sc = scene_from_options("rectangle:20x20")
+    st = sc.settings
+    dwell = max(1, math.ceil(st.dwell_s / st.check_interval_s - 1e-9))
+    assert dwell >= 2
+    steps = {"n": 0}
+
+    def scripted(w):
+        def step():
+            steps["n"] += 1
+
+        def state():
+            x = 0.0 if steps["n"] < dwell else 0.01          # metres: the jump at interval ``dwell``
+            return (x, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        w.step, w.state = step, state
+        w.set_pose = lambda pose, twist=None: None
+        w.lift_mm = lambda: 0.0
+        w.to_tray = lambda x, y, yaw: (50.0, 60.0, 0.5)
+    rest, code = _tilt_with(sc, [100.0, 100.0, 0.0], "E", scripted)
+    assert code == OK and rest.tolist() == [50.0, 60.0, 0.5]
+    assert steps["n"] == 2 * dwell
