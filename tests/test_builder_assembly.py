@@ -40,7 +40,8 @@ def _landing(rng):
 class _Case:
     """A hand-made exploration and the build context it is assembled in."""
 
-    def __init__(self, settings, explored, seed, start_faults=(), rest_faults=(), not_drawn=(), more=0):
+    def __init__(self, settings, explored, seed, start_faults=(), rest_faults=(), not_drawn=(), more=0,
+                 offset=(0.0, 0.0, 0.0)):
         self.scene = scene_from_options("rectangle:20x10")
         self.settings = settings
         self.c = _context(self.scene, settings, None, 1000, None, 60.0)
@@ -56,7 +57,7 @@ class _Case:
             for b in range(n_act):
                 for k in range(K):
                     t, r = _landing(rng)
-                    ex.land[o, b, k] = sym.rotate_poses(ORBITS[t], r)[0]
+                    ex.land[o, b, k] = sym.rotate_poses(ORBITS[t] + offset, r)[0]
                     ex.status[o, b, k] = OK
                     self.rest[o, b, k] = (t, r)
         for (o, b, k), code in rest_faults:
@@ -75,7 +76,7 @@ class _Case:
             t, r = _landing(rng)
             code = OK if i % 3 else UNSETTLED
             src.append((o, b, K + i))
-            land.append(sym.rotate_poses(ORBITS[t], r)[0] if code == OK else [np.nan] * 3)
+            land.append(sym.rotate_poses(ORBITS[t] + offset, r)[0] if code == OK else [np.nan] * 3)
             status.append(code)
             self.rest[o, b, K + i] = (t, r) if code == OK else code
         if more:
@@ -91,7 +92,7 @@ class _Case:
         for bi in range(len(self.c.reps)):
             for i in range(n0):
                 t, r = _landing(rng)
-                ex.start_land[bi, i] = sym.rotate_poses(ORBITS[t], r)[0]
+                ex.start_land[bi, i] = sym.rotate_poses(ORBITS[t] + offset, r)[0]
                 self.start[bi, i] = (t, r)
         for (bi, i), code in start_faults:
             ex.start_status[bi, i] = code
@@ -293,3 +294,81 @@ def test_every_fault_kind_is_counted_under_its_name(code):
     # the fault of orbit 0 under action 2 appears once per rotation, under the rotated actions
     assert sum(counts[STATUS_NAMES[code]] for counts in hit.values()) == case.G
     assert all(set(counts) == set(STATUS_NAMES[1:]) for counts in per.values())
+
+
+def test_noise_statistics_of_a_noisy_build():
+    """Every landing 0.2 mm (x) and 0.3 degrees off its representative: the snapping spread is the
+    root mean square per coordinate, (0.2 / sqrt 2 mm, 0.3 deg); the representatives' noise is the
+    process noise, or with snap compensation sqrt(sigma^2 - spread^2) per coordinate. Zero noise: none."""
+    from transition_builder.builder.assembly import _noise_stats
+    from transition_builder.noise import NoiseSpec, parse_noise
+
+    off = (0.2, 0.0, math.radians(0.3))
+    for compensate in (False, True):
+        settings = BuildSettings(noise="pose:0.5,1.0", samples=2, grid="2x2x2", snap_compensation=compensate)
+        case = _Case(settings, [True, True, True, False, False], 4, offset=off)
+        got = _noise_stats(settings, case.ex, case.c.index, case.sym)
+        spread = (0.2 / math.sqrt(2), 0.3)
+        assert got["snap_spread_mm"] == pytest.approx(spread[0], rel=1e-9)
+        assert got["snap_spread_deg"] == pytest.approx(spread[1], rel=1e-9)
+        compensated = NoiseSpec("pose", math.sqrt(0.25 - spread[0] ** 2), math.sqrt(1.0 - spread[1] ** 2))
+        added = compensated if compensate else settings.noise_spec
+        assert set(got) == {"snap_spread_mm", "snap_spread_deg", "representative_noise"}
+        noise = parse_noise(got["representative_noise"])
+        assert (noise.sigma_mm, noise.sigma_deg) == (pytest.approx(added.sigma_mm, rel=1e-9),
+                                                     pytest.approx(added.sigma_deg, rel=1e-9))
+    quiet = BuildSettings(grid="2x2x2")
+    case = _Case(quiet, [True, False, False, False, False], 4)
+    assert _noise_stats(quiet, case.ex, case.c.index, case.sym) == {}
+
+
+def test_weighted_build_with_nothing_explored_keeps_every_rest_row_in_place():
+    """No explored state to borrow from: every rest row stays put, none borrows (not a start row)."""
+    settings = BuildSettings(noise="pose:0.1,0.1", samples=2, grid="2x2x2")
+    case = _Case(settings, [False] * 5, 5)
+    case.borrow, case.afar = {}, 0
+    model, stats = case.assemble()
+    _check(case, model, stats, judge(case))
+    assert stats["rows_borrowed"] == 0 and "borrowed_from" not in model.extras
+
+
+def test_unused_voxels_still_count_as_cells():
+    """A 4 x 4 x 4 grid whose last voxels hold no state: the model has every report cell."""
+    settings = BuildSettings(grid="4x4x4")
+    case = _Case(settings, [True, True, False, True, False], 6)
+    case.borrow, case.afar = {}, 0
+    model, stats = case.assemble()
+    assert model.partition.max() < case.c.grid.n_voxels - 1
+    assert model.n_cells == 64
+    _check(case, model, stats, judge(case))
+
+
+def test_an_action_that_never_landed_cannot_be_assembled():
+    """Every sample of action 2 (and so of its rotations) faulted: its start rows have nothing to
+    impute from, and the model refuses the empty rows (ModelError, one line)."""
+    from kruskal_markov.model import ModelError
+
+    settings = BuildSettings(grid="2x2x2")
+    case = _Case(settings, [True, False, False, False, False], 7)
+    for bi in range(len(case.c.reps)):
+        for i in range(len(STARTS)):
+            case.ex.start_status[bi, i] = TIPPED
+    case.ex.status[0] = TIPPED
+    with pytest.raises(ModelError, match="sums to 0"):
+        case.assemble()
+
+
+def test_a_landing_without_representative_is_an_internal_error():
+    settings = BuildSettings(grid="2x2x2")
+    case = _Case(settings, [True, False, False, False, False], 8)
+    case.ex.land[0, 1, 0] = [150.0, 150.0, 0.7]           # far from every representative
+    with pytest.raises(RuntimeError, match="^a landing has no representative within tolerance after exploration$"):
+        case.assemble()
+
+
+def test_aligned_counts_with_one_stored_count():
+    import scipy.sparse as sp
+
+    P = sp.csr_matrix(np.array([[0.5, 0.5], [0.0, 1.0]]))
+    C = sp.csr_matrix(np.array([[2, 0], [0, 0]]))
+    assert _aligned(P, C).tolist() == [2, 0, 0]

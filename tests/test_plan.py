@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 
 import numpy as np
 import pytest
@@ -350,3 +351,201 @@ def test_cli_plan_grid_cells_from_state_poses(capsys, tmp_path):
     assert main(["plan", "--model", str(path), "--target", "cell", "--grid", "2x1x1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["length"] == truth and out["exact"] and out["grid"] == "2x1x1"
+
+
+# ----------------------------------------------------------------------------- answers whole, bounds, budgets
+def _cerny4(**kw):
+    return model_from_automaton({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 1, 2, 0]}, **kw})
+
+
+def test_max_length_below_the_shortest_plan_proves_nothing_beyond_it():
+    """Cerny C_4 needs 9 letters; with max_length 5..8 the answer is 'none up to max_length', not a
+    proof that no plan exists (the pair-merging bound excludes lengths up to R only). Found by this
+    test: the search claimed 'no cell is reachable ... at any length' (exact) for max_length 5."""
+    model = _cerny4()
+    for L in (5, 6, 8):
+        r = shortest_plan(model, "state", max_length=L)
+        assert (r.word, r.exact, r.lower_bound, r.method) == (None, False, L + 1, "ida*")
+        assert r.notes == (f"no plan of length <= {L}",) and r.witness is None
+    rng = np.random.default_rng(21)
+    for _ in range(40):
+        m = random_model(rng, 5, 2, False, 2)
+        for target in ("state", "cell"):
+            r = shortest_plan(m, target, max_length=3)
+            if r.word is None and r.exact:
+                assert brute_length([m], target, 10) is None
+
+
+def test_a_plan_result_whole():
+    r = shortest_plan(_cerny4(), "state")
+    assert r.to_dict() == {"word": list("baaabaaab"), "length": 9, "exact": True, "lower_bound": 9, "target": "state",
+                           "method": "beam+ida*", "final_cell": 0, "success_probability": 1.0, "upper_bound": 9,
+                           "nodes": r.nodes, "witness": None, "notes": []}
+    assert r.nodes > 0
+    # the defaults are the documented ones (beam width 64, 64 letters, threshold 0)
+    same = shortest_plan(_cerny4(), "state", beam_width=64, max_length=64, threshold=0.0)
+    assert same.to_dict() == r.to_dict()
+    # IDA* alone (a beam of width 1 finds no plan): method "ida*", work counted
+    ida = shortest_plan(_cerny4(), "state", beam_width=1)
+    assert (ida.length, ida.exact, ida.method) == (9, True, "ida*") and ida.nodes > r.nodes
+
+
+def test_state_plan_probability_is_the_mass_in_the_final_state():
+    """A stochastic model: the state plan ends in one state of the support automaton; its success
+    probability is the model's mass there (here 1, every row's support single after the plan)."""
+    mats = [sp.csr_matrix([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.5, 0.5]]), sp.csr_matrix(np.eye(3)[[1, 1, 1]])]
+    model = TransitionModel(["a", "b"], mats, partition=[0, 1, 1], n_cells=2)
+    r = shortest_plan(model, "state")
+    assert r.word == ("b",) and r.final_cell == 1 and r.success_probability == 1.0
+
+
+def test_cells_given_are_used_by_plans_and_random_words():
+    """One cell for every state: the cell target is met by the empty word, by every word of every length."""
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    one = [np.zeros(4, dtype=np.int64)]
+    assert shortest_plan(model, "cell").length == brute_length([model], "cell", 9)
+    r = shortest_plan(model, "cell", cells=one)
+    assert (r.word, r.method, r.final_cell, r.success_probability) == ((), "trivial", 0, 1.0)
+    rws = random_word_success(model, "cell", max_length=3, words=10, cells=one[0])
+    assert rws["probability"] == [1.0, 1.0, 1.0, 1.0]
+
+
+def test_bounds_that_do_not_fit_the_memory_say_so():
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    p = shortest_plan(model, "probability:0.1", memory_budget_mb=1e-6)
+    assert p.notes == ("probability bound skipped (memory)", "probability bound computed up to length 0 only (memory)")
+    assert p.exact and p.length == brute_length([model], "probability:0.1", 9)
+    c = shortest_plan(model, "cell", memory_budget_mb=1e-6)
+    assert c.notes == ("cell-reachability bound skipped (memory)",)
+    assert c.exact and c.length == brute_length([model], "cell", 9)
+    # half the budget for the bound tables: 1e-4 MB (52 bytes) cannot hold the cell masks' 3 levels of
+    # 32 bytes, nor two levels of the probability tables (32 bytes each)
+    assert shortest_plan(model, "cell", memory_budget_mb=1e-4).notes == ("cell-reachability bound skipped (memory)",)
+    assert shortest_plan(model, "probability:0.1", memory_budget_mb=1e-4).notes[0] == "probability bound skipped (memory)"
+    roomy = shortest_plan(model, "cell", memory_budget_mb=1.0)
+    assert roomy.notes == () and roomy.length == c.length
+
+
+def test_no_plan_witnesses_whole():
+    swap = model_from_automaton({"states": 2, "actions": {"a": [1, 0], "b": [0, 1]}})
+    r = shortest_plan(swap, "state")
+    assert (r.word, r.exact, r.lower_bound, r.method) == (None, True, None, "cell-reachability")
+    assert r.witness == {"kind": "bound", "reason": "no cell is reachable by every start state under some word "
+                                                    "(per model), at any length"}
+    A = TransitionModel(["a", "b"], [sp.csr_matrix([[1.0, 0], [1.0, 0]]), sp.csr_matrix([[.5, .5], [.5, .5]])])
+    B = TransitionModel(["a", "b"], [sp.csr_matrix([[.5, .5], [.5, .5]]), sp.csr_matrix([[1.0, 0], [1.0, 0]])])
+    both = shortest_plan([A, B], "state")
+    assert both.method == "ida*" and both.witness["kind"] == "exhaustive"
+    assert both.witness["reason"].endswith(" meets the target state under every model; every model alone has a "
+                                           "plan (lengths [1, 1]), but no one word serves all")
+
+
+def test_node_budget_stops_the_beam_after_a_whole_level_and_the_passes_at_once():
+    """A budget of N images lets the beam finish the level that passes N (a 2-letter plan is found
+    with a budget of 2, the first level's size); a budget that stops the depth-first passes reports
+    what it proved, with method 'none' when the beam found nothing."""
+    model = model_from_automaton({"states": 3, "actions": {"a": [1, 1, 2], "b": [2, 2, 2]}})
+    assert brute_length([model], "state", 4) == 1
+    two = model_from_automaton({"states": 3, "actions": {"a": [1, 2, 2], "b": [0, 0, 1]}})
+    assert brute_length([two], "state", 4) == 2
+    r = shortest_plan(two, "state", node_budget=2)
+    assert r.length == 2
+    assert shortest_plan(two, "state", node_budget=2, max_length=2).length == 2     # the beam goes to max_length
+    stop = shortest_plan(_cerny4(), "state", beam_width=1, node_budget=30)
+    assert (stop.word, stop.exact, stop.method, stop.lower_bound) == (None, False, "none", 6)
+    assert stop.notes == ("budget reached in the depth-6 pass: no plan is shorter than 6",)
+    mid = shortest_plan(_cerny4(), "state", node_budget=100)
+    assert mid.word is not None and not mid.exact and mid.method == "beam" and mid.lower_bound <= 9
+
+
+def test_probability_plans_that_need_the_depth_first_passes():
+    """beam width 1: the passes start from the root distribution (its values), against brute force."""
+    rng = np.random.default_rng(8)
+    checked = 0
+    for _ in range(12):
+        m = random_model(rng, 6, 2, True, 4)
+        r = shortest_plan(m, "probability:0.05", beam_width=1, max_length=7)
+        if not (r.method.endswith("ida*") and r.word is not None):
+            continue
+        assert r.exact and r.length == brute_length([m], "probability:0.05", 7)
+        checked += 1
+    assert checked >= 3
+
+
+def test_state_plan_passes_its_budgets_and_notes(monkeypatch):
+    import types
+
+    import kruskal_markov.sync.plan as plan_mod
+    from kruskal_markov.sync import state_plan
+
+    clock = itertools.count(10 ** 6)
+    monkeypatch.setattr(plan_mod, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
+    r = state_plan(_cerny4(), time_budget=2.5)
+    assert not r.exact and r.method.startswith("plan-")
+    assert r.notes and r.notes[-1].startswith("budget reached in the depth-")
+    full = state_plan(_cerny4(), time_budget=None)
+    assert full.exact and full.length == 9 and full.word == [1, 0, 0, 0, 1, 0, 0, 0, 1]
+
+
+def test_plan_input_messages():
+    import re
+
+    model = _cerny4()
+    for kwargs, message in (({"models": []}, "at least one model is needed"),
+                            ({"node_budget": 0}, "node_budget must be a positive integer, got 0"),
+                            ({"beam_width": 1.5}, "beam_width must be a positive integer, got 1.5")):
+        models = kwargs.pop("models", model)
+        with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
+            shortest_plan(models, "state", **kwargs)
+    with pytest.raises(ValueError, match=r"^max_length must be >= 0 and words >= 1 \(integers\)$"):
+        random_word_success(model, words=0)
+
+
+def test_random_word_success_answer_whole():
+    """Keys, the default target (cell), and the 95% interval p +- 1.96 sqrt(p (1 - p) / words), clipped."""
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    r = random_word_success(model, max_length=8, words=400, seed=2)
+    assert set(r) == {"lengths", "probability", "ci95", "words", "target"}
+    assert r["target"] == "cell" and r["words"] == 400 and r["lengths"] == list(range(9))
+    for p, (lo, hi) in zip(r["probability"], r["ci95"]):
+        se = math.sqrt(p * (1 - p) / 400)
+        assert lo == pytest.approx(max(0.0, p - 1.96 * se), abs=1e-15)
+        assert hi == pytest.approx(min(1.0, p + 1.96 * se), abs=1e-15)
+    assert any(0 < p < 1 for p in r["probability"])
+
+
+def test_plans_share_the_models_support_automaton():
+    """One support automaton per model and threshold: a plan caches it under the key sync uses."""
+    from kruskal_markov.sync import as_automaton
+
+    model = _cerny4()
+    shortest_plan(model, "state")
+    cached = model.memo(("support_automaton", 0.0), lambda: pytest.fail("the plan did not cache it"))
+    assert as_automaton(model)[0] is cached
+
+
+def test_targets_whole_messages_and_types():
+    import re
+
+    from kruskal_markov.sync import Target
+    from kruskal_markov.sync.targets import model_cells
+
+    def refused(fn, message):
+        with pytest.raises(ValueError, match="^" + re.escape(message) + "$"):
+            fn()
+
+    refused(lambda: Target("probability", 1.0), "probability target: E must lie in [0, 1), got 1.0")
+    refused(lambda: Target("cell", 0.1), "target cell takes no epsilon")
+    refused(lambda: parse_target(3), "bad plan target 3: expected state, cell or probability:E")
+    refused(lambda: parse_target("probability:x"),
+            "bad plan target 'probability:x': E in probability:E must be a number in [0, 1)")
+    refused(lambda: parse_target("probability:0.1:0.2"),
+            "bad plan target 'probability:0.1:0.2': E in probability:E must be a number in [0, 1)")
+    t = Target("probability", 0)
+    assert type(t.epsilon) is float and t.epsilon == 0.0 and t.threshold == 1.0
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    refused(lambda: model_cells(model, parse_target("cell"), [0, 1]), "cells must be 4 integers (one per state), got "
+                                                                       "shape (2,)")
+    refused(lambda: model_cells(model, parse_target("cell"), [0, -1, 0, 0]), "cells must be non-negative")
+    c, n = model_cells(model, parse_target("cell"), np.array([0, 2, 2, 1], dtype=np.int32))
+    assert c.dtype == np.int64 and c.tolist() == [0, 2, 2, 1] and n == 3

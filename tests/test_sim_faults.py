@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -12,7 +13,7 @@ import pytest
 from transition_builder.sampling import sample_start_poses
 from transition_builder.scene import scene_from_options
 from transition_builder.sim import TraySimulator, simulate
-from transition_builder.status import ESCAPED, INVALID, OK, fault_counts
+from transition_builder.status import ESCAPED, INVALID, OK, TIPPED, fault_counts
 
 
 def _random_tilts(seed: int, n: int):
@@ -278,3 +279,67 @@ def test_fault_counts():
     assert fault_counts([]) == {"tipped": 0, "escaped": 0, "unsettled": 0, "invalid": 0}
     with pytest.raises(ValueError, match=r"^unknown status code\(s\) \[5, 7\]$"):
         fault_counts([0, 5, 7, 5])
+
+
+def _scripted(sc, script, lift_mm=0.0, poses=((100.0, 100.0, 0.0),)):
+    """Tilts on a scripted engine: after ``n`` steps the part is at ``script(n) = (x, y, z, yaw)``
+    (metres and radians in the world frame; velocities zero), lifted ``lift_mm``; a rest pose reads
+    as (50, 60, 0.5). Returns (rest poses, statuses, steps taken)."""
+    steps = {"n": 0}
+    with TraySimulator(sc) as sim:
+        w = sim._world("E")
+
+        def step():
+            steps["n"] += 1
+        w.step = step
+        w.state = lambda: tuple(script(steps["n"])) + (0.0, 0.0, 0.0)
+        w.set_pose = lambda pose, twist=None: None
+        w.lift_mm = lambda: lift_mm
+        w.to_tray = lambda x, y, yaw: (50.0, 60.0, 0.5)
+        rest, status = sim.tilt(list(poses), "E")
+    return rest, status, steps["n"]
+
+
+def test_rest_needs_the_dwell_in_consecutive_still_intervals():
+    """By construction: still for one interval short of the dwell, then one move, then still: the
+    rest test counts from zero again after the move and stops after exactly the dwell of consecutive
+    still intervals (2 x dwell intervals in all). A move is a step of the rest speed's distance in x
+    or y (exactly: ``<`` is still), or of the rest yaw rate's angle (exactly)."""
+    sc = scene_from_options("rectangle:20x20")
+    st = sc.settings
+    dwell = max(1, math.ceil(st.dwell_s / st.check_interval_s - 1e-9))
+    assert dwell >= 2
+    d_lin = st.rest_speed_mm_s / 1000.0 * st.check_interval_s          # metres per interval
+    d_ang = st.rest_angular_speed_rad_s * st.check_interval_s
+    for move in ((0.01, 0.0, 0.0), (0.0, 0.01, 0.0), (d_lin, 0.0, 0.0), (0.0, d_lin, 0.0), (0.0, 0.0, d_ang)):
+        def script(n, move=move):
+            return (move[0], move[1], 0.0, move[2]) if n >= dwell else (0.0, 0.0, 0.0, 0.0)
+        rest, status, steps = _scripted(sc, script)
+        assert status.tolist() == [OK] and rest.tolist() == [[50.0, 60.0, 0.5]]
+        assert steps == 2 * dwell, move
+
+
+def test_escape_and_tip_thresholds_by_construction():
+    """Beyond the escape radius (x or y; at it exactly: inside), below the floor by more than the
+    lift tolerance (at it exactly, or just inside: not escaped), lifted more than the tolerance
+    (exactly: lying flat)."""
+    sc = scene_from_options("rectangle:20x20")
+    tol = sc.settings.lift_tolerance_mm
+    with TraySimulator(sc) as sim:
+        r_out = sim._r_out
+    lift = tol / 1000.0
+    cases = [((1.001 * r_out, 0.0, 0.0), 0.0, ESCAPED), ((0.0, 1.001 * r_out, 0.0), 0.0, ESCAPED),
+             ((r_out, 0.0, 0.0), 0.0, OK), ((0.0, 0.0, -2 * lift), 0.0, ESCAPED),
+             ((0.0, 0.0, -lift), 0.0, OK), ((0.0, 0.0, -0.9995 * lift), 0.0, OK),
+             ((0.0, 0.0, 0.0), tol, OK), ((0.0, 0.0, 0.0), 1.0001 * tol, TIPPED)]
+    for (x, y, z), lifted, want in cases:
+        rest, status, steps = _scripted(sc, lambda n, x=x, y=y, z=z: (x, y, z, 0.0), lift_mm=lifted)
+        assert status.tolist() == [want], (x, y, z, lifted)
+        if want == ESCAPED:
+            assert steps == 1 and np.all(np.isnan(rest))
+
+
+def test_an_invalid_start_does_not_stop_the_batch():
+    sc = scene_from_options("rectangle:20x20")
+    rest, status, _ = _scripted(sc, lambda n: (0.0, 0.0, 0.0, 0.0), poses=[(-50.0, 100.0, 0.0), (100.0, 100.0, 0.0)])
+    assert status.tolist() == [INVALID, OK] and rest[1].tolist() == [50.0, 60.0, 0.5]

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 from collections import deque
 
 import numpy as np
@@ -377,7 +378,7 @@ def test_epsilon_word_matches_exhaustive_enumeration():
         model = TransitionModel([f"a{i}" for i in range(k)], mats, partition=partition,
                                 n_cells=None if partition is None else 3)
         eps = float(rng.uniform(0.2, 1.2))
-        res = epsilon_synchronizing_word(model, eps, max_length=5)
+        res = epsilon_synchronizing_word(model, eps, max_length=5, time_budget=math.inf)   # bounded by work
         # exhaustive: all words up to length 5
         best = None
         for length in range(6):
@@ -929,3 +930,80 @@ def test_as_automaton_takes_models_with_their_start_or_a_given_one():
         as_automaton(3)
     with pytest.raises(TypeError, match="got SimpleNamespace$"):
         as_automaton(types.SimpleNamespace(matrices=[]))
+
+
+# ----------------------------------------------------------------------------- epsilon words: every answer, whole
+def _det_model(table, **kw):
+    n = len(table[0])
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), np.asarray(t))), shape=(n, n)) for t in table]
+    return TransitionModel([f"a{i}" for i in range(len(table))], mats, **kw)
+
+
+def test_epsilon_word_answers_whole(monkeypatch):
+    """On a fake clock: already within epsilon (the empty word), found (with the entropy reached),
+    stopped by the node budget (the lowest-entropy word seen), proven impossible (every reachable
+    distribution expanded), and none up to max_length (default 30)."""
+    import kruskal_markov.sync.epsilon as eps_mod
+
+    clock = itertools.count(10.0 ** 6)
+    monkeypatch.setattr(eps_mod, "time", __import__("types").SimpleNamespace(perf_counter=lambda: float(next(clock))))
+    cerny3 = _det_model(cerny(3))
+    at_start = epsilon_synchronizing_word(cerny3, math.log2(3))
+    assert (at_start.word, at_start.length, at_start.exact, at_start.method) == ([], 0, True, "distribution-bfs")
+    assert at_start.seconds == 1.0
+    found = epsilon_synchronizing_word(cerny3, 0.0)
+    assert (found.word, found.length, found.exact, found.method, found.lower_bound) == \
+        (plain_shortest_word(cerny(3)), 4, True, "distribution-bfs", 4)
+    assert found.notes == ("entropy 0 bits",) and found.states_explored > 4 and 0 < found.seconds < 1000
+    assert epsilon_synchronizing_word(cerny3, 0.0, max_length=4).length == 4        # max_length is inclusive
+    cerny5 = _det_model(cerny(5))
+    stop = epsilon_synchronizing_word(cerny5, 0.0, max_nodes=3)
+    assert (stop.word, stop.length, stop.exact, stop.method) == (None, None, False, "distribution-bfs")
+    # b sends state 4 to 0: (2/5, 1/5, 1/5, 1/5); the next distinct ones (a b, then depth 3) pass 3 nodes
+    h = -(0.4 * math.log2(0.4) + 3 * 0.2 * math.log2(0.2))
+    assert stop.lower_bound == 3 and stop.best_word == [1] and stop.greedy_length == 1
+    assert stop.notes == (f"budget reached at depth 3; lowest entropy seen {h:.6g} bits by a word of length 1",)
+    assert 0 < stop.seconds < 1000
+    swaps = _det_model([[1, 0, 3, 2], [0, 1, 2, 3]])
+    never = epsilon_synchronizing_word(swaps, 0.5)
+    assert (never.word, never.exact, never.method, never.lower_bound) == (None, True, "distribution-bfs", None)
+    assert never.witness == {"kind": "exhaustive", "reason": "all 1 reachable distributions have entropy > 0.5"}
+    assert 0 < never.seconds < 1000
+    cerny7 = _det_model(cerny(7))                    # 36 letters: beyond the default 30
+    long = epsilon_synchronizing_word(cerny7, 0.0, time_budget=math.inf)
+    assert (long.word, long.exact, long.lower_bound) == (None, False, 31)
+    assert long.notes == ("no word of length <= 30 reaches entropy <= 0.0",) and long.method == "distribution-bfs"
+    assert 0 < long.seconds < 10 ** 5
+
+
+def plain_shortest_word(table):
+    """The first shortest synchronizing word in breadth-first order, letters in index order."""
+    n = len(table[0])
+    seen, level = {frozenset(range(n)): []}, [(frozenset(range(n)), [])]
+    while level:
+        nxt = []
+        for s, w in level:
+            for a in range(len(table)):
+                t = frozenset(int(table[a][q]) for q in s)
+                if len(t) == 1:
+                    return w + [a]
+                if t not in seen:
+                    seen[t] = w + [a]
+                    nxt.append((t, w + [a]))
+        level = nxt
+    return None
+
+
+def test_sync_result_as_dict_whole():
+    """The ``kruskal sync`` JSON keys; letters named when the actions are given; notes a tuple."""
+    from kruskal_markov.sync import SyncResult
+
+    r = SyncResult([1, 0, 1], 3, False, "greedy", witness={"kind": "x"}, lower_bound=2, greedy_length=3,
+                   states_explored=17, seconds=0.5, notes=["a note"])
+    assert r.notes == ("a note",)
+    want = {"word": [1, 0, 1], "length": 3, "exact": False, "method": "greedy", "witness": {"kind": "x"},
+            "lower_bound": 2, "greedy_length": 3, "states_explored": 17, "notes": ["a note"]}
+    assert r.as_dict() == want
+    assert r.as_dict(("N", "E")) == {**want, "word": ["E", "N", "E"]}
+    none = SyncResult(None, None, True, "pair-graph")
+    assert none.as_dict(("N", "E"))["word"] is None and none.notes == ()

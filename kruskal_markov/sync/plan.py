@@ -59,6 +59,8 @@ __all__ = ["PlanResult", "shortest_plan", "random_word_success", "state_plan"]
 DEFAULT_NODE_BUDGET = 20_000_000
 #: images per kernel call (time and node budgets are checked between calls)
 _QUOTA = 200_000
+#: a remaining length beyond every bound table: feasibility "at any length"
+_ANY_LENGTH = 2 ** 40
 
 
 @dataclass(frozen=True)
@@ -379,7 +381,10 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     lower = 1
     while lower <= R and not prob.feasible(prob.start_idx, prob.start_val, lower):
         lower += 1
-    if lower > R and prob.kind == 0 and 0 <= prob.msat <= prob.masks.shape[0] - 1 and ub_word is None:
+    # no plan at any length: the saturated cell masks (or a pair that never merges) exclude every
+    # length, not only those up to R -- a pair merging only in more than R letters excludes just those
+    if lower > R and prob.kind == 0 and 0 <= prob.msat <= prob.masks.shape[0] - 1 and ub_word is None \
+            and not prob.feasible(prob.start_idx, prob.start_val, _ANY_LENGTH):
         return result(None, True, None, "cell-reachability", nodes, witness={
             "kind": "bound", "reason": "no cell is reachable by every start state under some word "
                                        "(per model), at any length"})
