@@ -244,3 +244,35 @@ def test_written_json_uses_integers_for_indices():
         assert all(type(v) is int for v in doc["actions"]["a"][key])
     assert all(type(v) is int for v in doc["partition"]) and doc["cells"] == 2
     assert json.dumps(doc["actions"]["a"]) == '{"rows": [0, 0, 1], "cols": [0, 1, 1], "probs": [0.5, 0.5, 1.0]}'
+
+
+def test_files_are_read_as_utf8_whatever_the_locale(tmp_path, monkeypatch):
+    """The file is decoded as UTF-8 even where the locale's default encoding is not (Windows' cp1252):
+    ``open`` is replaced by one whose default is Latin-1, as on such a machine."""
+    import builtins
+
+    import kruskal_markov.automaton as automaton
+
+    def latin_default_open(file, mode="r", buffering=-1, encoding=None, **kw):
+        if "b" not in mode and encoding is None:
+            encoding = "latin-1"
+        return builtins.open(file, mode, buffering, encoding, **kw)
+
+    monkeypatch.setattr(automaton, "open", latin_default_open, raising=False)
+    path = tmp_path / "names.json"
+    path.write_bytes(json.dumps({"states": 1, "actions": {"Ωé": [0]}}, ensure_ascii=False).encode("utf-8"))
+    assert model_from_automaton(path).actions == ("Ωé",)
+
+
+def test_probabilities_beyond_int64_are_a_row_sum_error():
+    """2**70 as a JSON integer is read as the float 2**70 (not an object array scipy refuses)."""
+    doc = {"states": 1, "actions": {"a": {"rows": [0], "cols": [0], "probs": [2 ** 70]}}}
+    assert _error(doc).startswith(f"automaton: action 'a': row 0 sums to {float(2 ** 70)}, off by +")
+
+
+def test_an_empty_integer_list_is_an_empty_int64_array():
+    from kruskal_markov.automaton import _int_list
+
+    for values in ([], [3]):
+        out = _int_list(values, "'rows'", "automaton")
+        assert out.dtype == np.int64 and out.tolist() == values

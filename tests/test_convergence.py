@@ -665,3 +665,24 @@ def test_censored_mean_whole_answers():
         "mean": 3.0, "ci95": [3.0, 3.0], "runs": 1, "censored": 0, "std": 0.0, "lower": 3.0}
     one = monte_carlo_entropy_tilts(_two_action_model(), 0.0, weights=[1, 0], runs=1)
     assert one["std"] == 0.0 and one["ci95"] == [1.0, 1.0]
+
+
+def test_monte_carlo_with_one_letter_allowed():
+    """max_steps = 1 still runs the first letter: a constant letter synchronizes every run at T = 1."""
+    aut = SyncAutomaton.from_table([[0, 0, 0]])
+    res = monte_carlo_sync_length(aut, runs=4, max_steps=1)
+    assert (res["mean"], res["censored"], res["lower"]) == (1.0, 0, 1.0)
+
+
+def test_an_unclosed_subset_chain_is_an_internal_error(monkeypatch):
+    """The exact chain's image table is checked: a planted kernel that leaves an image unset (-1)
+    raises the internal error, whole message, instead of solving a wrong chain."""
+    import kruskal_markov._convergence_kernels as ck
+
+    def unclosed(rows, count, delta, sup, deterministic, table, img):
+        img[:] = -1
+
+    monkeypatch.setattr(ck, "subset_chain_table", unclosed)
+    with pytest.raises(AssertionError) as info:
+        exact_expected_length(SyncAutomaton.from_table([[1, 0, 0], [0, 1, 2]]))
+    assert str(info.value) == "internal error: subset chain not closed"

@@ -214,3 +214,31 @@ def test_counts_are_int64_over_every_voxel():
     g = ReportGrid(200, 200, 2, 2, 1)
     c = g.counts([[10, 10, 0], [10, 10, 1]])
     assert c.dtype == np.int64 and c.tolist() == [2, 0, 0, 0]
+
+
+def test_float32_poses_and_angles_are_binned_in_float64():
+    """A float32 pose is binned by its value, not by float32 arithmetic: y = 57.1428566 (float32) lies
+    below the edge 400/7 of bin 3 of 7 on a 100 mm tray, which float32 products would round onto."""
+    g = ReportGrid(100, 100, 3, 7, 6, symmetry_order=2)
+    p = np.array([[13.0, 400 / 7, 0.5]], dtype=np.float32)
+    y = float(p[0, 1])
+    assert 3 < y * 7 / 100 < 4 - 1e-8                                 # inside bin 3 in exact arithmetic
+    assert g.bin_indices(p)[1].tolist() == [3]
+    t = g.reduce_theta(np.array([7.0], dtype=np.float32))            # 7 - 2 pi (period pi), in float64
+    assert t.dtype == np.float64 and abs(float(t[0]) - (7.0 - 2 * math.pi)) < 1e-12
+
+
+def test_no_voxel_indices_and_index_arrays_of_any_shape():
+    g = ReportGrid(200, 100, 4, 2, 3)
+    assert [a.tolist() for a in g.unravel([])] == [[], [], []]
+    assert g.centres([]).shape == (0, 3)
+    idx = np.arange(8)
+    np.testing.assert_array_equal(g.centres(idx.reshape(2, 4)), g.centres(idx).reshape(2, 4, 3))
+
+
+def test_entropy_of_one_pose_is_zero_and_one_bad_pose_is_refused():
+    g = ReportGrid(200, 200, 4, 4, 4)
+    assert g.entropy_bits([[10.0, 10.0, 0.0]]) == 0.0 and g.entropy_bits(np.zeros((0, 3))) == 0.0
+    assert _message(g.entropy_bits, [[np.nan, 10.0, 0.0]]) == \
+        "pose 0 is not finite (NaN or infinity); drop faulted trials first"
+    assert _message(g.entropy_bits, [[250.0, 10.0, 0.0]]) == "pose 0: x = 250 mm lies outside the tray [0, 200]"

@@ -228,3 +228,33 @@ def test_rotated_theta_is_in_range_and_integer_poses_are_rotated_as_floats():
     assert sym.rotate_poses([[100.0, 100.0, theta]], 1)[0, 2] == 0.0
     got = sym.rotate_poses([[150, 120, 0]], 1)
     assert got.dtype == np.float64 and got.tolist() == [[80.0, 150.0, math.pi / 2]]
+
+
+def _exact_cover(sym, reps):
+    """Brute force: every action is rotate_action(b, j) for exactly one (b in reps, j)."""
+    hits = [sym.rotate_action(b, j) for b in reps for j in range(sym.order)]
+    return sorted(hits) == list(range(sym.action_map.shape[1]))
+
+
+def test_orbit_representatives_cover_every_action_once_in_any_action_order():
+    """A hand-made half-turn group whose second action is the first one's image: the scan goes on
+    past a covered action to the next orbit."""
+    from transition_builder.symmetry import TraySymmetry
+
+    sym = TraySymmetry(2, (0.0, 0.0), np.array([[0, 1, 2, 3], [1, 0, 3, 2]]), "hand-made")
+    reps = sym.action_orbit_representatives()
+    assert reps == [0, 2] and _exact_cover(sym, reps)
+    for tray in ((200.0, 200.0), (200.0, 150.0)):
+        built = tray_symmetry(scene_from_options("allen-key", tray_mm=tray))
+        assert _exact_cover(built, built.action_orbit_representatives())
+
+
+def test_a_group_of_another_order_is_refused_naming_the_order():
+    """Only orders 1, 2 and 4 are rotated; a three-fold group is refused, not turned by a half turn."""
+    from transition_builder.symmetry import TraySymmetry
+
+    sym = TraySymmetry(3, (0.0, 0.0), np.zeros((3, 1), dtype=np.int64), "hand-made")
+    for j in (1, 2):
+        with pytest.raises(AssertionError) as info:
+            sym.rotate_poses([[1.0, 0.0, 0.0]], j)
+        assert info.value.args == (3,)

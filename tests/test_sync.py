@@ -1007,3 +1007,28 @@ def test_sync_result_as_dict_whole():
     assert r.as_dict(("N", "E")) == {**want, "word": ["E", "N", "E"]}
     none = SyncResult(None, None, True, "pair-graph")
     assert none.as_dict(("N", "E"))["word"] is None and none.notes == ()
+
+
+def test_depth_first_phase_budget_status():
+    """_exact_search's contract: a node budget that stops the depth-first phase (past the 2,048 rows
+    of the breadth-first stores of a 0.05 MB budget) returns status 'budget' with the subsets counted."""
+    from kruskal_markov.sync.exact import _exact_search
+
+    n = 60
+    aut = SyncAutomaton.from_table(np.random.default_rng(1).integers(0, n, size=(2, n)))
+    word, status, explored, lower = _exact_search(aut, np.arange(n), None, 0.05, node_budget=2500)
+    assert (word, status) == (None, "budget") and explored >= 2500 and lower >= 1
+
+
+def test_greedy_word_is_verified_before_it_is_returned(monkeypatch):
+    """A greedy stage that returned a word that does not synchronize (planted: the pair-merging
+    stage answers ``[0]`` on Cerny C_4, where ``a`` is a permutation) is caught, not returned."""
+    import kruskal_markov.sync.greedy as greedy
+
+    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
+    monkeypatch.setattr(greedy, "_pair_merging_greedy", lambda *args, **kw: [0])
+    aut = SyncAutomaton.from_table(cerny(4))
+    assert len(plain_image(cerny(4), range(4), [0])) == 4
+    with pytest.raises(AssertionError) as info:
+        greedy_synchronizing_word(aut)
+    assert str(info.value) == "internal error: greedy word does not synchronize"
