@@ -79,3 +79,41 @@ def test_seeded_draws_repeat_and_differ_between_seeds():
 def test_bad_prior(prior):
     with pytest.raises(ValueError, match="prior"):
         resample_model(_model(), 0, prior=prior)
+
+
+def test_missing_counts_message_is_whole():
+    plain = TransitionModel(["a"], [np.eye(2)])
+    with pytest.raises(ModelError) as err:
+        row_counts(plain, 0)
+    assert str(err.value) == "the model has no sample counts for action 'a' (only built models carry them)"
+
+
+def test_resampled_model_keeps_shape_cells_metadata_and_tolerance():
+    """Everything but the counted rows is carried over: a last state no row leads to (its column is
+    empty, so the shape cannot be inferred from the entries), a last report cell no state is in,
+    the metadata and a tolerance above the 1e-9 floor."""
+    p = sp.csr_matrix(np.array([[0.5, 0.5, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]))
+    m = TransitionModel(["a"], [p], partition=[0, 1, 1], n_cells=3, metadata={"scene": "x"}, tol=1e-6,
+                        extras={"counts_0": [3, 1, 2, 4]})
+    r = resample_model(m, 5)
+    assert r.matrices[0].shape == (3, 3) and r.n_states == 3
+    assert r.n_cells == 3
+    assert r.metadata == {"scene": "x"}
+    assert r.tol == 1e-6
+    assert resample_model(TransitionModel(["a"], [p], extras={"counts_0": [3, 1, 2, 4]}), 5).tol == 1e-9
+
+
+def test_a_row_observed_once_puts_all_its_mass_on_the_observed_target():
+    """Counts (1, 0): the prior goes to observed targets only, so the posterior is a point mass on
+    the first target, whatever the row held before."""
+    p = sp.csr_matrix(np.array([[0.5, 0.5], [0.0, 1.0]]))
+    m = TransitionModel(["a"], [p], extras={"counts_0": [1, 0, 3]})
+    r = resample_model(m, 2).matrices[0].toarray()
+    assert r[0].tolist() == [1.0, 0.0] and r[1].tolist() == [0.0, 1.0]
+
+
+def test_counts_are_int64_whatever_they_were_stored_as():
+    """Built models store counts as int32 (builder assembly); row_counts promises int64."""
+    m = TransitionModel(["a"], [np.eye(2)], extras={"counts_0": np.array([1, 2], dtype=np.int32)})
+    c = row_counts(m, 0)
+    assert c.dtype == np.int64 and c.tolist() == [1, 2]
