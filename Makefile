@@ -34,9 +34,10 @@ bench: $(VENV)/.installed
 	$(PY) -m benchmarks
 
 # Mutation testing of the core modules (tools/mutate.py, docs/testing.md): mutmut, one module at a
-# time against the tests that cover it; MUTATE_JOBS=2 for two workers, `make mutate MODULES=grid`.
+# time against the tests that cover it, two workers (MUTATE_JOBS=1 for one), the slow modules
+# sampled (MUTATE_SAMPLE=1 for every mutant); `make mutate MODULES=grid` for one module.
 mutate: $(VENV)/.installed
-	$(PY) tools/mutate.py $(MODULES)
+	MUTATE_JOBS=$${MUTATE_JOBS:-2} $(PY) tools/mutate.py $(MODULES)
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache mutants

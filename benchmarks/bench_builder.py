@@ -38,6 +38,8 @@ import time
 
 import numpy as np
 
+from transition_builder.settings import SimSettings
+
 HERE = pathlib.Path(__file__).parent
 RESULTS = HERE / "results"
 HELD_OUT_SEED = 2026
@@ -48,8 +50,11 @@ SEED = int(os.environ.get("KRUSKAL_BENCH_BUILDER_SEED", str(HELD_OUT_SEED)))
 SEQUENCES, LENGTH = 6, 30
 TRIALS = int(os.environ.get("KRUSKAL_BENCH_BUILDER_TRIALS", "2000"))
 
-#: the simulator at half the time step (the rest test keeps its interval), as ``validate --spread``
-HALF_TIME_STEP = {"time_step_s": 1.0 / 480.0, "substeps": 8}
+#: the simulator at half the default time step (the rest test keeps its interval), as ``validate --spread``;
+#: derived from the defaults, so it stays half the step when the simulator's default changes (under
+#: simulator version 4, 1/960 s with 16 sub-steps; it was written as a constant 1/480 s under version 3,
+#: which equals version 4's default step)
+HALF_TIME_STEP = {"time_step_s": SimSettings().time_step_s / 2, "substeps": SimSettings().substeps * 2}
 #: name -> (build settings changes, description); the key "scene" changes the simulator settings of
 #: the build only (the references stay at the defaults)
 VARIANTS = {
@@ -90,7 +95,7 @@ VARIANTS = {
                 "deterministic, 0.1 / 0.1"),
     "det-1mm-half-step": ({"probes": 0, "flush_side": False, "tol_mm": 1.0, "tol_deg": 1.0,
                            "recenter_rounds": 0, "scene": HALF_TIME_STEP},
-                          "deterministic, 1 mm / 1 deg, built at half the time step (1/480 s, 8 sub-steps), "
+                          "deterministic, 1 mm / 1 deg, built at half the time step (1/960 s, 16 sub-steps), "
                           "judged at the default"),
     "noise": ({"noise": "pose:0.5,0.5"},
               "noise pose:0.5,0.5, defaults: 0.75 / 0.75, K = 2 / 4, weighted exploration 1e-3, borrowed rows, "
@@ -282,7 +287,7 @@ def _table(rows: list[dict]) -> str:
     spread = [r for r in rows if "simulation_spread_bits" in r]
     if spread:
         r = spread[0]
-        out += (f"\nSimulator's own spread on the deterministic references (same trials at 1/480 s): mean "
+        out += (f"\nSimulator's own spread on the deterministic references (same trials at half the time step): mean "
                 f"{r['simulation_spread_bits']['mean']:.3f}, max {r['simulation_spread_bits']['max']:.2f} bits; "
                 f"per sequence max: {', '.join(f'{v:.2f}' for v in r['per_sequence_spread_max'])}.\n")
     return out
