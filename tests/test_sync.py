@@ -1032,3 +1032,92 @@ def test_greedy_word_is_verified_before_it_is_returned(monkeypatch):
     with pytest.raises(AssertionError) as info:
         greedy_synchronizing_word(aut)
     assert str(info.value) == "internal error: greedy word does not synchronize"
+
+
+def _predicted_stops(table, budget, max_levels=None):
+    """A plain-Python model of the breadth-first search's time prediction on a clock that never
+    moves: forward levels (new images of all states), backward levels (new non-empty preimages
+    of the singletons), a meet test on each new total, the side with the smaller newest level
+    expanded (forward on a tie); before it, the predicted cost ``new_rows * rate_row + new_rows
+    * other * rate_pair`` with ``new_rows`` the newest level times its growth over the level
+    before (at least 1, at most k; k for a root level), ``other`` the other side's newest level,
+    the first guesses ``rate_row = 2e-7 max(1, W/16)`` and ``rate_pair = 5e-11 max(1, W/4)``
+    s. Returns ``(status, subsets, lower bound, [predicted costs])`` of a search with ``budget``
+    seconds (``max_levels``: the model stops after that many expansions, status None)."""
+    k, n = len(table), len(table[0])
+    W = (n + 63) // 64
+    rate_row, rate_pair = 2e-7 * max(1.0, W / 16), 5e-11 * max(1.0, W / 4)
+    inv = [[[q for q in range(n) if table[a][q] == r] for r in range(n)] for a in range(k)]
+    fwd, bwd = [[frozenset(range(n))]], [[frozenset([q]) for q in range(n)]]
+    seen = {True: set(fwd[0]), False: set(bwd[0])}
+    total, costs = 0, []
+    while True:
+        if any(f <= b for f in fwd[-1] for b in bwd[-1]):
+            return "found", len(seen[True]) + len(seen[False]), total, costs
+        forward = len(fwd[-1]) <= len(bwd[-1])
+        levels, other = (fwd, bwd) if forward else (bwd, fwd)
+        growth = k if len(levels) < 2 else max(1.0, len(levels[-1]) / max(1, len(levels[-2])))
+        new_rows = len(levels[-1]) * min(growth, k)
+        cost = new_rows * rate_row + new_rows * len(other[-1]) * rate_pair
+        costs.append(cost)
+        if cost > budget:
+            return "budget", len(seen[True]) + len(seen[False]), total + 1, costs
+        new = []
+        for x in levels[-1]:
+            for a in range(k):
+                y = frozenset(table[a][q] for q in x) if forward else \
+                    frozenset(p for r in x for p in inv[a][r])
+                if y and y not in seen[forward]:
+                    seen[forward].add(y)
+                    new.append(y)
+        if not new:
+            return "none", len(seen[True]) + len(seen[False]), total, costs
+        levels.append(new)
+        total += 1
+        if total == max_levels:
+            return None, None, None, costs
+
+
+def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(monkeypatch):
+    """On a clock that never moves, the breadth-first search stops (status 'budget', the lower
+    bound one past the totals tested) exactly before the first expansion whose predicted cost
+    exceeds the time budget: budgets just below and just above each predicted cost of a plain
+    model (:func:`_predicted_stops`), on small random automata (growth, shrinking levels, both
+    sides) and on 300 states (bitsets of 5 words, where the meet-test guess grows with W)."""
+    import types
+
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "time", types.SimpleNamespace(perf_counter=lambda: 0.0))
+    cases = [(n, [list(map(int, r)) for r in table]) for _, n, table in random_tables(5, 12, (5, 10), k=(2, 4))]
+    cases.append((300, [list(map(int, r)) for r in random_table(np.random.default_rng(3), 300, 2)]))
+    stops = set()
+    for n, table in cases:
+        aut = SyncAutomaton.from_table(table)
+        costs = _predicted_stops(table, math.inf, 3 if n == 300 else None)[3]
+        for cost in costs:
+            for budget in (cost * (1 - 1e-9), cost * (1 + 1e-9)):
+                status, explored, lower, _ = _predicted_stops(table, budget)
+                word, *got = exact_mod._exact_search(aut, np.arange(n), budget, 64.0)
+                assert got == [status, explored, lower], (n, budget)
+                if status == "found":
+                    assert len(word) == lower == brute_det(table)
+                stops.add((n == 300, status))
+    assert stops >= {(False, "budget"), (False, "found"), (True, "budget")}
+
+
+def test_the_meet_test_runs_when_the_clock_reads_the_deadline_exactly(monkeypatch):
+    """The budget is past only after its deadline. On a clock ticking one second per reading,
+    Cerny C_4 (shortest word 9) and a budget of 5 s: readings t0, the meet test at total 0, the
+    prediction (t0 + 2), the expansion, the meet test at total 1 (t0 + 4), the check before its
+    first slice (t0 + 5: at the deadline, not past it: the slice runs and finds nothing), the
+    prediction (t0 + 6: past it): stopped with lower bound 2. With 4 s the check before the slice
+    is past the deadline: stopped with lower bound 1."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    _fake_clock(monkeypatch, exact_mod)
+    aut = SyncAutomaton.from_table(cerny(4))
+    assert brute_det(cerny(4)) == 9
+    for budget, lower in ((5.0, 2), (4.0, 1)):
+        word, status, _, bound = exact_mod._exact_search(aut, np.arange(4), budget, 64.0)
+        assert (word, status, bound) == (None, "budget", lower)
