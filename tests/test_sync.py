@@ -1121,3 +1121,43 @@ def test_the_meet_test_runs_when_the_clock_reads_the_deadline_exactly(monkeypatc
     for budget, lower in ((5.0, 2), (4.0, 1)):
         word, status, _, bound = exact_mod._exact_search(aut, np.arange(4), budget, 64.0)
         assert (word, status, bound) == (None, "budget", lower)
+
+
+def test_the_greedy_descent_gets_the_subsets_the_memory_budget_holds(monkeypatch):
+    """When the greedy word comes from the descent (Eppstein's tables and pair merging planted as
+    failing), its breadth-first searches hold at most ``memory_budget_mb`` of 8 W + 44-byte rows
+    (bitset, parent, letter, hash slots): on Cerny C_18, whose descent needs more than 1,024 rows
+    (the floor), a budget of exactly the rows it needs gives the descent's word and one row less
+    gives None, as the descent with those node budgets does."""
+    import kruskal_markov.sync.greedy as greedy
+
+    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
+    monkeypatch.setattr(greedy, "_pair_merging_greedy", lambda *args, **kw: None)
+    aut, s = SyncAutomaton.from_table(cerny(18)), np.arange(18)
+    lo, hi = 1024, 1 << 14                          # the fewest rows the descent needs
+    assert greedy._greedy_descent(aut, s, lo) is None and greedy._greedy_descent(aut, s, hi) is not None
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if greedy._greedy_descent(aut, s, mid) is not None else (mid, hi)
+    word = greedy._greedy_descent(aut, s, hi)
+    assert len(plain_image(cerny(18), range(18), word)) == 1
+    row = 8 * 1 + 44
+    assert greedy_synchronizing_word(aut, memory_budget_mb=(hi + 0.5) * row / 2 ** 20) == word
+    assert greedy_synchronizing_word(aut, memory_budget_mb=(hi - 0.5) * row / 2 ** 20) is None
+
+
+def test_the_greedy_descent_returns_its_word_once_a_single_state_is_reached(monkeypatch):
+    """The descent checks its deadline before each step only: letter 0 maps q to max(q - 1, 0),
+    letter 1 fixes every state; from four states three steps of letter 0 reach state 0. On a clock
+    ticking one second per reading (t0, t0 + 1, t0 + 2 before the steps) a deadline of t0 + 2
+    gives the word, t0 + 1 gives None (passed before the third step)."""
+    import kruskal_markov.sync.greedy as greedy
+
+    start = 10.0 ** 6
+    table = [[0, 0, 1, 2], [0, 1, 2, 3]]
+    aut = SyncAutomaton.from_table(table)
+    assert plain_image(table, range(4), [0, 0, 0]) == {0} and plain_image(table, range(4), [0, 0]) == {0, 1}
+    _fake_clock(monkeypatch, greedy, start=start)
+    assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 2) == [0, 0, 0]
+    _fake_clock(monkeypatch, greedy, start=start)
+    assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 1) is None
