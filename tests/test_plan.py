@@ -549,3 +549,54 @@ def test_targets_whole_messages_and_types():
     refused(lambda: model_cells(model, parse_target("cell"), [0, -1, 0, 0]), "cells must be non-negative")
     c, n = model_cells(model, parse_target("cell"), np.array([0, 2, 2, 1], dtype=np.int32))
     assert c.dtype == np.int64 and c.tolist() == [0, 2, 2, 1] and n == 3
+
+
+def test_the_beam_order_counts_cells_beyond_one_per_model_then_states():
+    """Set targets: the beam's score of an image is (its distinct (model, cell) pairs minus the
+    models, its size), lower first. Cerny C_4 with cells {0, 1} and {2, 3}, alone and twice."""
+    from kruskal_markov.sync.plan import _Problem
+
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    one = _Problem([model], parse_target("cell"), None, 0.0)
+    two = _Problem([model, model], parse_target("cell"), None, 0.0)
+    ones = np.ones(4)
+    for states, want in (([0, 1], (0, 2)), ([0, 2], (1, 2)), ([1, 2, 3], (1, 3)), ([3], (0, 1))):
+        idx = np.array(states, dtype=np.int32)
+        assert one.score(idx, ones[:idx.size]) == want
+    # states 0..3 of the first copy, 4..7 of the second: {0, 1} and {5} one cell each
+    assert two.score(np.array([0, 1, 5], dtype=np.int32), np.ones(3)) == (0, 3)
+    assert two.score(np.array([0, 6, 7], dtype=np.int32), np.ones(3)) == (0, 3)
+    assert two.score(np.array([0, 2, 4, 6], dtype=np.int32), np.ones(4)) == (2, 4)
+
+
+def test_the_beam_searches_up_to_max_length_letters():
+    """Cerny C_4 has at most 15 distinct images, so a beam of width 64 is a breadth-first search: with
+    max_length 9 its last level finds the 9-letter plan (method 'beam+ida*'), with 8 it finds none."""
+    from kruskal_markov.sync.plan import _beam, _Problem
+
+    prob = _Problem([_cerny4()], parse_target("state"), None, 0.0)
+    word, _ = _beam(prob, 64, 9, 10 ** 6)
+    assert len(word) == 9 and meets(_cerny4(), word, "state")
+    assert _beam(prob, 64, 8, 10 ** 6)[0] is None
+    assert shortest_plan(_cerny4(), "state", max_length=9).method == "beam+ida*"
+
+
+def test_a_pass_that_starts_at_the_deadline_exactly_runs(monkeypatch):
+    """The time budget is past only after its deadline. On a clock ticking one second per reading
+    (no reading between the start and the first pass, beam width 1 finding nothing on Cerny C_4), a
+    budget of 1 s runs the first pass (the check before it reads the deadline exactly) and stops
+    before the second; a budget of 0.5 s stops before the first: the proven bound is one more."""
+    import types
+
+    import kruskal_markov.sync.plan as plan_mod
+
+    def run(budget):
+        clock = itertools.count(10 ** 6)
+        monkeypatch.setattr(plan_mod, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
+        return shortest_plan(_cerny4(), "state", beam_width=1, time_budget=budget)
+
+    first, none = run(1.0), run(0.5)
+    assert (first.word, first.exact, none.word, none.exact) == (None, False, None, False)
+    assert 1 <= none.lower_bound < 9 and first.lower_bound == none.lower_bound + 1
+    assert first.notes[-1] == f"budget reached in the depth-{first.lower_bound} pass: no plan is shorter than " \
+                              f"{first.lower_bound}"
