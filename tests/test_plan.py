@@ -600,3 +600,27 @@ def test_a_pass_that_starts_at_the_deadline_exactly_runs(monkeypatch):
     assert 1 <= none.lower_bound < 9 and first.lower_bound == none.lower_bound + 1
     assert first.notes[-1] == f"budget reached in the depth-{first.lower_bound} pass: no plan is shorter than " \
                               f"{first.lower_bound}"
+
+
+def test_the_probability_bound_is_computed_up_to_the_beam_plans_length():
+    """The bound tables are needed only below the beam's plan (5 letters here, shortest by brute
+    force): half the memory budget holding 5, 6 or 20 levels of 4 states x 2 cells x 4 bytes
+    gives no note; holding 4 or 3, the note says how far they go."""
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    assert brute_length([model], "probability:0.1", 9) == 5
+    for levels in (5, 6, 20, 4, 3):
+        r = shortest_plan(model, "probability:0.1", memory_budget_mb=4 * 2 * 4 * (levels + 1) * 2 / 2 ** 20)
+        assert (r.length, r.exact, r.upper_bound) == (5, True, 5)
+        assert r.notes == (() if levels >= 5 else (f"probability bound computed up to length {levels} only (memory)",))
+
+
+def test_the_default_beam_is_64_wide_on_a_model_where_the_width_shows():
+    """A 37-state random automaton whose beam levels exceed 64 images: the default search is the
+    one with ``beam_width=64`` (the same work counted), not the one with 65."""
+    rng = np.random.default_rng(0)
+    model = random_model(rng, int(rng.integers(20, 40)), 3, False, 4)
+    assert model.n_states == 37
+    default, w64, w65 = (shortest_plan(model, "state", **kw) for kw in ({}, {"beam_width": 64}, {"beam_width": 65}))
+    assert w64.nodes != w65.nodes and w64.length == w65.length
+    assert (default.word, default.length, default.method, default.nodes) == (w64.word, w64.length, w64.method,
+                                                                             w64.nodes)
