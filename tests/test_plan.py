@@ -624,3 +624,26 @@ def test_the_default_beam_is_64_wide_on_a_model_where_the_width_shows():
     assert w64.nodes != w65.nodes and w64.length == w65.length
     assert (default.word, default.length, default.method, default.nodes) == (w64.word, w64.length, w64.method,
                                                                              w64.nodes)
+
+
+def test_the_transposition_table_is_full_when_its_state_slots_are():
+    """The passes record each distinct image they expand (depths 1..D-1 of the depth-D pass: every
+    image within D-1 letters when nothing prunes) whole: with a tiny budget the table's floors,
+    1,024 entries and 1,024 state slots, are all it has. A 28-state automaton (no cell bound:
+    it does not fit) has under 1,024 distinct images within 9 letters, so only the state slots
+    fill: the note names exactly the passes whose images (a plain breadth-first search) hold
+    1,024 - 28 states or more, before the plan's own pass."""
+    model = random_model(np.random.default_rng(1), 28, 2, False, 3)
+    table = [np.asarray(m.indices) for m in model.matrices]
+    r = shortest_plan(model, "cell", beam_width=1, memory_budget_mb=1e-6, max_length=12)
+    assert r.exact and r.length == 10 and r.method == "ida*" and meets(model, [model.actions.index(a) for a in r.word],
+                                                                         "cell")
+    seen, level, sizes = set(), {frozenset(range(28))}, []
+    for _ in range(r.length - 2):                     # images within 1..L-2 letters (the passes D <= L-1)
+        level = {frozenset(int(t[q]) for q in s) for s in level for t in table} - seen
+        seen |= level
+        sizes.append((len(seen), sum(len(s) for s in seen)))
+    assert all(count < 1024 for count, _ in sizes)
+    full = {d + 2 for d, (_, states) in enumerate(sizes) if states >= 1024 - 28}
+    noted = {int(n.split("depth-")[1].split()[0]) for n in r.notes if n.startswith("transposition table full")}
+    assert full and noted - {r.length} == full
