@@ -647,3 +647,29 @@ def test_the_transposition_table_is_full_when_its_state_slots_are():
     full = {d + 2 for d, (_, states) in enumerate(sizes) if states >= 1024 - 28}
     noted = {int(n.split("depth-")[1].split()[0]) for n in r.notes if n.startswith("transposition table full")}
     assert full and noted - {r.length} == full
+
+
+def test_the_transposition_table_takes_a_quarter_of_the_budget_in_state_slots():
+    """Half the memory budget for the transposition table, half of that for its state slots (4
+    bytes each, set targets): 0.08 MB give 5,242 slots, and the 1,024-entry floor. A 2,000-state
+    automaton (its cell bound of 16,000-byte levels does not fit the other half): the depth-D pass
+    records the images within D - 1 letters, so the note names the passes whose images (a plain
+    breadth-first search) hold 5,242 - 2,000 states or more."""
+    n = 2000
+    model = random_model(np.random.default_rng(0), n, 2, False, 3)
+    table = [np.asarray(m.indices) for m in model.matrices]
+    r = shortest_plan(model, "cell", beam_width=1, memory_budget_mb=0.08, max_length=4)
+    assert (r.word, r.exact, r.lower_bound) == (None, False, 5)
+    slots = int(0.08 * 2 ** 20 / 2 / 2 / 4)
+    assert slots == 5242
+    seen, level, states = set(), {frozenset(range(n))}, [0]
+    for _ in range(3):
+        level = {frozenset(int(t[q]) for q in s) for s in level for t in table} - seen
+        seen |= level
+        states.append(sum(len(s) for s in seen))
+    assert len(seen) < 1024
+    full = [D for D in range(1, 5) if states[D - 1] >= slots - n]
+    assert 1 < len(full) < 4, states                  # the boundary falls between the passes
+    assert r.notes == ("cell-reachability bound skipped (memory)",
+                       *(f"transposition table full in the depth-{D} pass (depth-first without it)" for D in full),
+                       "no plan of length <= 4")
