@@ -1161,3 +1161,20 @@ def test_the_greedy_descent_returns_its_word_once_a_single_state_is_reached(monk
     assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 2) == [0, 0, 0]
     _fake_clock(monkeypatch, greedy, start=start)
     assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 1) is None
+
+
+@pytest.mark.parametrize("chunk", [2, 3])
+def test_depth_first_chunks_of_a_few_frontier_sets_cover_the_frontier(monkeypatch, chunk):
+    """The depth-first phase extends every set of the newest forward level, chunk by chunk: with
+    chunks of 2 or 3 sets (the module's constant patched; 4,096 in use) on 60-state random
+    automata too large for the breadth-first stores of 0.05 MB, the shortest length is still
+    the brute-force one."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
+    for seed in (1, 2, 4, 7):
+        table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
+        r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=0.05,
+                                        node_budget=10 ** 8)
+        assert r.method == "bidirectional-bfs+dfs" and r.exact
+        assert r.length == brute_bitmask(table) and len(plain_image(table, range(60), r.word)) == 1
