@@ -1178,3 +1178,38 @@ def test_depth_first_chunks_of_a_few_frontier_sets_cover_the_frontier(monkeypatc
                                         node_budget=10 ** 8)
         assert r.method == "bidirectional-bfs+dfs" and r.exact
         assert r.length == brute_bitmask(table) and len(plain_image(table, range(60), r.word)) == 1
+
+
+@pytest.mark.parametrize("bytes_48, chunk, whole", [(1050, 10, True), (1050, 11, False), (208, 4, True)])
+def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_above_it(monkeypatch, bytes_48, chunk,
+                                                                                   whole):
+    """The depth-first phase gets a quarter of the memory budget and expands at most ``cap / k``
+    sets at a time, ``cap = max(4 k, quarter / (8 W + 44) / 12)`` bytes-per-row; a larger batch
+    is halved, a batch within the cap is expanded whole. Budgets of 48 x 1,050 and 48 x 208 bytes
+    (a quarter of them is 12 x 1,050 and 12 x 208) give caps of 20 (1,050 / 52) and 8 (the 4 k
+    floor over 208 / 52); frontier chunks (the module's constant patched) of 10 and 4 sets fit
+    and are seen expanded whole, chunks of 11 never are. Every chunk store is spied; the answers
+    are the brute-force ones."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    real = exact_mod.SubsetStore
+    sizes = []
+
+    class Spy(real):
+        def __init__(self, W, cap, max_rows):
+            if cap == max_rows and cap % 3 == 0:      # a chunk store: m sets and their 2 m images
+                sizes.append(cap // 3)
+            super().__init__(W, cap, max_rows)
+    monkeypatch.setattr(exact_mod, "SubsetStore", Spy)
+    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
+    memory_mb = bytes_48 * 48 / 2 ** 20
+    cap = max(4 * 2, int(memory_mb / 4 * 2 ** 20 / (8 + 44) / 12))
+    assert cap == (20 if bytes_48 == 1050 else 8)
+    for seed in (2, 7):
+        sizes.clear()
+        table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
+        r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=memory_mb,
+                                        node_budget=10 ** 8)
+        assert r.method == "bidirectional-bfs+dfs" and r.length == brute_bitmask(table)
+        assert sizes and max(sizes) * 2 <= cap
+        assert (chunk in sizes) == whole
