@@ -1213,3 +1213,39 @@ def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_abov
         assert r.method == "bidirectional-bfs+dfs" and r.length == brute_bitmask(table)
         assert sizes and max(sizes) * 2 <= cap
         assert (chunk in sizes) == whole
+
+
+def test_pair_merging_searches_at_most_the_pairs_the_memory_budget_holds(monkeypatch):
+    """Pair merging's breadth-first search in the pair graph keeps at most ``memory_budget_mb /
+    64 bytes`` pairs (at least 65,536): 600 states, two random permutations and a letter merging
+    only 0 and 1, start {10, 500}. A plain pair-graph search finds the merging depth and the
+    pairs within one letter less, more than 65,536; a budget holding exactly those pairs gives
+    the merging word, one pair less gives None (Eppstein's tables and the descent planted as
+    failing)."""
+    import kruskal_markov.sync.greedy as greedy
+
+    n = 600
+    rng = np.random.default_rng(0)
+    c = np.arange(n)
+    c[0] = 1
+    table = [rng.permutation(n).tolist(), rng.permutation(n).tolist(), c.tolist()]
+    level, seen, depth = [(10, 500)], {(10, 500)}, 0
+    while True:                                        # pairs within ``depth`` letters: ``seen``
+        within, nxt, merged = len(seen), [], False
+        for x, y in level:
+            for t in table:
+                u, v = t[x], t[y]
+                merged |= u == v
+                if u != v and (min(u, v), max(u, v)) not in seen:
+                    seen.add((min(u, v), max(u, v)))
+                    nxt.append((min(u, v), max(u, v)))
+        if merged:
+            break
+        level, depth = nxt, depth + 1
+    assert within > 1 << 16
+    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
+    monkeypatch.setattr(greedy, "_greedy_descent", lambda *args, **kw: None)
+    aut = SyncAutomaton.from_table(table)
+    word = greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within + 0.5) * 64 / 2 ** 20)
+    assert len(word) == depth + 1 and len(plain_image(table, [10, 500], word)) == 1
+    assert greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within - 0.5) * 64 / 2 ** 20) is None
