@@ -449,3 +449,104 @@ def test_image_engine_auto_choice_and_errors():
     full = random_model(rng, 50, 4, density=0.5)
     with pytest.raises(ValueError, match="gather blocks"):
         batch_entropy(full, rng.integers(0, 4, size=(3, 3)), method="images")
+
+
+def test_batch_entropy_runs_the_engine_its_documentation_names(monkeypatch):
+    """``method`` and ``share_prefixes`` pick the engine as documented: ``auto`` is the image engine
+    on a mixing model (:func:`prefers_images`) for 256 or more sequences of one or more steps,
+    else the trie; ``share_prefixes=False`` means independent; the trie and independent engines
+    use the gather blocks by default when they exist, never with ``image_blocks=False``. Spied
+    on the engines (which are called with the arguments and results unchanged)."""
+    import kruskal_markov.entropy as ent
+    from kruskal_markov.entropy import prefers_images
+
+    ran = []
+
+    def spy(name, fn):
+        def wrapper(*args, **kw):
+            ran.append(name)
+            return fn(*args, **kw)
+        monkeypatch.setattr(ent, name, wrapper)
+
+    for name in ("_run_images", "_trie_tasks", "_independent_tasks"):
+        spy(name, getattr(ent, name))
+    batch = ent._k.batch
+
+    def batch_spy(*args):
+        ran.append(("blocks", bool(args[5])))
+        return batch(*args)
+    monkeypatch.setattr(ent._k, "batch", batch_spy)
+    rng = np.random.default_rng(4)
+    mixing = _imagey_model(rng, cells=5)
+    assert prefers_images(mixing, True) and ent._image_blocks(mixing, True) is not None
+    seqs = rng.integers(0, 4, size=(300, 5))
+    cases = [({}, seqs, ["_run_images"]),
+             ({}, seqs[:, :1], ["_run_images"]),
+             ({}, seqs[:255], ["_trie_tasks", ("blocks", True)]),
+             ({"method": "trie"}, seqs, ["_trie_tasks", ("blocks", True)]),
+             ({"method": "trie", "image_blocks": False}, seqs, ["_trie_tasks", ("blocks", False)]),
+             ({"method": "independent"}, seqs, ["_independent_tasks", ("blocks", True)]),
+             ({"share_prefixes": False}, seqs, ["_independent_tasks", ("blocks", True)]),
+             ({"method": "images"}, seqs, ["_run_images"])]
+    reference = batch_entropy(mixing, seqs, method="trie").entropy_bits
+    for kw, s, engines in cases:
+        ran.clear()
+        got = batch_entropy(mixing, s, **kw)
+        assert ran == engines, kw
+        np.testing.assert_allclose(got.entropy_bits, reference[:s.shape[0], :s.shape[1] + 1], rtol=0, atol=1e-12)
+
+
+def test_sequences_in_every_documented_form():
+    """One sequence as a tuple of names; a batch as lists of names; a uint8 batch with an index
+    past the actions refused naming the entry; more than 256 actions kept as int32 (index 256
+    is not wrapped to 0); a negative or non-finite weight refused with the whole message."""
+    from kruskal_markov.entropy import as_sequence
+
+    model = TransitionModel(["a", "b"], [np.eye(2), np.eye(2)[[1, 0]]])
+    assert as_sequence(model, ("b", "a", "B")).tolist() == [1, 0, 1]
+    batch = as_sequences(model, [["a", "b"], ["b", "b"]])
+    assert batch.dtype == np.uint8 and batch.tolist() == [[0, 1], [1, 1]]
+    with pytest.raises(ModelError) as info:
+        as_sequences(model, np.array([[0, 5]], dtype=np.uint8))
+    assert str(info.value) == "sequences entry (0, 1) is 5, not an action index in [0, 2)"
+    many = TransitionModel([f"a{i}" for i in range(257)], [np.ones((1, 1))] * 257)
+    wide = as_sequences(many, [[256, 3]])
+    assert wide.dtype == np.int32 and wide.tolist() == [[256, 3]]
+    for bad in ([0.5, -0.5], [0.5, np.nan]):
+        with pytest.raises(ValueError) as info:
+            distribution_entropy_bits(bad)
+        assert str(info.value) == "a distribution must be finite and non-negative"
+
+
+def test_trajectory_support_counts_are_integers():
+    model = TransitionModel(["a"], [[[0.5, 0.5, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]], initial=[1.0, 0.0, 0.0])
+    tr = entropy_trajectory(model, ["a", "a"])
+    assert tr.support.dtype == np.int64 and tr.support.tolist() == [1, 2, 3]       # {0}, {0, 1}, {0, 1, 2}
+
+
+def test_one_or_two_sequences_on_every_engine_match_their_trajectories():
+    """The smallest batches (one task, fewer sequences than blocks) on the trie and independent
+    engines: each row is the sequence's own trajectory."""
+    rng = np.random.default_rng(11)
+    model = random_model(rng, 7, 3, cells=3)
+    seqs = rng.integers(0, 3, size=(2, 6))
+    for s in (seqs[:1], seqs):
+        for kw in ({"method": "trie"}, {"method": "independent"}):
+            got = batch_entropy(model, s, **kw)
+            for i, seq in enumerate(s):
+                tr = entropy_trajectory(model, seq)
+                np.testing.assert_allclose(got.entropy_bits[i], tr.entropy_bits, rtol=0, atol=1e-12)
+                np.testing.assert_allclose(got.entropy_bits_states[i], tr.entropy_bits_states, rtol=0, atol=1e-12)
+
+
+def test_gather_blocks_are_kept_per_splitting_mode():
+    """The model caches the gather blocks of each splitting mode apart: the non-conservative
+    answer computed first does not change the conservative one (bit for bit as on a fresh model)."""
+    rng = np.random.default_rng(4)
+    mixing = _imagey_model(rng, cells=5)
+    seqs = rng.integers(0, 4, size=(300, 5))
+    fresh = TransitionModel(mixing.actions, mixing.matrices, initial=mixing.initial, partition=mixing.partition,
+                            n_cells=mixing.n_cells)
+    want = batch_entropy(fresh, seqs, method="trie").entropy_bits
+    batch_entropy(mixing, seqs, method="trie", conservative=False)
+    np.testing.assert_array_equal(batch_entropy(mixing, seqs, method="trie").entropy_bits, want)

@@ -290,3 +290,117 @@ def test_same_arrays_compares_every_array_and_treats_nan_as_equal(tmp_path, smal
                                extras={"state_poses": other_poses}),
                TransitionModel(model.actions, model.matrices, initial=model.initial, partition=model.partition)]
     assert not any(model.same_arrays(c) for c in changed)
+
+
+# ----------------------------------------------------------------------------- messages and small functions, whole
+def test_atomic_write_text_writes_utf8_and_leaves_no_temporary_file(tmp_path):
+    from kruskal_markov.model import atomic_write_text
+
+    path = tmp_path / "sub" / "note.txt"
+    text = "caf\u00e9 \u2713\nline two\n"
+    assert atomic_write_text(path, text) == os.fspath(path)
+    assert path.read_bytes() == text.encode("utf-8")
+    assert atomic_write_text(os.fspath(path), "again") == os.fspath(path) and path.read_text("utf-8") == "again"
+    assert sorted(os.listdir(tmp_path / "sub")) == ["note.txt"]
+
+
+def test_construction_messages_whole():
+    ok = [[0.0, 1.0], [1.0, 0.0]]
+    with pytest.raises(ModelError) as info:
+        TransitionModel(["a"], sp.csr_matrix(ok))
+    assert str(info.value) == "matrices must be a sequence of one matrix per action"
+    with pytest.raises(ModelError) as info:
+        TransitionModel(["a"], [[[0.5, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.5]]])
+    assert str(info.value) == "action 'a': row 0 sums to 0.5, off by -0.5, more than the tolerance 1e-09 " \
+                              "(2 rows out of tolerance)"
+    with pytest.raises(ModelError) as info:
+        TransitionModel(["a"], [ok], metadata={"x": object()})
+    assert str(info.value) == "metadata is not JSON-serialisable: object of type object is not JSON serialisable"
+    with pytest.raises(ModelError) as info:
+        TransitionModel(["a"], [ok], extras={"s": np.array(["x", "y"])})
+    assert str(info.value) == "extras array 's' must be numeric, got dtype <U1"
+
+
+def test_integer_matrices_explicit_zeros_and_integral_float_partitions_are_accepted():
+    """Dense integer (0/1) matrices are numeric; an explicitly stored zero is not negative (it is
+    dropped); a float partition with integral entries is a partition."""
+    m = TransitionModel(["a"], [np.array([[0, 1], [1, 0]], dtype=np.int64)], partition=np.array([0.0, 1.0]))
+    np.testing.assert_array_equal(m.matrices[0].toarray(), [[0.0, 1.0], [1.0, 0.0]])
+    assert m.partition.tolist() == [0, 1] and m.partition.dtype == np.int64 and m.n_cells == 2
+    stored_zero = sp.csr_matrix((np.array([0.0, 1.0, 1.0]), np.array([0, 1, 0]), np.array([0, 2, 3])), shape=(2, 2))
+    assert stored_zero.nnz == 3
+    z = TransitionModel(["a"], [stored_zero])
+    assert z.matrices[0].nnz == 2 and z.matrices[0].toarray().tolist() == [[0.0, 1.0], [1.0, 0.0]]
+
+
+def test_repr_whole():
+    m = TransitionModel(["a", "b"], [[[0, 1], [0, 1]], [[1, 0], [0.5, 0.5]]])
+    assert repr(m) == "TransitionModel(n_states=2, actions=['a', 'b'], nnz=5)"
+    p = TransitionModel(["a"], [[[0, 1], [1, 0]]], partition=[0, 0], n_cells=3)
+    assert repr(p) == "TransitionModel(n_states=2, actions=['a'], nnz=2, n_cells=3)"
+
+
+def test_to_networkx_edges_nodes_and_action_filter():
+    pytest.importorskip("networkx")
+    m = TransitionModel(["a", "b"], [[[0, 1], [0, 1]], [[1, 0], [0.5, 0.5]]], partition=[1, 0])
+    g = m.to_networkx()
+    assert sorted(g.nodes(data=True)) == [(0, {"cell": 1}), (1, {"cell": 0})]
+    assert sorted(g.edges(keys=True, data=True)) == [
+        (0, 0, "b", {"action": "b", "probability": 1.0}), (0, 1, "a", {"action": "a", "probability": 1.0}),
+        (1, 0, "b", {"action": "b", "probability": 0.5}), (1, 1, "a", {"action": "a", "probability": 1.0}),
+        (1, 1, "b", {"action": "b", "probability": 0.5})]
+    only_b = m.to_networkx(actions=["B"])
+    assert sorted(only_b.edges(keys=True)) == [(0, 0, "b"), (1, 0, "b"), (1, 1, "b")]
+    plain = TransitionModel(["a"], [[[0, 1], [1, 0]]]).to_networkx()
+    assert sorted(plain.nodes(data=True)) == [(0, {}), (1, {})]
+
+
+def _header(arrays):
+    return json.loads(arrays["header"].tobytes().decode("utf-8"))
+
+
+def _refused_whole(bad, arrays, message):
+    np.savez(bad, **arrays)
+    with pytest.raises(ModelError) as info:
+        TransitionModel.load(bad)
+    assert str(info.value) == message.format(path=os.fspath(bad))
+
+
+def test_load_messages_whole(tmp_path, small_model):
+    """Tampered files: each refusal's whole message (version, array kinds, sparse structure, a
+    file numpy cannot read)."""
+    from kruskal_markov.model import FORMAT_VERSION
+
+    arrays, bad = _saved_arrays(small_model, tmp_path)
+    header = _header(arrays)
+    header["version"] = 99
+    tampered = dict(arrays, header=np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8))
+    _refused_whole(bad, tampered, "{path}: unsupported model format version 99 (this program reads version "
+                                  f"{FORMAT_VERSION})")
+    _refused_whole(bad, dict(arrays, indices_0=arrays["indices_0"].astype(np.float64)),
+                   "{path}: indices of action 'a' must be integers, found dtype float64")
+    _refused_whole(bad, dict(arrays, indptr_1=arrays["indptr_1"].astype(np.float64)),
+                   "{path}: indptr of action 'b' must be integers, found dtype float64")
+    _refused_whole(bad, dict(arrays, data_2=np.ones(arrays["data_2"].size, dtype=np.int64)),
+                   "{path}: data of action 'c' must be real floating-point numbers, found dtype int64")
+    _refused_whole(bad, dict(arrays, partition=arrays["partition"].astype(np.float64)),
+                   "{path}: partition of the model must be integers, found dtype float64")
+    n = small_model.n_states
+    at_n = arrays["indices_0"].copy()
+    at_n[0] = n                                          # one column index past the last state
+    _refused_whole(bad, dict(arrays, indices_0=at_n), "{path}: corrupt sparse arrays for action 'a'")
+    ptr = arrays["indptr_0"].copy()
+    nnz = int(ptr[-1])
+    down = np.array([0, nnz] + [1] * (n - 2) + [nnz], dtype=ptr.dtype)    # first, last and size right
+    assert down.shape == ptr.shape and np.any(np.diff(down) < 0)
+    _refused_whole(bad, dict(arrays, indptr_0=down), "{path}: corrupt sparse arrays for action 'a'")
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"this is not a zip file at all")
+    try:
+        np.load(junk, allow_pickle=False)
+    except ValueError as exc:
+        first = str(exc).splitlines()[0]
+    assert first
+    with pytest.raises(ModelError) as info:
+        TransitionModel.load(junk)
+    assert str(info.value) == f"{junk} is not a readable kruskal model (ValueError: {first})"

@@ -549,3 +549,127 @@ def test_targets_whole_messages_and_types():
     refused(lambda: model_cells(model, parse_target("cell"), [0, -1, 0, 0]), "cells must be non-negative")
     c, n = model_cells(model, parse_target("cell"), np.array([0, 2, 2, 1], dtype=np.int32))
     assert c.dtype == np.int64 and c.tolist() == [0, 2, 2, 1] and n == 3
+
+
+def test_the_beam_order_counts_cells_beyond_one_per_model_then_states():
+    """Set targets: the beam's score of an image is (its distinct (model, cell) pairs minus the
+    models, its size), lower first. Cerny C_4 with cells {0, 1} and {2, 3}, alone and twice."""
+    from kruskal_markov.sync.plan import _Problem
+
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    one = _Problem([model], parse_target("cell"), None, 0.0)
+    two = _Problem([model, model], parse_target("cell"), None, 0.0)
+    ones = np.ones(4)
+    for states, want in (([0, 1], (0, 2)), ([0, 2], (1, 2)), ([1, 2, 3], (1, 3)), ([3], (0, 1))):
+        idx = np.array(states, dtype=np.int32)
+        assert one.score(idx, ones[:idx.size]) == want
+    # states 0..3 of the first copy, 4..7 of the second: {0, 1} and {5} one cell each
+    assert two.score(np.array([0, 1, 5], dtype=np.int32), np.ones(3)) == (0, 3)
+    assert two.score(np.array([0, 6, 7], dtype=np.int32), np.ones(3)) == (0, 3)
+    assert two.score(np.array([0, 2, 4, 6], dtype=np.int32), np.ones(4)) == (2, 4)
+
+
+def test_the_beam_searches_up_to_max_length_letters():
+    """Cerny C_4 has at most 15 distinct images, so a beam of width 64 is a breadth-first search: with
+    max_length 9 its last level finds the 9-letter plan (method 'beam+ida*'), with 8 it finds none."""
+    from kruskal_markov.sync.plan import _beam, _Problem
+
+    prob = _Problem([_cerny4()], parse_target("state"), None, 0.0)
+    word, _ = _beam(prob, 64, 9, 10 ** 6)
+    assert len(word) == 9 and meets(_cerny4(), word, "state")
+    assert _beam(prob, 64, 8, 10 ** 6)[0] is None
+    assert shortest_plan(_cerny4(), "state", max_length=9).method == "beam+ida*"
+
+
+def test_a_pass_that_starts_at_the_deadline_exactly_runs(monkeypatch):
+    """The time budget is past only after its deadline. On a clock ticking one second per reading
+    (no reading between the start and the first pass, beam width 1 finding nothing on Cerny C_4), a
+    budget of 1 s runs the first pass (the check before it reads the deadline exactly) and stops
+    before the second; a budget of 0.5 s stops before the first: the proven bound is one more."""
+    import types
+
+    import kruskal_markov.sync.plan as plan_mod
+
+    def run(budget):
+        clock = itertools.count(10 ** 6)
+        monkeypatch.setattr(plan_mod, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
+        return shortest_plan(_cerny4(), "state", beam_width=1, time_budget=budget)
+
+    first, none = run(1.0), run(0.5)
+    assert (first.word, first.exact, none.word, none.exact) == (None, False, None, False)
+    assert 1 <= none.lower_bound < 9 and first.lower_bound == none.lower_bound + 1
+    assert first.notes[-1] == f"budget reached in the depth-{first.lower_bound} pass: no plan is shorter than " \
+                              f"{first.lower_bound}"
+
+
+def test_the_probability_bound_is_computed_up_to_the_beam_plans_length():
+    """The bound tables are needed only below the beam's plan (5 letters here, shortest by brute
+    force): half the memory budget holding 5, 6 or 20 levels of 4 states x 2 cells x 4 bytes
+    gives no note; holding 4 or 3, the note says how far they go."""
+    model = _cerny4(partition=[0, 0, 1, 1], cells=2)
+    assert brute_length([model], "probability:0.1", 9) == 5
+    for levels in (5, 6, 20, 4, 3):
+        r = shortest_plan(model, "probability:0.1", memory_budget_mb=4 * 2 * 4 * (levels + 1) * 2 / 2 ** 20)
+        assert (r.length, r.exact, r.upper_bound) == (5, True, 5)
+        assert r.notes == (() if levels >= 5 else (f"probability bound computed up to length {levels} only (memory)",))
+
+
+def test_the_default_beam_is_64_wide_on_a_model_where_the_width_shows():
+    """A 37-state random automaton whose beam levels exceed 64 images: the default search is the
+    one with ``beam_width=64`` (the same work counted), not the one with 65."""
+    rng = np.random.default_rng(0)
+    model = random_model(rng, int(rng.integers(20, 40)), 3, False, 4)
+    assert model.n_states == 37
+    default, w64, w65 = (shortest_plan(model, "state", **kw) for kw in ({}, {"beam_width": 64}, {"beam_width": 65}))
+    assert w64.nodes != w65.nodes and w64.length == w65.length
+    assert (default.word, default.length, default.method, default.nodes) == (w64.word, w64.length, w64.method,
+                                                                             w64.nodes)
+
+
+def test_the_transposition_table_is_full_when_its_state_slots_are():
+    """The passes record each distinct image they expand (depths 1..D-1 of the depth-D pass: every
+    image within D-1 letters when nothing prunes) whole: with a tiny budget the table's floors,
+    1,024 entries and 1,024 state slots, are all it has. A 28-state automaton (no cell bound:
+    it does not fit) has under 1,024 distinct images within 9 letters, so only the state slots
+    fill: the note names exactly the passes whose images (a plain breadth-first search) hold
+    1,024 - 28 states or more, before the plan's own pass."""
+    model = random_model(np.random.default_rng(1), 28, 2, False, 3)
+    table = [np.asarray(m.indices) for m in model.matrices]
+    r = shortest_plan(model, "cell", beam_width=1, memory_budget_mb=1e-6, max_length=12)
+    assert r.exact and r.length == 10 and r.method == "ida*" and meets(model, [model.actions.index(a) for a in r.word],
+                                                                         "cell")
+    seen, level, sizes = set(), {frozenset(range(28))}, []
+    for _ in range(r.length - 2):                     # images within 1..L-2 letters (the passes D <= L-1)
+        level = {frozenset(int(t[q]) for q in s) for s in level for t in table} - seen
+        seen |= level
+        sizes.append((len(seen), sum(len(s) for s in seen)))
+    assert all(count < 1024 for count, _ in sizes)
+    full = {d + 2 for d, (_, states) in enumerate(sizes) if states >= 1024 - 28}
+    noted = {int(n.split("depth-")[1].split()[0]) for n in r.notes if n.startswith("transposition table full")}
+    assert full and noted - {r.length} == full
+
+
+def test_the_transposition_table_takes_a_quarter_of_the_budget_in_state_slots():
+    """Half the memory budget for the transposition table, half of that for its state slots (4
+    bytes each, set targets): 0.08 MB give 5,242 slots, and the 1,024-entry floor. A 2,000-state
+    automaton (its cell bound of 16,000-byte levels does not fit the other half): the depth-D pass
+    records the images within D - 1 letters, so the note names the passes whose images (a plain
+    breadth-first search) hold 5,242 - 2,000 states or more."""
+    n = 2000
+    model = random_model(np.random.default_rng(0), n, 2, False, 3)
+    table = [np.asarray(m.indices) for m in model.matrices]
+    r = shortest_plan(model, "cell", beam_width=1, memory_budget_mb=0.08, max_length=4)
+    assert (r.word, r.exact, r.lower_bound) == (None, False, 5)
+    slots = int(0.08 * 2 ** 20 / 2 / 2 / 4)
+    assert slots == 5242
+    seen, level, states = set(), {frozenset(range(n))}, [0]
+    for _ in range(3):
+        level = {frozenset(int(t[q]) for q in s) for s in level for t in table} - seen
+        seen |= level
+        states.append(sum(len(s) for s in seen))
+    assert len(seen) < 1024
+    full = [D for D in range(1, 5) if states[D - 1] >= slots - n]
+    assert 1 < len(full) < 4, states                  # the boundary falls between the passes
+    assert r.notes == ("cell-reachability bound skipped (memory)",
+                       *(f"transposition table full in the depth-{D} pass (depth-first without it)" for D in full),
+                       "no plan of length <= 4")

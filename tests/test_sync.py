@@ -1032,3 +1032,220 @@ def test_greedy_word_is_verified_before_it_is_returned(monkeypatch):
     with pytest.raises(AssertionError) as info:
         greedy_synchronizing_word(aut)
     assert str(info.value) == "internal error: greedy word does not synchronize"
+
+
+def _predicted_stops(table, budget, max_levels=None):
+    """A plain-Python model of the breadth-first search's time prediction on a clock that never
+    moves: forward levels (new images of all states), backward levels (new non-empty preimages
+    of the singletons), a meet test on each new total, the side with the smaller newest level
+    expanded (forward on a tie); before it, the predicted cost ``new_rows * rate_row + new_rows
+    * other * rate_pair`` with ``new_rows`` the newest level times its growth over the level
+    before (at least 1, at most k; k for a root level), ``other`` the other side's newest level,
+    the first guesses ``rate_row = 2e-7 max(1, W/16)`` and ``rate_pair = 5e-11 max(1, W/4)``
+    s. Returns ``(status, subsets, lower bound, [predicted costs])`` of a search with ``budget``
+    seconds (``max_levels``: the model stops after that many expansions, status None)."""
+    k, n = len(table), len(table[0])
+    W = (n + 63) // 64
+    rate_row, rate_pair = 2e-7 * max(1.0, W / 16), 5e-11 * max(1.0, W / 4)
+    inv = [[[q for q in range(n) if table[a][q] == r] for r in range(n)] for a in range(k)]
+    fwd, bwd = [[frozenset(range(n))]], [[frozenset([q]) for q in range(n)]]
+    seen = {True: set(fwd[0]), False: set(bwd[0])}
+    total, costs = 0, []
+    while True:
+        if any(f <= b for f in fwd[-1] for b in bwd[-1]):
+            return "found", len(seen[True]) + len(seen[False]), total, costs
+        forward = len(fwd[-1]) <= len(bwd[-1])
+        levels, other = (fwd, bwd) if forward else (bwd, fwd)
+        growth = k if len(levels) < 2 else max(1.0, len(levels[-1]) / max(1, len(levels[-2])))
+        new_rows = len(levels[-1]) * min(growth, k)
+        cost = new_rows * rate_row + new_rows * len(other[-1]) * rate_pair
+        costs.append(cost)
+        if cost > budget:
+            return "budget", len(seen[True]) + len(seen[False]), total + 1, costs
+        new = []
+        for x in levels[-1]:
+            for a in range(k):
+                y = frozenset(table[a][q] for q in x) if forward else \
+                    frozenset(p for r in x for p in inv[a][r])
+                if y and y not in seen[forward]:
+                    seen[forward].add(y)
+                    new.append(y)
+        if not new:
+            return "none", len(seen[True]) + len(seen[False]), total, costs
+        levels.append(new)
+        total += 1
+        if total == max_levels:
+            return None, None, None, costs
+
+
+def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(monkeypatch):
+    """On a clock that never moves, the breadth-first search stops (status 'budget', the lower
+    bound one past the totals tested) exactly before the first expansion whose predicted cost
+    exceeds the time budget: budgets just below and just above each predicted cost of a plain
+    model (:func:`_predicted_stops`), on small random automata (growth, shrinking levels, both
+    sides) and on 300 states (bitsets of 5 words, where the meet-test guess grows with W)."""
+    import types
+
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "time", types.SimpleNamespace(perf_counter=lambda: 0.0))
+    cases = [(n, [list(map(int, r)) for r in table]) for _, n, table in random_tables(5, 12, (5, 10), k=(2, 4))]
+    cases.append((300, [list(map(int, r)) for r in random_table(np.random.default_rng(3), 300, 2)]))
+    stops = set()
+    for n, table in cases:
+        aut = SyncAutomaton.from_table(table)
+        costs = _predicted_stops(table, math.inf, 3 if n == 300 else None)[3]
+        for cost in costs:
+            for budget in (cost * (1 - 1e-9), cost * (1 + 1e-9)):
+                status, explored, lower, _ = _predicted_stops(table, budget)
+                word, *got = exact_mod._exact_search(aut, np.arange(n), budget, 64.0)
+                assert got == [status, explored, lower], (n, budget)
+                if status == "found":
+                    assert len(word) == lower == brute_det(table)
+                stops.add((n == 300, status))
+    assert stops >= {(False, "budget"), (False, "found"), (True, "budget")}
+
+
+def test_the_meet_test_runs_when_the_clock_reads_the_deadline_exactly(monkeypatch):
+    """The budget is past only after its deadline. On a clock ticking one second per reading,
+    Cerny C_4 (shortest word 9) and a budget of 5 s: readings t0, the meet test at total 0, the
+    prediction (t0 + 2), the expansion, the meet test at total 1 (t0 + 4), the check before its
+    first slice (t0 + 5: at the deadline, not past it: the slice runs and finds nothing), the
+    prediction (t0 + 6: past it): stopped with lower bound 2. With 4 s the check before the slice
+    is past the deadline: stopped with lower bound 1."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    _fake_clock(monkeypatch, exact_mod)
+    aut = SyncAutomaton.from_table(cerny(4))
+    assert brute_det(cerny(4)) == 9
+    for budget, lower in ((5.0, 2), (4.0, 1)):
+        word, status, _, bound = exact_mod._exact_search(aut, np.arange(4), budget, 64.0)
+        assert (word, status, bound) == (None, "budget", lower)
+
+
+def test_the_greedy_descent_gets_the_subsets_the_memory_budget_holds(monkeypatch):
+    """When the greedy word comes from the descent (Eppstein's tables and pair merging planted as
+    failing), its breadth-first searches hold at most ``memory_budget_mb`` of 8 W + 44-byte rows
+    (bitset, parent, letter, hash slots): on Cerny C_18, whose descent needs more than 1,024 rows
+    (the floor), a budget of exactly the rows it needs gives the descent's word and one row less
+    gives None, as the descent with those node budgets does."""
+    import kruskal_markov.sync.greedy as greedy
+
+    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
+    monkeypatch.setattr(greedy, "_pair_merging_greedy", lambda *args, **kw: None)
+    aut, s = SyncAutomaton.from_table(cerny(18)), np.arange(18)
+    lo, hi = 1024, 1 << 14                          # the fewest rows the descent needs
+    assert greedy._greedy_descent(aut, s, lo) is None and greedy._greedy_descent(aut, s, hi) is not None
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if greedy._greedy_descent(aut, s, mid) is not None else (mid, hi)
+    word = greedy._greedy_descent(aut, s, hi)
+    assert len(plain_image(cerny(18), range(18), word)) == 1
+    row = 8 * 1 + 44
+    assert greedy_synchronizing_word(aut, memory_budget_mb=(hi + 0.5) * row / 2 ** 20) == word
+    assert greedy_synchronizing_word(aut, memory_budget_mb=(hi - 0.5) * row / 2 ** 20) is None
+
+
+def test_the_greedy_descent_returns_its_word_once_a_single_state_is_reached(monkeypatch):
+    """The descent checks its deadline before each step only: letter 0 maps q to max(q - 1, 0),
+    letter 1 fixes every state; from four states three steps of letter 0 reach state 0. On a clock
+    ticking one second per reading (t0, t0 + 1, t0 + 2 before the steps) a deadline of t0 + 2
+    gives the word, t0 + 1 gives None (passed before the third step)."""
+    import kruskal_markov.sync.greedy as greedy
+
+    start = 10.0 ** 6
+    table = [[0, 0, 1, 2], [0, 1, 2, 3]]
+    aut = SyncAutomaton.from_table(table)
+    assert plain_image(table, range(4), [0, 0, 0]) == {0} and plain_image(table, range(4), [0, 0]) == {0, 1}
+    _fake_clock(monkeypatch, greedy, start=start)
+    assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 2) == [0, 0, 0]
+    _fake_clock(monkeypatch, greedy, start=start)
+    assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 1) is None
+
+
+@pytest.mark.parametrize("chunk", [2, 3])
+def test_depth_first_chunks_of_a_few_frontier_sets_cover_the_frontier(monkeypatch, chunk):
+    """The depth-first phase extends every set of the newest forward level, chunk by chunk: with
+    chunks of 2 or 3 sets (the module's constant patched; 4,096 in use) on 60-state random
+    automata too large for the breadth-first stores of 0.05 MB, the shortest length is still
+    the brute-force one."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
+    for seed in (1, 2, 4, 7):
+        table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
+        r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=0.05,
+                                        node_budget=10 ** 8)
+        assert r.method == "bidirectional-bfs+dfs" and r.exact
+        assert r.length == brute_bitmask(table) and len(plain_image(table, range(60), r.word)) == 1
+
+
+@pytest.mark.parametrize("bytes_48, chunk, whole", [(1050, 10, True), (1050, 11, False), (208, 4, True)])
+def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_above_it(monkeypatch, bytes_48, chunk,
+                                                                                   whole):
+    """The depth-first phase gets a quarter of the memory budget and expands at most ``cap / k``
+    sets at a time, ``cap = max(4 k, quarter / (8 W + 44) / 12)`` bytes-per-row; a larger batch
+    is halved, a batch within the cap is expanded whole. Budgets of 48 x 1,050 and 48 x 208 bytes
+    (a quarter of them is 12 x 1,050 and 12 x 208) give caps of 20 (1,050 / 52) and 8 (the 4 k
+    floor over 208 / 52); frontier chunks (the module's constant patched) of 10 and 4 sets fit
+    and are seen expanded whole, chunks of 11 never are. Every chunk store is spied; the answers
+    are the brute-force ones."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    real = exact_mod.SubsetStore
+    sizes = []
+
+    class Spy(real):
+        def __init__(self, W, cap, max_rows):
+            if cap == max_rows and cap % 3 == 0:      # a chunk store: m sets and their 2 m images
+                sizes.append(cap // 3)
+            super().__init__(W, cap, max_rows)
+    monkeypatch.setattr(exact_mod, "SubsetStore", Spy)
+    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
+    memory_mb = bytes_48 * 48 / 2 ** 20
+    cap = max(4 * 2, int(memory_mb / 4 * 2 ** 20 / (8 + 44) / 12))
+    assert cap == (20 if bytes_48 == 1050 else 8)
+    for seed in (2, 7):
+        sizes.clear()
+        table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
+        r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=memory_mb,
+                                        node_budget=10 ** 8)
+        assert r.method == "bidirectional-bfs+dfs" and r.length == brute_bitmask(table)
+        assert sizes and max(sizes) * 2 <= cap
+        assert (chunk in sizes) == whole
+
+
+def test_pair_merging_searches_at_most_the_pairs_the_memory_budget_holds(monkeypatch):
+    """Pair merging's breadth-first search in the pair graph keeps at most ``memory_budget_mb /
+    64 bytes`` pairs (at least 65,536): 600 states, two random permutations and a letter merging
+    only 0 and 1, start {10, 500}. A plain pair-graph search finds the merging depth and the
+    pairs within one letter less, more than 65,536; a budget holding exactly those pairs gives
+    the merging word, one pair less gives None (Eppstein's tables and the descent planted as
+    failing)."""
+    import kruskal_markov.sync.greedy as greedy
+
+    n = 600
+    rng = np.random.default_rng(0)
+    c = np.arange(n)
+    c[0] = 1
+    table = [rng.permutation(n).tolist(), rng.permutation(n).tolist(), c.tolist()]
+    level, seen, depth = [(10, 500)], {(10, 500)}, 0
+    while True:                                        # pairs within ``depth`` letters: ``seen``
+        within, nxt, merged = len(seen), [], False
+        for x, y in level:
+            for t in table:
+                u, v = t[x], t[y]
+                merged |= u == v
+                if u != v and (min(u, v), max(u, v)) not in seen:
+                    seen.add((min(u, v), max(u, v)))
+                    nxt.append((min(u, v), max(u, v)))
+        if merged:
+            break
+        level, depth = nxt, depth + 1
+    assert within > 1 << 16
+    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
+    monkeypatch.setattr(greedy, "_greedy_descent", lambda *args, **kw: None)
+    aut = SyncAutomaton.from_table(table)
+    word = greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within + 0.5) * 64 / 2 ** 20)
+    assert len(word) == depth + 1 and len(plain_image(table, [10, 500], word)) == 1
+    assert greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within - 0.5) * 64 / 2 ** 20) is None

@@ -31,6 +31,8 @@ __all__ = ["shortest_synchronizing_word"]
 _GREEDY_SHARE = 0.4
 #: forward sets per call of the meet test (the time budget is checked between calls)
 _MEET_SLICE = 2048
+#: forward sets of the newest level per chunk of the depth-first phase
+_DFS_CHUNK = 4096
 
 
 _BLOCK = 1 << 16
@@ -193,8 +195,8 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     while upper is None or t < upper:
         x = t - total
         res = None
-        for lo in range(flo, fhi, 4096):
-            hi = min(fhi, lo + 4096)
+        for lo in range(flo, fhi, _DFS_CHUNK):
+            hi = min(fhi, lo + _DFS_CHUNK)
             res = rec(fwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
             if res is not None:
                 break
