@@ -77,6 +77,13 @@ def _subsample_errors(refs, names, grid, seqs, targets=None) -> dict:
     return out
 
 
+def _half_step_text() -> str:
+    """Half the default time step, in words (it follows the simulator's defaults)."""
+    from benchmarks.bench_builder import HALF_TIME_STEP
+
+    return f"1/{1 / HALF_TIME_STEP['time_step_s']:.0f} s, {HALF_TIME_STEP['substeps']} sub-steps"
+
+
 def _latest_rows(rows: dict, seed: int) -> dict:
     """The deterministic builder rows judged on ``seed``: per variant and M, the row of the newest
     simulator version (a variant measured again under a new version replaces its old row)."""
@@ -241,8 +248,8 @@ def _finer_judge_lines(designs: dict) -> list[str]:
                             f"{_verdict(r['speedup'], j, d)} |")
     if not rows:
         return []
-    return ["", "**The same rounds against the simulator at half the time step** (the same trials, 1/480 s and 8 "
-                "sub-steps; `python -m benchmarks experiment_a`, where those references are cached). Direct "
+    return ["", "**The same rounds against the simulator at half the time step** (the same trials, "
+                f"{_half_step_text()}; `python -m benchmarks experiment_a`, where those references are cached). Direct "
                 "simulation's subsamples come from the default time step, as the model does, so against this "
                 "judge both carry the default simulator's time-step error; the first judge charges that error "
                 "to the model only.", "",
@@ -262,7 +269,7 @@ def _time_step_lines(held: dict, trials: int) -> list[str]:
         return []
     per = ", ".join(f"{a:.2f} / {b:.2f}" for a, b in zip(same["per_sequence_max"], half["per_sequence_max"]))
     return ["", f"The simulator's time step, on the model side: the 1 mm design built at half the time step "
-                f"(1/480 s) scores {half['mean_abs_error_bits']:.3f} / {half['max_abs_error_bits']:.2f} bits "
+                f"({_half_step_text()}) scores {half['mean_abs_error_bits']:.3f} / {half['max_abs_error_bits']:.2f} bits "
                 f"(mean / max) against the default-step references, where the same design built at the default "
                 f"step scores {same['mean_abs_error_bits']:.3f} / {same['max_abs_error_bits']:.2f} "
                 f"({same['build_seconds']:.0f} s against {half['build_seconds']:.0f} s to build; per-sequence "
