@@ -311,8 +311,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
     if compare_build != s.key_build and (s.compare_contacts or s.compare_refine):
         variants.append((f"{default_contact} (compared resolution)", key_scene))
     variants += [(str(label), key_scene.with_settings(**dict(changes))) for label, changes in s.compare_contacts]
-    variants += [(f"{default_contact}, 1/{r} step", key_scene.with_settings(time_step_s=st.time_step_s / r,
-                                                                           substeps=st.substeps * r))
+    variants += [(f"{default_contact}, 1/{r} step", key_scene.with_settings(**st.finer_step(r)))
                  for r in s.compare_refine]
     for label, scene_k in variants:
         model_k, info = _build(scene_k, compare_build, s.seed, workers, progress, f"{s.shape}, {label}")

@@ -106,7 +106,7 @@ def sensitivity_study(key_scene, s, *, workers=None, progress=None, build=None) 
     st = key_scene.settings
     mu0 = float(key_scene.friction.mu)
     variants = [("default", key_scene, {}),
-                ("half time step", key_scene.with_settings(time_step_s=st.time_step_s / 2, substeps=st.substeps * 2), {})]
+                ("half time step", key_scene.with_settings(**st.finer_step(2)), {})]
     variants += [(f"noise {n.split(':')[1]}", key_scene, {"noise": n}) for n in s.sensitivity_noise]
     mus = sorted(set(float(m) for m in s.sensitivity_mu) | {mu0})
 

@@ -268,8 +268,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         entry["reference_sd"] = sd.tolist()
         if spread:
             t = time.perf_counter()
-            half_scene = scene.with_settings(time_step_s=scene.settings.time_step_s / 2,
-                                             substeps=scene.settings.substeps * 2)
+            half_scene = scene.with_settings(**scene.settings.finer_step(2))
             ref2 = simulate(half_scene, seq, trials, reference_seed(seed, i), noise)
             sim_seconds += time.perf_counter() - t
             d = np.abs(ref2.entropy_bits - href)[1:]

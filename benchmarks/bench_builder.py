@@ -54,7 +54,7 @@ TRIALS = int(os.environ.get("KRUSKAL_BENCH_BUILDER_TRIALS", "2000"))
 #: derived from the defaults, so it stays half the step when the simulator's default changes (under
 #: simulator version 4, 1/960 s with 16 sub-steps; it was written as a constant 1/480 s under version 3,
 #: which equals version 4's default step)
-HALF_TIME_STEP = {"time_step_s": SimSettings().time_step_s / 2, "substeps": SimSettings().substeps * 2}
+HALF_TIME_STEP = SimSettings().finer_step(2)
 #: name -> (build settings changes, description); the key "scene" changes the simulator settings of
 #: the build only (the references stay at the defaults)
 VARIANTS = {

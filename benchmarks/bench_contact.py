@@ -46,7 +46,7 @@ def landings(refine: int, starts, **settings):
     from transition_builder.settings import SimSettings
     from transition_builder.sim import TraySimulator
     base = SimSettings(**settings)
-    settings = dict(settings, time_step_s=base.time_step_s / refine, substeps=base.substeps * refine)
+    settings = dict(settings, **base.finer_step(refine))
     sc = scene_from_options("allen-key", **settings)
     sim = TraySimulator(sc)
     sim.prepare(ACTIONS)

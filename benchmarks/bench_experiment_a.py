@@ -83,7 +83,7 @@ def _judge(model, seed: int) -> dict | None:
     refs = [simulate(scene, s, TRIALS, reference_seed(seed, i), "none") for i, s in enumerate(seqs)]
     if any(r is None for r in refs):
         return None
-    half_scene = scene.with_settings(time_step_s=scene.settings.time_step_s / 2, substeps=scene.settings.substeps * 2)
+    half_scene = scene.with_settings(**scene.settings.finer_step(2))
     halves = [simulate(half_scene, s, TRIALS, reference_seed(seed, i), "none") for i, s in enumerate(seqs)]
     finer = all(h is not None for h in halves)
     val = validate_model(model, SEQUENCES, TRIALS, seed, LENGTH, spread=finer, bands=40, simulate=simulate)

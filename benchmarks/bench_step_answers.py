@@ -32,9 +32,7 @@ def step_answers(refine: int, build_seed: int, workers: int = 2) -> dict:
 
     s = ReproduceSettings(seed=0)
     key = scene_from_options(s.shape, tray_mm=s.tray_mm)
-    st = key.settings
-    scene = key if refine == 1 else key.with_settings(time_step_s=st.time_step_s / refine,
-                                                      substeps=st.substeps * refine)
+    scene = key if refine == 1 else key.with_settings(**key.settings.finer_step(refine))
     model, info = _build(scene, s.contact_build, build_seed, workers, print, f"1/{refine} step, build seed {build_seed}")
     metrics = part_metrics(model, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=s.epsilon,
                            sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)

@@ -123,3 +123,18 @@ def test_contact_model_parsed_recorded_and_old_scene_files_read():
     assert SimSettings.from_dict({**old, "support_points": 4}).contact == "legs:4"
     d = scene_from_options("allen-key", contact="legs:4").to_dict()
     assert d["settings"]["contact"] == "legs:4"
+
+
+@pytest.mark.parametrize("refine", [1, 2, 4, 8])
+def test_finer_step_divides_the_step_and_keeps_the_rest_test_interval(refine):
+    base = SimSettings()
+    fine = SimSettings(**{**base.to_dict(), **base.finer_step(refine)})
+    assert fine.time_step_s * refine == pytest.approx(base.time_step_s, rel=1e-15)
+    assert fine.substeps == base.substeps * refine
+    assert fine.check_interval_s == pytest.approx(base.check_interval_s, rel=1e-15)
+
+
+@pytest.mark.parametrize("refine", [0, -2, 2.0, True, "2"])
+def test_finer_step_refuses_what_is_not_a_positive_integer(refine):
+    with pytest.raises(ValueError, match="refine must be a positive integer"):
+        SimSettings().finer_step(refine)

@@ -190,3 +190,11 @@ class SimSettings:
     def check_interval_s(self) -> float:
         """Simulated time between two rest tests."""
         return self.time_step_s * self.substeps
+
+    def finer_step(self, refine: int) -> dict:
+        """The changes, for ``with_settings``, that divide the time step by ``refine`` while the rest
+        test keeps its interval (``substeps`` multiplied by ``refine``): how every time-step
+        convergence check in the project refines the simulator."""
+        if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
+            raise ValueError(f"refine must be a positive integer, got {refine!r}")
+        return {"time_step_s": self.time_step_s / refine, "substeps": self.substeps * refine}
