@@ -287,8 +287,7 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
 
     # --- beyond: the optimal plan and the expected random length ------------------------------
     _log(progress, "the key's shortest synchronizing word and expected random lengths")
-    km = part_metrics(key, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
-                      sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
+    km = _key_metrics(key, s)
     out["key_metrics"] = km.to_dict()
     if km.sync_word:
         model_curve = entropy_trajectory(key, km.sync_word).entropy_bits
@@ -315,9 +314,8 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
                  for r in s.compare_refine]
     for label, scene_k in variants:
         model_k, info = _build(scene_k, compare_build, s.seed, workers, progress, f"{s.shape}, {label}")
-        mk = part_metrics(model_k, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=eps,
-                          sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
-        out["contact_models"][label] = {**_contact_summary(model_k, mk, s, names), "model": info}
+        out["contact_models"][label] = {**_contact_summary(model_k, _key_metrics(model_k, s), s, names),
+                                        "model": info}
     if s.judges:
         from transition_builder.judges import JUDGE_TARGETS, judges_table
         _log(progress, "the contact judges (free sliding against the integration of Coulomb's law)")
@@ -417,6 +415,13 @@ def key_plans(model, s: ReproduceSettings) -> dict:
                     plan.success_probability, draws=20, seed=s.seed, final_cell=plan.final_cell)
         out[target] = entry
     return out
+
+
+def _key_metrics(model, s: ReproduceSettings):
+    """:func:`analysis.orientability.part_metrics` of a key model with the settings' counts, epsilon
+    and the key's search budgets (the key's own metrics and the contact section's)."""
+    return part_metrics(model, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=s.epsilon,
+                        sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
 
 
 def _contact_summary(model, metrics, s: ReproduceSettings, names) -> dict:

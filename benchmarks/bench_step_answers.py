@@ -4,7 +4,7 @@ The allen key at the report's compared resolution (``ReproduceSettings.contact_b
 degree, 1 recentring round, 2,000 starts) is built at 1/r of the default time step (the rest test
 keeps its interval) with build seed b, for each ``r:b`` of ``KRUSKAL_BENCH_STEPS`` (default
 ``1:0,1:1,1:2,2:0,4:0,4:1,8:0,8:1``). Each model's answers are computed exactly as the report's
-contact section computes them (``analysis.reproduce._contact_summary`` after ``part_metrics``;
+contact section computes them (``analysis.reproduce._contact_summary`` after ``_key_metrics``;
 seed 0, 100,000 random 50-tilt sequences), so the rows of build seed 0 at r = 1 and 4 repeat the
 report's. Several build seeds at one step measure the build's own noise beside the step's effect.
 
@@ -26,17 +26,14 @@ ANSWERS = ("converging_share", "mean_entropy_20", "mean_entropy_end", "random_ti
 
 def step_answers(refine: int, build_seed: int, workers: int = 2) -> dict:
     """The report's paper-level answers of the key built at 1/``refine`` of the default step."""
-    from analysis.orientability import part_metrics
-    from analysis.reproduce import ReproduceSettings, _build, _contact_summary
+    from analysis.reproduce import ReproduceSettings, _build, _contact_summary, _key_metrics
     from transition_builder.scene import scene_from_options
 
     s = ReproduceSettings(seed=0)
     key = scene_from_options(s.shape, tray_mm=s.tray_mm)
     scene = key if refine == 1 else key.with_settings(**key.settings.finer_step(refine))
     model, info = _build(scene, s.contact_build, build_seed, workers, print, f"1/{refine} step, build seed {build_seed}")
-    metrics = part_metrics(model, seed=s.seed, count=s.metrics_count, runs=s.metrics_runs, epsilon=s.epsilon,
-                           sync_time_budget=s.sync_time_budget, sync_node_budget=s.sync_node_budget)
-    return {**_contact_summary(model, metrics, s, None), "refine": refine, "build_seed": build_seed,
+    return {**_contact_summary(model, _key_metrics(model, s), s, None), "refine": refine, "build_seed": build_seed,
             "build_seconds": info["seconds"], "cached": info["cached"]}
 
 
