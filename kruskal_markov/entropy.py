@@ -61,7 +61,16 @@ def histogram_entropy_bits(counts) -> float:
 # --------------------------------------------------------------------------------------------
 __all__ = ["histogram_entropy_bits", "distribution_entropy_bits", "partition_entropy_bits",
            "EntropyTrajectory", "BatchEntropy", "entropy_trajectory", "propagate", "batch_entropy",
-           "as_sequence", "as_sequences", "prefers_images"]
+           "as_sequence", "as_sequences", "prefers_images", "CONVERGED_BITS", "ZERO_BITS"]
+
+#: "converged" for a model's predicted entropy (bits): the report's, the ranking's and the answers'
+#: threshold. A leak of about 1e-4 of the mass into a second cell gives 1e-3 bits, i.e. about one
+#: trial in 10,000 of a direct simulation (the paper's zero entropy at M = 10,000).
+CONVERGED_BITS = 1e-3
+
+#: numerically zero entropy (bits): the default threshold of :func:`kruskal_markov.ensemble.run_ensemble`
+#: and ``kruskal ensemble --epsilon``, where "converged" means one cell up to rounding.
+ZERO_BITS = 1e-9
 
 
 def distribution_entropy_bits(p) -> float:
