@@ -500,6 +500,11 @@ def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 5
     Returns
     -------
     dict
+
+    See Also
+    --------
+    kruskal_markov.ensemble.run_ensemble : entropy statistics of random sequences of a fixed length.
+    kruskal_markov.sync.shortest.shortest_word : the shortest word that orients the part.
     """
     epsilon = float(epsilon)
     if not epsilon >= 0:

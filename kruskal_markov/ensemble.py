@@ -169,6 +169,11 @@ def run_ensemble(model: TransitionModel, count: int, length: int, seed=None, eps
     -------
     EnsembleResult
 
+    See Also
+    --------
+    kruskal_markov.convergence.monte_carlo_entropy_tilts : random tilts until converged, without a length cap.
+    kruskal_markov.sync.shortest.shortest_word : the shortest word instead of random ones.
+
     Notes
     -----
     Statistics are taken on the report partition (``entropy_bits``; on the states for a model

@@ -57,6 +57,11 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
         ``word`` (letter indices) of the first level with a hit, ``method`` ``distribution-bfs``;
         when a budget ran out, ``word`` None, ``exact`` False and ``best_word`` the lowest-entropy
         word seen.
+
+    See Also
+    --------
+    kruskal_markov.sync.shortest.shortest_word : set targets (one state, one cell, probability:E).
+    kruskal_markov.ensemble.run_ensemble : the entropy of random sequences.
     """
     epsilon = float(epsilon)
     if not epsilon >= 0:

@@ -353,6 +353,11 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     -------
     PlanResult
 
+    See Also
+    --------
+    kruskal_markov.sync.shortest.shortest_word : the one entry point (chooses this search or the subset search).
+    kruskal_markov.sync.plan.random_word_success : how often a random word of each length meets the target.
+
     References
     ----------
     See the module docstring: Vorel 2016; Doyen, Massart and Shirmohammadi 2019; Kisielewicz,
