@@ -16,12 +16,31 @@ import os
 import shutil
 import tempfile
 import warnings
+from typing import NamedTuple
 
 from kruskal_markov.model import ModelError, TransitionModel
 from transition_builder.builder import BuildResult, BuildSettings, BuildWarning, build_key, build_model
 from transition_builder.scene import Scene
 
-__all__ = ["cache_dir", "cached_build"]
+__all__ = ["CachedBuild", "cache_dir", "cached_build"]
+
+
+class CachedBuild(NamedTuple):
+    """What :func:`cached_build` gives: unpacks as ``result, path, cached`` as before.
+
+    Attributes
+    ----------
+    result : BuildResult
+        The model and its statistics (those recorded when it was built, for a cached model).
+    path : str
+        Where the model is: ``out`` if given, else the cache file.
+    cached : bool
+        Whether a cached model was reused.
+    """
+
+    result: BuildResult
+    path: str
+    cached: bool
 
 
 def cache_dir() -> str:
@@ -52,7 +71,7 @@ def _copy_atomic(src: str, dst: str) -> None:
 
 
 def cached_build(scene: Scene, settings: BuildSettings | None = None, out: str | None = None, *,
-                 use_cache: bool = True, directory: str | None = None, **build_kwargs) -> tuple[BuildResult, str, bool]:
+                 use_cache: bool = True, directory: str | None = None, **build_kwargs) -> CachedBuild:
     """Build ``scene`` or reuse the cached model of the same key.
 
     Parameters
@@ -74,12 +93,10 @@ def cached_build(scene: Scene, settings: BuildSettings | None = None, out: str |
 
     Returns
     -------
-    result : BuildResult
-        The model and its statistics (those recorded when it was built, for a cached model).
-    path : str
-        ``out`` if given, else the cache file.
-    cached : bool
-        Whether a cached model was reused.
+    CachedBuild
+        ``result`` (the model and its statistics, those recorded when it was built for a cached
+        model), ``path`` (``out`` if given, else the cache file) and ``cached`` (whether a cached
+        model was reused); unpacks as a 3-tuple.
     """
     settings = settings or BuildSettings()
     key = build_key(scene, settings)
@@ -99,10 +116,10 @@ def cached_build(scene: Scene, settings: BuildSettings | None = None, out: str |
             if out:
                 _copy_atomic(path, out)
             stats = dict(model.metadata.get("stats", {}))
-            return BuildResult(model, stats), (out or path), True
+            return CachedBuild(BuildResult(model, stats), out or path, True)
     result = build_model(scene, settings, checkpoint=os.path.join(d, f"{key}.ckpt.npz"), resume=use_cache,
                          **build_kwargs)
     result.model.save(path)
     if out:
         _copy_atomic(path, out)
-    return result, (out or path), False
+    return CachedBuild(result, out or path, False)
