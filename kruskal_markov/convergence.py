@@ -45,6 +45,7 @@ if TYPE_CHECKING:
     from kruskal_markov.model import TransitionModel
 
 __all__ = [
+    "censored_mean",
     "default_mc_steps",
     "exact_expected_length",
     "expected_sync_length",
@@ -209,7 +210,7 @@ def monte_carlo_sync_length(aut: SyncAutomaton | TransitionModel, start=None, we
         steps[active] = sub_steps
         done[active] = sub_done
         chunk = min(4 * chunk, 4096)
-    return _censored_mean(steps.astype(np.float64), done)
+    return censored_mean(steps.astype(np.float64), done)
 
 
 # ----------------------------------------------------------------------------- pair chain
@@ -526,12 +527,35 @@ def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 5
     if partition_entropy_bits(np.asarray(model.initial, dtype=np.float64), part, ncells) <= epsilon:
         steps[:] = 0
     done = steps >= 0
-    return _censored_mean(np.where(done, steps, max_steps).astype(np.float64), done)
+    return censored_mean(np.where(done, steps, max_steps).astype(np.float64), done)
 
 
-def _censored_mean(steps: np.ndarray, done: np.ndarray) -> dict:
-    """Mean and 95% interval of ``steps`` when every run is ``done``; else only ``lower``, the mean
-    of the steps run (each censored run counts the steps it ran: a lower bound of its length)."""
+def censored_mean(steps: np.ndarray, done: np.ndarray) -> dict:
+    """The Monte Carlo summary of run lengths, some of which may be censored.
+
+    Mean and 95% interval (mean +- 1.96 sample standard errors, ``ddof=1``) of ``steps`` when
+    every run is ``done``; else only ``lower``, the mean of the steps run (each censored run
+    counts the steps it ran: a lower bound of its length) -- a mean over the finished runs alone
+    would be biased low.
+
+    Parameters
+    ----------
+    steps : ndarray of float
+        Per run, its length, or the steps it ran when censored.
+    done : ndarray of bool
+        Per run, whether it finished.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``ci95``, ``runs``, ``censored``, ``std`` and ``lower`` (the keys of
+        :func:`monte_carlo_sync_length` and :func:`monte_carlo_entropy_tilts`).
+
+    Examples
+    --------
+    >>> censored_mean(np.array([2.0, 4.0]), np.array([True, False]))["lower"]
+    3.0
+    """
     runs = int(steps.size)
     censored = int(runs - done.sum())
     lower = float(steps.mean()) if runs else None

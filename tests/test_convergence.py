@@ -10,6 +10,7 @@ import pytest
 import scipy.sparse as sp
 
 from kruskal_markov.convergence import (
+    censored_mean,
     exact_expected_length,
     expected_sync_length,
     letter_weights,
@@ -233,16 +234,14 @@ def test_interval_is_mean_plus_minus_196_sample_standard_errors():
     sqrt(n) with the sample standard deviation s (ddof = 1). The run lengths of a seeded Monte
     Carlo are not visible from outside, so the formula is checked on the helper that turns run
     lengths into the summary, and end to end on an automaton whose every run has one known length."""
-    from kruskal_markov.convergence import _censored_mean
-
     steps = np.array([1.0, 2.0, 3.0, 4.0, 10.0])
-    out = _censored_mean(steps, np.ones(5, dtype=bool))
+    out = censored_mean(steps, np.ones(5, dtype=bool))
     sd = math.sqrt(((steps - 4.0) ** 2).sum() / 4)             # ddof = 1, by hand: sqrt(12.5)
     assert out["mean"] == 4.0 and out["std"] == pytest.approx(sd, rel=1e-12)
     assert out["ci95"] == pytest.approx([4.0 - 1.96 * sd / math.sqrt(5), 4.0 + 1.96 * sd / math.sqrt(5)],
                                         rel=1e-12)
     # censored: no mean or interval, the lower estimate counts the censored run at its letters run
-    out = _censored_mean(steps, np.array([True, True, True, True, False]))
+    out = censored_mean(steps, np.array([True, True, True, True, False]))
     assert out["mean"] is None and out["ci95"] == [None, None] and out["censored"] == 1 and out["lower"] == 4.0
     # every letter maps all states to one: every run has length 1, the interval has zero width
     aut = SyncAutomaton.from_table([[1, 1, 1], [2, 2, 2]])
@@ -647,13 +646,11 @@ def test_default_memory_budget_is_2048_mb(monkeypatch):
 
 
 def test_censored_mean_whole_answers():
-    from kruskal_markov.convergence import _censored_mean
-
     steps = np.array([1.0, 2.0, 3.0, 4.0, 10.0])
-    assert _censored_mean(steps, np.array([True, True, True, True, False])) == {
+    assert censored_mean(steps, np.array([True, True, True, True, False])) == {
         "mean": None, "ci95": [None, None], "runs": 5, "censored": 1, "std": None, "lower": 4.0}
     # one run: no spread to estimate, the interval is the point
-    assert _censored_mean(np.array([3.0]), np.array([True])) == {
+    assert censored_mean(np.array([3.0]), np.array([True])) == {
         "mean": 3.0, "ci95": [3.0, 3.0], "runs": 1, "censored": 0, "std": 0.0, "lower": 3.0}
     one = monte_carlo_entropy_tilts(_two_action_model(), 0.0, weights=[1, 0], runs=1)
     assert one["std"] == 0.0 and one["ci95"] == [1.0, 1.0]
