@@ -97,6 +97,7 @@ class Context:
         self.progress = progress
         self.clock = clock
         self._memo: dict = {}
+        self._alive: dict = {}
         self._results: dict = {}
         self._running: list = []
 
@@ -115,6 +116,11 @@ class Context:
         return np.random.default_rng(self.seed(name))
 
     # --- shared results ---------------------------------------------------------------------------
+    def model_key(self, model) -> int:
+        """A memo key for ``model``: its ``id``, kept unique by holding the model for the run."""
+        self._alive[id(model)] = model
+        return id(model)
+
     def memo(self, key, compute: Callable):
         """``compute()`` once per ``key`` in this run; later calls return the same object."""
         if key not in self._memo:
@@ -189,7 +195,7 @@ class Context:
         from kruskal_markov.ensemble import run_ensemble
 
         s = self.settings
-        key = ("ensemble", id(model), int(count), stream)
+        key = ("ensemble", self.model_key(model), int(count), stream)
         found = self._memo.get(key)
         if found is None or (keep_entropy and found.entropy is None):
             found = self._memo[key] = run_ensemble(model, count, s.length, seed=self.seed(stream), epsilon=s.epsilon,

@@ -86,7 +86,7 @@ def key_metrics(ctx, model, *, sync_time_budget: float, draws: int = 10):
     from analysis.orientability import part_metrics
 
     s = ctx.settings
-    return ctx.memo(("metrics", id(model), sync_time_budget, draws), lambda: part_metrics(
+    return ctx.memo(("metrics", ctx.model_key(model), sync_time_budget, draws), lambda: part_metrics(
         model, seed=ctx.seed("metrics"), count=s.metrics_count, runs=s.metrics_runs, epsilon=s.epsilon,
         sync_time_budget=sync_time_budget, sync_node_budget=s.sync_node_budget, draws=draws))
 
