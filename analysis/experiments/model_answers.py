@@ -43,6 +43,8 @@ class ModelAnswers:
         The orientability metrics (shortest word, expected random tilts).
     intervals : dict or None
         :func:`kruskal_markov.answers.answer_intervals` of the ensemble's answers (None: not asked).
+        The seam for the one ``Estimate`` type (``kruskal_markov.estimate``, another branch): each
+        answer here is a value with its intervals; :meth:`interval_dict` is where its JSON is made.
     cell_plan : dict or None
         The shortest one-cell plan's ``length``, ``exact`` and ``lower_bound`` (None: not asked).
     """
