@@ -452,3 +452,17 @@ def max_pair_distance_rows(rows, dist, n, out):
                 if d > best:
                     best = d
         out[i] = best
+
+
+@njit(cache=True)
+def first_superset(rows, bits):
+    """Index of the first row of ``rows`` containing the bitset ``bits`` (``-1`` if none)."""
+    for i in range(rows.shape[0]):
+        ok = True
+        for w in range(rows.shape[1]):
+            if bits[w] & ~rows[i, w]:
+                ok = False
+                break
+        if ok:
+            return i
+    return -1
