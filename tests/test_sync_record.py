@@ -63,13 +63,14 @@ def test_answers_equal_brute_force_and_exact_means_shortest():
     assert exact >= 60
 
 
-def test_a_proven_bound_equal_to_the_optimum_comes_with_the_word():
+def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not():
     """Random binary automata of 30-40 states where Eppstein's greedy word is longer than the
-    optimum: at node budgets from 1 to the whole search's that leave the inverse beam its word, once
-    the proven lower bound reaches the shortest length the answer is exact and carries a word of that
-    length (before issue 43 the search could prove the bound and return the greedy word, ``exact``
-    False)."""
+    optimum: the inverse beam's word has the shortest length, and the exact search only proves that
+    no word is shorter (method ``beam+lower-bound``, ``lower_bound`` equal to the length, the greedy
+    length kept); ``_exact_search`` given that bound returns 'upper' with it."""
+    from kruskal_markov._subsets import as_start
     from kruskal_markov.sync import greedy_synchronizing_word
+    from kruskal_markov.sync.exact import _exact_search
 
     checked = 0
     for seed in range(4310, 4318):
@@ -77,16 +78,16 @@ def test_a_proven_bound_equal_to_the_optimum_comes_with_the_word():
         table = generators.random_table(n, 2, seed)
         aut = SyncAutomaton.from_table(table)
         want = brute(table)
-        if want is None or len(greedy_synchronizing_word(aut)) == want:
+        greedy = greedy_synchronizing_word(aut)
+        if want is None or len(greedy) == want:
             continue
-        full = shortest_synchronizing_word(aut, time_budget=None)
-        assert full.exact and full.length == want
-        for budget in np.unique(np.geomspace(1, max(2, full.states_explored), 12).astype(int)):
-            r = shortest_synchronizing_word(aut, time_budget=None, node_budget=int(budget))
-            # the beam shares the node budget: under budgets too small for it the greedy word answers
-            if r.method.startswith("beam") and r.lower_bound is not None and r.lower_bound >= want:
-                assert r.exact and r.length == want and len(r.word) == want
-                checked += 1
+        r = shortest_synchronizing_word(aut, time_budget=None)
+        assert r.exact and r.length == want == len(r.word) == r.lower_bound and is_synchronizing_word(aut, r.word)
+        if r.method == "beam+lower-bound":
+            assert r.greedy_length == len(greedy) > want
+            got = _exact_search(aut, as_start(aut, None), None, 64.0, None, want)
+            assert got[0] is None and got[1] == "upper" and got[3] == want
+            checked += 1
     assert checked >= 3
 
 
