@@ -105,6 +105,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
     total = 0
     pruned = 0
     dist = aut.pair_distances()[0] if (upper is not None and aut.n <= _PRUNE_MAX_N) else None
+    dmax = -1 if dist is None else int(dist.max())      # pruning can only bite below this remaining length
     block = _BLOCK
     full = {True: False, False: False}      # forward / backward store full
     # first guesses (updated from measurements); both grow with the bitset width W
@@ -117,10 +118,11 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
             tm = time.perf_counter()
             # the meet test in slices of the forward level, so that the budget is checked between them
             f = b = -1
+            index = _k.MeetIndex(bwd.rows, blo, bhi, aut.n, block)     # built once per level pair
             for lo in range(flo, fhi, _MEET_SLICE):
                 if total and deadline is not None and time.perf_counter() > deadline:
                     return None, "budget", fwd.count + bwd.count, total
-                f, b = _k.meet(fwd.rows, lo, min(fhi, lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
+                f, b = index.query(fwd.rows, lo, min(fhi, lo + _MEET_SLICE))
                 if f >= 0:
                     break
             pairs = (fhi - flo) * (bhi - blo)
@@ -169,7 +171,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
                 return None, "upper", fwd.count + bwd.count, upper
             return None, "none", fwd.count + bwd.count, total
         total += 1
-        if forward and upper is not None and dist is not None:
+        if forward and dist is not None and upper - 1 - (len(fwd.levels) - 1) < dmax:
             # a forward set at depth i whose largest pair-merging distance exceeds upper - 1 - i
             # cannot start a word shorter than ``upper``: dropped (admissible)
             lo, hi = fwd.levels[-1]
@@ -196,6 +198,7 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     if aut.n <= 4096:
         dist, _ = aut.pair_distances()
     used = [fwd.count + bwd.count]
+    index = _k.MeetIndex(bwd.rows, blo, bhi, aut.n, block)     # the newest backward level, for every chunk
     if dist is not None:    # every frontier set holds a pair no word merges: no word at any length
         h = np.empty(fhi - flo, dtype=np.int64)
         _k.max_pair_distance_rows(fwd.rows[flo:fhi], dist, aut.n, h)
@@ -220,7 +223,7 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
                 return None
         if x == 0:
             for lo in range(0, rows.shape[0], _MEET_SLICE):
-                f, b = _k.meet(rows, lo, min(rows.shape[0], lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
+                f, b = index.query(rows, lo, min(rows.shape[0], lo + _MEET_SLICE))
                 if f >= 0:
                     return int(rid[f]), [int(a) for a in words[f]], int(b)
                 if over_budget():
