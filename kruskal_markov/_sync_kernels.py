@@ -495,3 +495,160 @@ def first_superset(rows, bits):
         if ok:
             return i
     return -1
+
+
+# ----------------------------------------------------------------------------- meet test by rarest element
+@njit(cache=True)
+def _postings(bstore, blo, bhi, n, order):
+    """Posting lists of the backward rows: ``ids[ptr[e]:ptr[e + 1]]`` are the rows (offsets from
+    ``blo``) containing state ``e``, in the order ``order`` (decreasing size); ``ptr[e + 1] -
+    ptr[e]`` is its frequency."""
+    ptr = np.zeros(n + 1, dtype=np.int64)
+    elems = np.empty(n, dtype=np.int64)
+    for j in range(bhi - blo):
+        for t in range(_members(bstore, blo + j, elems)):
+            ptr[elems[t] + 1] += 1
+    for e in range(n):
+        ptr[e + 1] += ptr[e]
+    fill = ptr[:n].copy()
+    ids = np.empty(ptr[n], dtype=np.int64)
+    for jj in range(bhi - blo):
+        j = order[jj]
+        for t in range(_members(bstore, blo + j, elems)):
+            e = elems[t]
+            ids[fill[e]] = j
+            fill[e] += 1
+    return ptr, ids
+
+
+@njit(cache=True)
+def _rarest_members(fstore, flo, fhi, freq, out):
+    """``out[i - flo]``: the member of forward row ``i`` contained in the fewest backward rows
+    (``-1`` when some member is in none: the row meets nothing)."""
+    n = freq.shape[0]
+    elems = np.empty(n, dtype=np.int64)
+    for i in range(flo, fhi):
+        m = _members(fstore, i, elems)
+        best = -1
+        for t in range(m):
+            e = elems[t]
+            if freq[e] == 0:
+                best = -1
+                break
+            if best < 0 or freq[e] < freq[best]:
+                best = e
+        out[i - flo] = best
+
+
+def _meet_rows_py(fstore, frow, r0, r1, sub, csize, freq, hit):
+    """Forward rows ``frow[r0:r1]`` against the restricted index ``sub`` of candidates of sizes
+    ``csize`` (non-increasing; a row of size ``m`` scans only those of size ``>= m``), 64 rows per
+    parallel task; task ``t`` writes its row and candidate column into ``hit[t]``."""
+    ntask = (r1 - r0 + 63) // 64
+    order = np.arange(csize.shape[0])
+    for task in prange(ntask):
+        elems = np.empty(freq.shape[0], dtype=np.int64)
+        for r in range(r0 + task * 64, min(r1, r0 + (task + 1) * 64)):
+            i = frow[r]
+            m = _elems_by_freq(fstore, i, freq, elems)
+            used = (_count_at_least(csize, order, 0, csize.shape[0], m) + 63) // 64
+            for v in range(used):
+                acc = _ALL
+                for t in range(m):
+                    acc &= sub[elems[t], v]
+                    if acc == _ZERO:
+                        break
+                if acc != _ZERO:
+                    hit[task, 0] = i
+                    hit[task, 1] = v * 64 + _ctz(acc)
+                    break
+            if hit[task, 0] >= 0:
+                break
+
+
+_meet_rows_par = njit(cache=True, parallel=True)(_meet_rows_py)
+_meet_rows_seq = njit(cache=True)(_meet_rows_py)
+#: forward rows of a group from which the rows are tested in parallel (threads cost their start-up)
+_PAR_ROWS = 8192
+
+
+@njit(cache=True)
+def _restricted_index(bstore, blo, ids, lo, c0, c1, n):
+    words = (c1 - c0 + 63) // 64
+    sub = np.zeros((n, words), dtype=np.uint64)
+    elems = np.empty(n, dtype=np.int64)
+    for j in range(c1 - c0):
+        bit = _ONE << np.uint64(j & 63)
+        for t in range(_members(bstore, blo + ids[lo + c0 + j], elems)):
+            sub[elems[t], j >> 6] |= bit
+    return sub
+
+
+def _meet_groups(fstore, frow, gstart, gkey, g0, g1, bstore, blo, ptr, ids, freq, max_words, bsize):
+    """Groups ``g0..g1-1`` of forward rows (``frow[gstart[g]:gstart[g + 1]]``, all with rarest member
+    ``gkey[g]``) against the backward rows containing that member only: for each group an inverted
+    index restricted to those candidates (``max_words`` 64-row words at a time), then the AND over
+    each forward row's members, rarest first, rows in parallel. Returns ``(f, b)`` or ``(-1, -1)``."""
+    n = freq.shape[0]
+    for g in range(g0, g1):
+        e0 = gkey[g]
+        lo = ptr[e0]
+        f0 = ptr[e0 + 1] - lo
+        r0, r1 = gstart[g], gstart[g + 1]
+        for c0 in range(0, f0, max_words * 64):
+            c1 = min(f0, c0 + max_words * 64)
+            sub = _restricted_index(bstore, blo, ids, lo, c0, c1, n)
+            hit = np.full(((r1 - r0 + 63) // 64, 2), -1, dtype=np.int64)
+            csize = bsize[ids[lo + c0:lo + c1]]
+            rows = _meet_rows_par if (r1 - r0) * sub.shape[1] >= _PAR_ROWS * 16 else _meet_rows_seq
+            rows(fstore, frow, r0, r1, sub, csize, freq, hit)
+            found = np.flatnonzero(hit[:, 0] >= 0)
+            if found.size:
+                f, col = hit[found[0]]
+                return int(f), int(blo + ids[lo + c0 + col])
+    return -1, -1
+
+
+class RarestMeetIndex:
+    """Meet test by rarest member: a forward set ``F`` can only lie in a backward set containing
+    ``F``'s member that the fewest backward sets contain, so forward rows are grouped by that
+    member and each group is tested against those candidates only (an inverted index restricted
+    to them), instead of every backward set of at least its size (:class:`MeetIndex`). The
+    posting lists are built once per backward level. Same answers as :class:`MeetIndex`: some
+    meeting pair if one exists."""
+
+    def __init__(self, bstore, blo, bhi, n, max_bytes=64 * 2 ** 20):
+        self.bstore, self.blo, self.n = bstore, blo, n
+        self.nb = max(0, bhi - blo)
+        self.bsize = _level_sizes(bstore, blo, bhi) if self.nb else np.zeros(0, dtype=np.int64)
+        self.ptr, self.ids = _postings(bstore, blo, max(blo, bhi), n, np.argsort(-self.bsize, kind="stable"))
+        self.freq = np.diff(self.ptr)
+        self.max_words = max(1, max_bytes // (8 * n))
+
+    def groups(self, fstore, flo, fhi):
+        """``(frow, gstart, gkey)``: forward rows ``flo..fhi-1`` that may meet, grouped by rarest member."""
+        key = np.empty(max(0, fhi - flo), dtype=np.int64)
+        _rarest_members(fstore, flo, fhi, self.freq, key)
+        ok = np.flatnonzero(key >= 0)
+        order = ok[np.argsort(key[ok], kind="stable")]
+        frow = flo + order
+        k = key[order]
+        cut = np.flatnonzero(np.diff(k)) + 1 if k.size else np.zeros(0, dtype=np.int64)
+        gstart = np.concatenate([[0], cut, [k.size]]).astype(np.int64) if k.size else np.zeros(1, dtype=np.int64)
+        gkey = k[gstart[:-1]] if k.size else np.zeros(0, dtype=np.int64)
+        return frow, gstart, gkey
+
+    def query_groups(self, fstore, grouped, g0, g1):
+        """Groups ``g0..g1-1`` of :meth:`groups`: ``(f, b)`` or ``(-1, -1)``."""
+        frow, gstart, gkey = grouped
+        if g1 <= g0:
+            return -1, -1
+        return _meet_groups(fstore, frow, gstart, gkey, g0, g1, self.bstore, self.blo, self.ptr, self.ids,
+                            self.freq, self.max_words, self.bsize)
+
+    def query(self, fstore, flo, fhi):
+        """``(f, b)`` with forward row ``f`` in ``flo..fhi-1`` a subset of backward row ``b``, or ``(-1, -1)``."""
+        if self.nb <= 0 or fhi <= flo:
+            return -1, -1
+        grouped = self.groups(fstore, flo, fhi)
+        return self.query_groups(fstore, grouped, 0, grouped[2].shape[0])

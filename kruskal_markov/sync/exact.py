@@ -30,8 +30,11 @@ __all__ = ["shortest_synchronizing_word"]
 
 #: share of ``time_budget`` the greedy word may use before the exact search starts.
 _GREEDY_SHARE = 0.4
-#: forward sets per call of the meet test (the time budget is checked between calls)
+#: forward sets per call of the meet test in the depth-first phase
 _MEET_SLICE = 2048
+#: groups of forward sets (by rarest member) per call of the breadth-first meet test (the time
+#: budget is checked between calls)
+_MEET_GROUPS = 32
 #: forward sets of the newest level per chunk of the depth-first phase
 _DFS_CHUNK = 4096
 #: automata up to this many states get the pair-distance pruning (the pair table has n^2 / 2 entries)
@@ -118,11 +121,13 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
             tm = time.perf_counter()
             # the meet test in slices of the forward level, so that the budget is checked between them
             f = b = -1
-            index = _k.MeetIndex(bwd.rows, blo, bhi, aut.n, block)     # built once per level pair
-            for lo in range(flo, fhi, _MEET_SLICE):
+            index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # built once per level pair
+            grouped = index.groups(fwd.rows, flo, fhi)
+            ng = grouped[2].shape[0]
+            for g in range(0, max(ng, 1), _MEET_GROUPS):
                 if total and deadline is not None and time.perf_counter() > deadline:
                     return None, "budget", fwd.count + bwd.count, total
-                f, b = index.query(fwd.rows, lo, min(fhi, lo + _MEET_SLICE))
+                f, b = index.query_groups(fwd.rows, grouped, g, min(ng, g + _MEET_GROUPS))
                 if f >= 0:
                     break
             pairs = (fhi - flo) * (bhi - blo)
@@ -198,7 +203,7 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     if aut.n <= 4096:
         dist, _ = aut.pair_distances()
     used = [fwd.count + bwd.count]
-    index = _k.MeetIndex(bwd.rows, blo, bhi, aut.n, block)     # the newest backward level, for every chunk
+    index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # the newest backward level, for every chunk
     if dist is not None:    # every frontier set holds a pair no word merges: no word at any length
         h = np.empty(fhi - flo, dtype=np.int64)
         _k.max_pair_distance_rows(fwd.rows[flo:fhi], dist, aut.n, h)
