@@ -652,3 +652,55 @@ class RarestMeetIndex:
             return -1, -1
         grouped = self.groups(fstore, flo, fhi)
         return self.query_groups(fstore, grouped, 0, grouped[2].shape[0])
+
+
+def _dominated_rows_py(store, frow, r0, r1, sub, csize, freq, lo, out):
+    """Rows ``frow[r0:r1]`` of ``store``: ``out[row - lo]`` set when the restricted index ``sub`` (candidates
+    of sizes ``csize``, non-increasing) holds a strictly larger superset."""
+    order = np.arange(csize.shape[0])
+    for r in prange(r0, r1):
+        elems = np.empty(freq.shape[0], dtype=np.int64)
+        i = frow[r]
+        m = _elems_by_freq(store, i, freq, elems)
+        cnt = _count_at_least(csize, order, 0, csize.shape[0], m + 1)
+        used = (cnt + 63) // 64
+        for v in range(used):
+            acc = _ALL
+            if v == used - 1 and (cnt & 63) != 0:      # only the candidates larger than the row
+                acc = (_ONE << np.uint64(cnt & 63)) - _ONE
+            for t in range(m):
+                acc &= sub[elems[t], v]
+                if acc == _ZERO:
+                    break
+            if acc != _ZERO:
+                out[i - lo] = True
+                break
+
+
+_dominated_rows_par = njit(cache=True, parallel=True)(_dominated_rows_py)
+_dominated_rows_seq = njit(cache=True)(_dominated_rows_py)
+
+
+def dominated_in_store(store, ylo, yhi, lo, hi, n, max_bytes=64 * 2 ** 20):
+    """Rows ``lo..hi-1`` of ``store`` that are proper subsets of some row ``ylo..yhi-1`` (boolean
+    mask): subset dominance of the inverse search (Kisielewicz, Kowalski and Szykula 2015) -- a
+    backward set inside a larger stored one meets no forward set the larger one does not. Rows
+    are grouped by their least frequent member and tested against the stored sets holding it
+    (:class:`RarestMeetIndex`'s scheme), larger than them only."""
+    out = np.zeros(hi - lo, dtype=np.bool_)
+    index = RarestMeetIndex(store, ylo, yhi, n, max_bytes)
+    frow, gstart, gkey = index.groups(store, lo, hi)
+    for g in range(gkey.shape[0]):
+        e0 = gkey[g]
+        p0 = index.ptr[e0]
+        f0 = index.ptr[e0 + 1] - p0
+        r0, r1 = gstart[g], gstart[g + 1]
+        for c0 in range(0, f0, index.max_words * 64):
+            c1 = min(f0, c0 + index.max_words * 64)
+            csize = index.bsize[index.ids[p0 + c0:p0 + c1]]
+            if csize[0] <= 1:
+                break
+            sub = _restricted_index(store, ylo, index.ids, p0, c0, c1, n)
+            rows = _dominated_rows_par if (r1 - r0) * sub.shape[1] >= _PAR_ROWS * 16 else _dominated_rows_seq
+            rows(store, frow, r0, r1, sub, csize, index.freq, lo, out)
+    return out

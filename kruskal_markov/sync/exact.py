@@ -39,6 +39,12 @@ _MEET_GROUPS = 32
 _DFS_CHUNK = 4096
 #: automata up to this many states get the pair-distance pruning (the pair table has n^2 / 2 entries)
 _PRUNE_MAX_N = 2048
+#: drop backward sets contained in larger sets of the same level (subset dominance, Kisielewicz,
+#: Kowalski and Szykula 2015). Off: it halves the subsets on random 8-letter automata but its
+#: check (``_sync_kernels.dominated_in_store``) costs more than it saves (docs/plans.md, issue 43)
+_BACKWARD_DOMINANCE = False
+#: earlier backward levels a new one is checked against (0: the level itself)
+_DOMINANCE_LEVELS = 0
 #: run the inverse beam search for a short first word (tests of the depth-first phase switch it off)
 _USE_BEAM = True
 #: share of the memory budget the beam's level store may use
@@ -176,6 +182,10 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
                 return None, "upper", fwd.count + bwd.count, upper
             return None, "none", fwd.count + bwd.count, total
         total += 1
+        if not forward and _BACKWARD_DOMINANCE:
+            lo, hi = bwd.levels[-1]
+            ylo = bwd.levels[max(0, len(bwd.levels) - 1 - _DOMINANCE_LEVELS)][0]
+            pruned += bwd.keep_last(~_k.dominated_in_store(bwd.rows, ylo, bwd.count, lo, hi, aut.n))
         if forward and dist is not None and upper - 1 - (len(fwd.levels) - 1) < dmax:
             # a forward set at depth i whose largest pair-merging distance exceeds upper - 1 - i
             # cannot start a word shorter than ``upper``: dropped (admissible)
