@@ -94,6 +94,22 @@ class SubsetStore:
         self.levels.append((lo2, new))
         return new - lo2
 
+    def keep_last(self, keep):
+        """Keep the rows of the newest level where ``keep`` (bool, one per row) is True, in order;
+        rows of earlier levels (the parents) do not move. Returns how many were dropped."""
+        lo, hi = self.levels[-1]
+        idx = lo + np.flatnonzero(keep)
+        m = idx.size
+        if m == hi - lo:
+            return 0
+        self.rows[lo:lo + m] = self.rows[idx]
+        self.parent[lo:lo + m] = self.parent[idx]
+        self.letter[lo:lo + m] = self.letter[idx]
+        self.count = lo + m
+        self.levels[-1] = (lo, lo + m)
+        _k.rehash(self.rows, self.count, self.table)
+        return hi - lo - m
+
     def path(self, i):
         out = []
         while self.parent[i] >= 0:

@@ -726,6 +726,9 @@ def test_every_result_kind_reports_its_seconds_and_work(monkeypatch):
     assert (never.word, never.exact, never.method) == (None, True, "pair-graph")
     assert never.witness == {"kind": "pair", "states": [0, 1], "reason": "no word merges states 0 and 1"}
     assert run(swaps, start=[2, 3]).witness["states"] == [2, 3]          # the start's own pair
+    found = run(cerny(5))                                   # the beam's word (16 letters) proven shortest
+    assert (found.length, found.exact, found.method, found.lower_bound) == (16, True, "beam+lower-bound", 16)
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
     found = run(cerny(5))
     assert (found.length, found.exact, found.method, found.lower_bound) == (16, True, "bidirectional-bfs", 16)
     upper = run(cerny(3))                                    # Eppstein's word (4 letters) is shortest
@@ -804,10 +807,13 @@ def test_stores_follow_the_memory_budget():
     assert _exact_search(small, np.arange(1024), None, 1e-3, node_budget=1) == (None, "budget", 0, 1)
 
 
-def test_depth_first_phase_stops_at_its_node_budget():
+def test_depth_first_phase_stops_at_its_node_budget(monkeypatch):
     """Past the breadth-first stores (a 0.05 MB budget), the depth-first phase counts the subsets it
     generates against the node budget: a budget between what the breadth-first phase used and what
     the whole search needs stops it there, with a proven lower bound at most the shortest length."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
     rng = np.random.default_rng(1)
     n = 60
     table = rng.integers(0, n, size=(2, n))
@@ -1082,9 +1088,9 @@ def _predicted_stops(table, budget, max_levels=None):
 
 
 def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(monkeypatch):
-    """On a clock that never moves, the breadth-first search stops (status 'budget', the lower
-    bound one past the totals tested) exactly before the first expansion whose predicted cost
-    exceeds the time budget: budgets just below and just above each predicted cost of a plain
+    """On a clock that never moves, the breadth-first search stops exactly before the first
+    expansion whose predicted cost exceeds the time budget and hands that level over to the
+    streaming (depth-first) phase, which there completes with the shortest word: budgets just below and just above each predicted cost of a plain
     model (:func:`_predicted_stops`), on small random automata (growth, shrinking levels, both
     sides) and on 300 states (bitsets of 5 words, where the meet-test guess grows with W)."""
     import types
@@ -1101,7 +1107,22 @@ def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(mon
         for cost in costs:
             for budget in (cost * (1 - 1e-9), cost * (1 + 1e-9)):
                 status, explored, lower, _ = _predicted_stops(table, budget)
-                word, *got = exact_mod._exact_search(aut, np.arange(n), budget, 64.0)
+                # 300 states: a node budget stops the streaming phase (on this clock it would not stop)
+                nodes = explored + 20_000 if (status == "budget" and n == 300) else None
+                word, *got = exact_mod._exact_search(aut, np.arange(n), budget, 64.0, node_budget=nodes)
+                if nodes is not None:
+                    assert got[0] == "budget" and got[1] >= nodes and got[2] >= lower
+                    stops.add((True, "budget"))
+                    continue
+                if status == "budget":  # the level predicted to overrun is tested streaming (issue 43):
+                    # on a clock that never moves that phase completes, with the shortest word
+                    assert got[0] in ("found-dfs", "none"), (n, budget)
+                    if got[0] == "none":
+                        assert brute_det(table) is None
+                    else:
+                        assert len(word) == got[2] == brute_det(table)
+                    stops.add((n == 300, "budget"))
+                    continue
                 assert got == [status, explored, lower], (n, budget)
                 if status == "found":
                     assert len(word) == lower == brute_det(table)
@@ -1175,6 +1196,7 @@ def test_depth_first_chunks_of_a_few_frontier_sets_cover_the_frontier(monkeypatc
     import kruskal_markov.sync.exact as exact_mod
 
     monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
     for seed in (1, 2, 4, 7):
         table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
         r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=0.05,
@@ -1205,6 +1227,7 @@ def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_abov
             super().__init__(W, cap, max_rows)
     monkeypatch.setattr(exact_mod, "SubsetStore", Spy)
     monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
     memory_mb = bytes_48 * 48 / 2 ** 20
     cap = max(4 * 2, int(memory_mb / 4 * 2 ** 20 / (8 + 44) / 12))
     assert cap == (20 if bytes_48 == 1050 else 8)

@@ -18,6 +18,7 @@ import numpy as np
 from kruskal_markov import _sync_kernels as _k
 from kruskal_markov._subsets import SubsetStore, as_start
 from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
+from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 from kruskal_markov.sync.greedy import greedy_synchronizing_word
 from kruskal_markov.sync.pairs import _eppstein_fits, eppstein_memory_mb, pair_check_memory_mb, synchronizability
 from kruskal_markov.sync.result import SyncResult
@@ -29,10 +30,51 @@ __all__ = ["shortest_synchronizing_word"]
 
 #: share of ``time_budget`` the greedy word may use before the exact search starts.
 _GREEDY_SHARE = 0.4
-#: forward sets per call of the meet test (the time budget is checked between calls)
+#: forward sets per call of the meet test in the depth-first phase
 _MEET_SLICE = 2048
+#: groups of forward sets (by rarest member) per call of the breadth-first meet test (the time
+#: budget is checked between calls)
+_MEET_GROUPS = 32
 #: forward sets of the newest level per chunk of the depth-first phase
 _DFS_CHUNK = 4096
+#: automata up to this many states get the pair-distance pruning (the pair table has n^2 / 2 entries)
+_PRUNE_MAX_N = 2048
+#: drop backward sets contained in larger sets of the same level (subset dominance, Kisielewicz,
+#: Kowalski and Szykula 2015). Off: it halves the subsets on random 8-letter automata but its
+#: check (``_sync_kernels.dominated_in_store``) costs more than it saves (docs/plans.md, issue 43)
+_BACKWARD_DOMINANCE = False
+#: earlier backward levels a new one is checked against (0: the level itself)
+_DOMINANCE_LEVELS = 0
+#: run the inverse beam search for a short first word (tests of the depth-first phase switch it off)
+_USE_BEAM = True
+#: share of the memory budget the beam's level store may use
+_BEAM_MEMORY_SHARE = 0.25
+
+
+def _beam_upper(aut, s, best, memory_budget_mb, deadline, node_budget):
+    """The shorter of ``best`` (the greedy word, or None) and the words of two inverse beam searches
+    (:func:`~kruskal_markov.sync.beam.inverse_beam_word`): width ``n log2 n``, then synchrowords'
+    dynamic width for the length found, capped so that a level fits a quarter of the memory budget.
+    Returns ``(word, from_beam)``."""
+    if not _USE_BEAM or best is None:       # without a first word the beam has no length to stop at
+        return best, False
+    sbits = aut.bits(s)
+    row_bytes = 8 * aut.n_words + 60
+    cap = max(16, int(memory_budget_mb * 2 ** 20 * _BEAM_MEMORY_SHARE / row_bytes / (aut.k + 1)))
+    from_beam = False
+    width = min(cap, beam_width_schedule(aut.n, aut.k, None))
+    for attempt in range(2):
+        limit = None if best is None else len(best) - 1
+        if limit is not None and limit < 1:
+            break
+        w = inverse_beam_word(aut, sbits, width, limit, node_budget, deadline)
+        if w is not None and (best is None or len(w) < len(best)):
+            best, from_beam = w, True
+        wider = min(cap, beam_width_schedule(aut.n, aut.k, None if best is None else len(best)))
+        if wider <= width:
+            break
+        width = wider
+    return best, from_beam
 
 
 _BLOCK = 1 << 16
@@ -70,6 +112,9 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         singletons.append(b)
     bwd.add_roots(singletons)
     total = 0
+    pruned = 0
+    dist = aut.pair_distances()[0] if (upper is not None and aut.n <= _PRUNE_MAX_N) else None
+    dmax = -1 if dist is None else int(dist.max())      # pruning can only bite below this remaining length
     block = _BLOCK
     full = {True: False, False: False}      # forward / backward store full
     # first guesses (updated from measurements); both grow with the bitset width W
@@ -82,10 +127,13 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
             tm = time.perf_counter()
             # the meet test in slices of the forward level, so that the budget is checked between them
             f = b = -1
-            for lo in range(flo, fhi, _MEET_SLICE):
+            index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # built once per level pair
+            grouped = index.groups(fwd.rows, flo, fhi)
+            ng = grouped[2].shape[0]
+            for g in range(0, max(ng, 1), _MEET_GROUPS):
                 if total and deadline is not None and time.perf_counter() > deadline:
                     return None, "budget", fwd.count + bwd.count, total
-                f, b = _k.meet(fwd.rows, lo, min(fhi, lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
+                f, b = index.query_groups(fwd.rows, grouped, g, min(ng, g + _MEET_GROUPS))
                 if f >= 0:
                     break
             pairs = (fhi - flo) * (bhi - blo)
@@ -116,7 +164,12 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         other = (bhi - blo) if forward else (fhi - flo)
         predicted = new_rows * rate_row + new_rows * other * rate_pair
         if deadline is not None and time.perf_counter() + predicted > deadline:
-            return None, "budget", fwd.count + bwd.count, total + 1
+            if upper is None and not aut.deterministic:     # no bound on the streaming phase's length
+                return None, "budget", fwd.count + bwd.count, total + 1
+            # the next level would not be done in time: test it (and the following ones) streaming,
+            # chunk by chunk, so that a word at it is still found before the deadline
+            return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
+                                      block)
         te = time.perf_counter()
         grown = store.expand(aut, forward)
         if grown is None:
@@ -124,9 +177,24 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
             continue
         if grown > 10_000:
             rate_row = max(1e-9, (time.perf_counter() - te) / grown)
-        if grown == 0:
+        if grown == 0:      # a direction exhausted: no word (shorter than ``upper``, once sets were pruned)
+            if upper is not None:
+                return None, "upper", fwd.count + bwd.count, upper
             return None, "none", fwd.count + bwd.count, total
         total += 1
+        if not forward and _BACKWARD_DOMINANCE:
+            lo, hi = bwd.levels[-1]
+            ylo = bwd.levels[max(0, len(bwd.levels) - 1 - _DOMINANCE_LEVELS)][0]
+            pruned += bwd.keep_last(~_k.dominated_in_store(bwd.rows, ylo, bwd.count, lo, hi, aut.n))
+        if forward and dist is not None and upper - 1 - (len(fwd.levels) - 1) < dmax:
+            # a forward set at depth i whose largest pair-merging distance exceeds upper - 1 - i
+            # cannot start a word shorter than ``upper``: dropped (admissible)
+            lo, hi = fwd.levels[-1]
+            h = np.empty(hi - lo, dtype=np.int64)
+            _k.max_pair_distance_rows(fwd.rows[lo:hi], dist, aut.n, h)
+            pruned += fwd.keep_last((h >= 0) & (h <= upper - 1 - (len(fwd.levels) - 1)))
+            if fwd.levels[-1][0] == fwd.levels[-1][1]:
+                return None, "upper", fwd.count + bwd.count, upper
 
 
 def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block):
@@ -145,6 +213,12 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     if aut.n <= 4096:
         dist, _ = aut.pair_distances()
     used = [fwd.count + bwd.count]
+    index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # the newest backward level, for every chunk
+    if dist is not None:    # every frontier set holds a pair no word merges: no word at any length
+        h = np.empty(fhi - flo, dtype=np.int64)
+        _k.max_pair_distance_rows(fwd.rows[flo:fhi], dist, aut.n, h)
+        if (h < 0).all():
+            return None, "none", used[0], total
 
     def over_budget():
         return (node_budget is not None and used[0] >= node_budget) or \
@@ -164,7 +238,7 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
                 return None
         if x == 0:
             for lo in range(0, rows.shape[0], _MEET_SLICE):
-                f, b = _k.meet(rows, lo, min(rows.shape[0], lo + _MEET_SLICE), bwd.rows, blo, bhi, aut.n, block)
+                f, b = index.query(rows, lo, min(rows.shape[0], lo + _MEET_SLICE))
                 if f >= 0:
                     return int(rid[f]), [int(a) for a in words[f]], int(b)
                 if over_budget():
@@ -218,15 +292,20 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     Exact bidirectional subset search (Kisielewicz, Kowalski and Szykula 2015): forward images of
     the start set and inverse images of singletons, breadth-first, hashed bitsets, meeting when a
     forward set lies inside a backward one; totals ``i + j`` are checked in increasing order, so
-    the first meeting is a shortest word. If a direction is exhausted without meeting, no word
+    the first meeting is a shortest word. The search only has to prove that no word is shorter than
+    the best word known: Eppstein's greedy word, improved by inverse beam searches
+    (:func:`~kruskal_markov.sync.beam.inverse_beam_word`, synchrowords' first phase) within the
+    greedy's share of the time. If a direction is exhausted without meeting, no word
     exists. When a direction's store fills ``memory_budget_mb``, the other direction goes on; when
     both are full the search continues depth-first (the forward frontier expanded chunk by chunk
     against the newest backward level, pairs' merging distances pruning; Szykula and Zyzik 2022),
     so memory never costs exactness. Past ``time_budget`` seconds (None: no limit) or
     ``node_budget`` subsets generated (None: no limit; tests use this, not seconds) the result is
-    the greedy word (:func:`greedy_synchronizing_word`, found first within 40% of the time) with
-    ``exact=False`` and a proven ``lower_bound``; once the search proves that no word is shorter
-    than the greedy word, the greedy word is exact.
+    the best word known (greedy or beam, found first within 40% of the time) with ``exact=False``
+    and a proven ``lower_bound``; once the search proves that no word is shorter than that word,
+    it is exact (method ``beam+lower-bound`` or ``greedy-eppstein+lower-bound``). A breadth-first
+    level predicted to overrun the time budget is tested streaming (the depth-first phase), so a
+    word at that level is still found if the time allows.
 
     Parameters
     ----------
@@ -283,9 +362,11 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
         if check["synchronizing"] is False:
             return SyncResult(None, None, True, "pair-graph", witness=check["witness"],
                               seconds=time.perf_counter() - t0)
+    best, from_beam = _beam_upper(aut, s, greedy, memory_budget_mb,
+                                  None if time_budget is None else t0 + _GREEDY_SHARE * time_budget, node_budget)
     remaining = None if time_budget is None else max(time_budget - (time.perf_counter() - t0), 1e-3)
     word, status, explored, lower = _exact_search(aut, s, remaining, memory_budget_mb, node_budget,
-                                                  None if greedy is None else len(greedy))
+                                                  None if best is None else len(best))
     if status in ("found", "found-dfs"):
         if not is_synchronizing_word(aut, word, s):
             raise AssertionError("internal error: exact search returned a non-synchronizing word")
@@ -298,10 +379,10 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                                    "reason": "exhaustive subset search: no image of the start set "
                                              "is a single state"},
                           seconds=time.perf_counter() - t0)
-    method = "greedy-eppstein" if eppstein else "greedy"
-    if status == "upper":       # proven: nothing shorter than the greedy word
-        return SyncResult(greedy, len(greedy), True, method + "+lower-bound", lower_bound=len(greedy),
-                          states_explored=explored, greedy_length=len(greedy),
+    method = "beam" if from_beam else "greedy-eppstein" if eppstein else "greedy"
+    if status == "upper":       # proven: nothing shorter than the beam's or the greedy word
+        return SyncResult(best, len(best), True, method + "+lower-bound", lower_bound=len(best),
+                          states_explored=explored, greedy_length=None if greedy is None else len(greedy),
                           seconds=time.perf_counter() - t0)
     notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
     if skipped:
@@ -312,8 +393,8 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                      f"tables would need about {eppstein_memory_mb(aut.n):,.0f} MB (over the memory budget)")
     if greedy is None:
         notes.append(f"greedy word not found within {_GREEDY_SHARE:.0%} of the time budget")
-    meets_bound = greedy is not None and len(greedy) <= lower   # the greedy word meets the proven lower bound
-    return SyncResult(greedy, None if greedy is None else len(greedy), meets_bound,
+    meets_bound = best is not None and len(best) <= lower   # the best word meets the proven lower bound
+    return SyncResult(best, None if best is None else len(best), meets_bound,
                       method + "+lower-bound" if meets_bound else method,
                       lower_bound=lower, states_explored=explored,
                       greedy_length=None if greedy is None else len(greedy),

@@ -1,0 +1,166 @@
+"""Exact shortest reset words at the record holder's scale (issue 43), side by side with synchrowords.
+
+Instances (generator below, seeds fixed before any result was seen; seed 0 of the random
+families was used for tuning and is not in the list): Cerny automata, random complete binary
+automata of 100-300 states, random 8-letter automata of 50-200 states, contracting 8-letter
+automata of 256-1,024 states (:func:`kruskal_markov.generators.contracting_table`).
+
+Ours: :func:`kruskal_markov.sync.shortest_synchronizing_word` with a 4,000 MB memory budget and the
+time budget of the row (the issue's target: 3x synchrowords' time, 10 minutes for 8 letters and
+200 states), on both cores; Numba compile time is excluded (warm-up first). synchrowords
+(Szykula and Zyzik, ESA 2022; github.com/marekesz/synchrowords v1.1.0, built outside the
+repository, its ``configs/exact.json`` with ``threads`` 2 and ``max_memory_mb`` 4096) was run once
+on the same instances with ``python -m benchmarks.bench_sync_record --synchrowords PATH``; its
+times (its own per-algorithm timers, JIT compilation excluded) and lengths are stored in
+``benchmarks/data/sync_record_synchrowords.json`` and printed beside ours. It returns lengths only.
+
+``python -m benchmarks sync_record`` (all rows) or ``python -m benchmarks.bench_sync_record
+--only random-2-200,cerny`` (key prefixes, comma-separated; ``--max-budget S`` caps every time
+budget at S s). Results go to ``benchmarks/data/sync_record.json``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from kruskal_markov import generators
+from kruskal_markov.sync import SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
+
+DATA = pathlib.Path(__file__).parent / "data"
+SW_FILE = DATA / "sync_record_synchrowords.json"
+OUT_FILE = DATA / "sync_record.json"
+MEMORY_MB = 4000.0
+SW_LIMIT = 120.0        # synchrowords' time limit in the target (seconds)
+
+#: (family, letters, states, seed)
+INSTANCES = [
+    ("cerny", 2, 16, 0), ("cerny", 2, 32, 0),
+    ("random", 2, 100, 1), ("random", 2, 200, 1), ("random", 2, 300, 1),
+    ("random", 8, 50, 1), ("random", 8, 100, 1), ("random", 8, 200, 1),
+    ("contracting", 8, 256, 1), ("contracting", 8, 1024, 1),
+]
+
+
+def instance_table(family: str, k: int, n: int, seed: int) -> np.ndarray:
+    """The ``(k, n)`` next-state table of a benchmark instance."""
+    if family == "cerny":
+        return generators.cerny_table(n)
+    if family == "random":
+        return generators.random_table(n, k, seed)
+    if family == "contracting":
+        return generators.contracting_table(n, k, seed)
+    raise ValueError(f"unknown family {family!r}")
+
+
+def key(inst) -> str:
+    family, k, n, seed = inst
+    return f"{family}-{k}-{n}-s{seed}"
+
+
+def _time_budget(inst, sw: dict | None) -> float:
+    """3x synchrowords' time (at least 10 s), 600 s where it took over 2 minutes or was not run."""
+    if sw is None or sw.get("seconds") is None or sw["seconds"] > SW_LIMIT:
+        return 600.0
+    return max(10.0, 3.0 * sw["seconds"])
+
+
+def run_synchrowords(binary: str, config: str, only: tuple = ()) -> dict:
+    """Run synchrowords on every instance (or those whose key starts with one of ``only``;
+    ``SW_LIMIT`` seconds each) and return ``{key: row}``."""
+    out = {}
+    for inst in INSTANCES:
+        if only and not key(inst).startswith(only):
+            continue
+        t = instance_table(*inst)
+        k, n = t.shape
+        with tempfile.TemporaryDirectory() as d:
+            src = os.path.join(d, "in.txt")
+            with open(src, "w") as f:
+                f.write(f"{k} {n}\n" + " ".join(str(int(t[a, q])) for q in range(n) for a in range(k)) + "\n")
+            res = os.path.join(d, "out.txt")
+            cmd = [binary, "-c", config, "-f", src, "-o", res]
+            subprocess.run(cmd, capture_output=True, timeout=1800)    # JIT compilation for this (n, k)
+            t0 = time.perf_counter()
+            try:
+                subprocess.run(cmd, capture_output=True, timeout=SW_LIMIT + 30)
+                wall = time.perf_counter() - t0
+                line = open(res).read().strip()
+            except subprocess.TimeoutExpired:
+                out[key(inst)] = {"length": None, "exact": False, "seconds": None, "wall": None,
+                                  "note": f"not done within {SW_LIMIT + 30:.0f} s"}
+                continue
+        m = re.match(r"\d+: \[(\d+), (\d+)\] \((.*)\)", line)
+        lo, hi = int(m.group(1)), int(m.group(2))
+        ms = sum(int(x) for x in re.findall(r", (\d+)\)", m.group(3)))
+        out[key(inst)] = {"length": hi, "lower": lo, "exact": lo == hi, "seconds": ms / 1000, "wall": wall,
+                          "raw": line}
+        print(key(inst), out[key(inst)], flush=True)
+    return out
+
+
+def _warm_up():
+    a = SyncAutomaton.from_table(generators.random_table(40, 2, 0))
+    shortest_synchronizing_word(a, time_budget=None)
+    shortest_synchronizing_word(SyncAutomaton.from_table(generators.random_table(40, 8, 0)), time_budget=None)
+
+
+def run_ours(only: tuple = (), max_budget: float | None = None) -> dict:
+    sw_all = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
+    _warm_up()
+    rows = {}
+    for inst in INSTANCES:
+        if only and not key(inst).startswith(only):
+            continue
+        t = instance_table(*inst)
+        aut = SyncAutomaton.from_table(t)
+        sw = sw_all.get(key(inst))
+        budget = _time_budget(inst, sw) if max_budget is None else min(max_budget, _time_budget(inst, sw))
+        t0 = time.perf_counter()
+        r = shortest_synchronizing_word(aut, time_budget=budget, memory_budget_mb=MEMORY_MB)
+        sec = time.perf_counter() - t0
+        ok = r.word is not None and is_synchronizing_word(aut, r.word)
+        rows[key(inst)] = {"length": r.length, "exact": r.exact, "lower_bound": r.lower_bound, "method": r.method,
+                           "seconds": round(sec, 2), "time_budget": budget, "word_checked": ok,
+                           "subsets": r.states_explored}
+        swl = "-" if sw is None else f"{sw.get('length')} {'exact' if sw.get('exact') else ''} {sw.get('seconds')} s"
+        target = sw is not None and sw.get("exact") and sw["seconds"] <= SW_LIMIT
+        met = (r.exact and r.length == sw["length"] and sec <= 3 * max(sw["seconds"], 10 / 3)) if target else None
+        rows[key(inst)]["target_met"] = met
+        print(f"{key(inst):24s} ours {r.length} exact={r.exact} lb={r.lower_bound} {sec:7.2f} s {r.method:24s}"
+              f" | synchrowords {swl} | target met: {met}", flush=True)
+    return rows
+
+
+def main(argv=()) -> None:
+    argv = list(argv)
+    only = tuple(argv[argv.index("--only") + 1].split(",")) if "--only" in argv else ()
+    if "--synchrowords" in argv:
+        i = argv.index("--synchrowords")
+        res = run_synchrowords(argv[i + 1], argv[i + 2], only)
+        old = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
+        old.update(res)
+        tmp = SW_FILE.with_suffix(".tmp")
+        tmp.write_text(json.dumps(old, indent=1, sort_keys=True) + "\n")
+        tmp.replace(SW_FILE)
+        return
+    load = os.getloadavg()[0]
+    print(f"(1-minute load average at start {load:.2f} on {os.cpu_count()} cores; wall-clock times)")
+    cap = float(argv[argv.index("--max-budget") + 1]) if "--max-budget" in argv else None
+    rows = run_ours(only, cap)
+    old = json.loads(OUT_FILE.read_text()) if OUT_FILE.exists() else {}
+    old.update(rows)
+    tmp = OUT_FILE.with_suffix(".tmp")
+    tmp.write_text(json.dumps(old, indent=1, sort_keys=True) + "\n")
+    tmp.replace(OUT_FILE)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -1,0 +1,197 @@
+"""Issue 43: exact shortest reset words with their word -- the inverse beam's first word, the
+pair-distance pruning under that bound, and a proven bound equal to the optimum always coming with
+the word. Judge: plain breadth-first search over subsets. Budgets in nodes, never seconds."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kruskal_markov import generators
+from kruskal_markov.sync import SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
+from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
+
+
+def brute(table) -> int | None:
+    """Shortest reset length by breadth-first search over the images of the whole state set."""
+    t = np.asarray(table)
+    k, n = t.shape
+    level = [frozenset(range(n))]
+    seen = set(level)
+    d = 0
+    while level:
+        if any(len(s) == 1 for s in level):
+            return d
+        nxt = []
+        for s in level:
+            for a in range(k):
+                u = frozenset(int(t[a, q]) for q in s)
+                if u not in seen:
+                    seen.add(u)
+                    nxt.append(u)
+        level, d = nxt, d + 1
+    return None
+
+
+def small_tables(count, seed0=4300):
+    for seed in range(seed0, seed0 + count):
+        rng = np.random.default_rng(seed)
+        n, k = int(rng.integers(5, 15)), int(rng.integers(2, 4))
+        yield seed, generators.random_table(n, k, rng)
+
+
+def test_answers_equal_brute_force_and_exact_means_shortest():
+    """60 random automata of 5-14 states, 2-3 letters, unlimited and tight node budgets: every word
+    synchronizes, is never shorter than brute force, exact answers have exactly its length and the
+    proven lower bound never exceeds it."""
+    exact = 0
+    for _, table in small_tables(60):
+        aut = SyncAutomaton.from_table(table)
+        want = brute(table)
+        for budget in (None, 30, 200):
+            r = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget)
+            if want is None:
+                assert r.word is None and (r.exact or budget is not None)
+                continue
+            assert r.word is not None and is_synchronizing_word(aut, r.word) and len(r.word) >= want
+            assert r.lower_bound is None or r.lower_bound <= want
+            assert r.exact == (r.length == want) or not r.exact
+            if r.exact:
+                exact += 1
+                assert r.length == want
+            if budget is None:
+                assert r.exact
+    assert exact >= 60
+
+
+def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not():
+    """Random binary automata of 30-40 states where Eppstein's greedy word is longer than the
+    optimum: the inverse beam's word has the shortest length, and the exact search only proves that
+    no word is shorter (method ``beam+lower-bound``, ``lower_bound`` equal to the length, the greedy
+    length kept); ``_exact_search`` given that bound returns 'upper' with it."""
+    from kruskal_markov._subsets import as_start
+    from kruskal_markov.sync import greedy_synchronizing_word
+    from kruskal_markov.sync.exact import _exact_search
+
+    checked = 0
+    for seed in range(4310, 4318):
+        n = 30 + (seed % 3) * 5
+        table = generators.random_table(n, 2, seed)
+        aut = SyncAutomaton.from_table(table)
+        want = brute(table)
+        greedy = greedy_synchronizing_word(aut)
+        if want is None or len(greedy) == want:
+            continue
+        r = shortest_synchronizing_word(aut, time_budget=None)
+        assert r.exact and r.length == want == len(r.word) == r.lower_bound and is_synchronizing_word(aut, r.word)
+        if r.method == "beam+lower-bound":
+            assert r.greedy_length == len(greedy) > want
+            got = _exact_search(aut, as_start(aut, None), None, 64.0, None, want)
+            assert got[0] is None and got[1] == "upper" and got[3] == want
+            checked += 1
+    assert checked >= 3
+
+
+@pytest.mark.parametrize("seed", [4320, 4321, 4322])
+def test_inverse_beam_of_unbounded_width_is_a_shortest_word(seed):
+    """With a width above the number of subsets the inverse beam is a full inverse breadth-first
+    search: its first word is a shortest one; a narrow beam's word synchronizes and is no shorter."""
+    table = generators.random_table(10, 2, seed)
+    aut = SyncAutomaton.from_table(table)
+    want = brute(table)
+    start = aut.bits(range(10))
+    wide = inverse_beam_word(aut, start, 2 ** 11)
+    assert wide is not None and len(wide) == want and is_synchronizing_word(aut, wide)
+    narrow = inverse_beam_word(aut, start, 2)
+    assert narrow is None or (len(narrow) >= want and is_synchronizing_word(aut, narrow))
+    assert inverse_beam_word(aut, start, 2 ** 11, max_length=want - 1) is None
+    assert inverse_beam_word(aut, start, 2 ** 11, node_budget=1) in (None, wide)
+
+
+def test_beam_width_schedule_follows_the_dynamic_rule():
+    """``n log2 n`` without a length; 1% of ``2 k^((L+1)/2) / L`` clamped to [n log2 n, n^2 log2 n]."""
+    assert beam_width_schedule(256, 2, None) == 256 * 8
+    assert beam_width_schedule(256, 2, 10) == 256 * 8                    # 2 * 2^5.5 / 1000: tiny
+    assert beam_width_schedule(16, 8, 15) == 16 * 16 * 4                  # clamped above
+    assert beam_width_schedule(100, 8, 14) == round(2 * 8 ** 7.5 * 0.01 / 14)
+
+
+def test_cerny_automata_are_exact_with_the_cerny_length():
+    for n in (4, 7, 10):
+        r = shortest_synchronizing_word(generators.cerny_automaton(n), time_budget=None)
+        assert r.exact and r.length == (n - 1) ** 2 and is_synchronizing_word(generators.cerny_automaton(n), r.word)
+
+
+def test_rarest_member_meet_test_agrees_with_brute_force():
+    """:class:`RarestMeetIndex` on 300 random pairs of forward/backward bitset lists (2-149 states,
+    forward rows from a random offset, candidate chunks of one 64-row word or a whole group):
+    it reports a pair exactly when some forward row lies inside some backward row, and the
+    pair it reports does."""
+    from kruskal_markov import _sync_kernels as kern
+
+    rng = np.random.default_rng(4330)
+    outcomes = set()
+    for _ in range(300):
+        n = int(rng.integers(2, 150))
+        W = (n + 63) // 64
+        nf, nb = int(rng.integers(1, 300)), int(rng.integers(0, 400))
+        F = rng.random((nf, n)) < rng.uniform(0.02, 0.3)
+        B = rng.random((nb, n)) < rng.uniform(0.3, 0.9)
+        F[F.sum(axis=1) == 0, 0] = True
+
+        def pack(M):
+            out = np.zeros((M.shape[0], W), dtype=np.uint64)
+            for i, row in enumerate(M):
+                for q in np.flatnonzero(row):
+                    out[i, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
+            return out
+
+        index = kern.RarestMeetIndex(pack(B), 0, nb, n, max_bytes=int(rng.choice([8 * n, 10 ** 6])))
+        lo = int(rng.integers(0, nf))
+        f, b = index.query(pack(F), lo, nf)
+        exists = nb > 0 and bool(np.any((F[lo:, None, :] & ~B[None, :, :]).sum(axis=2) == 0))
+        assert (f >= 0) == exists
+        outcomes.add(exists)
+        if f >= 0:
+            assert lo <= f < nf and not np.any(F[f] & ~B[b])
+    assert outcomes == {True, False}
+
+
+def test_subset_dominance_check_agrees_with_brute_force():
+    """``dominated_in_store`` on 150 random stores of distinct bitsets: a row is flagged exactly when
+    a strictly larger row of the candidate range contains it."""
+    from kruskal_markov import _sync_kernels as kern
+
+    rng = np.random.default_rng(4340)
+    flagged = 0
+    for _ in range(150):
+        n = int(rng.integers(2, 130))
+        W = (n + 63) // 64
+        M = rng.random((int(rng.integers(1, 200)), n)) < rng.uniform(0.05, 0.6)
+        M[M.sum(axis=1) == 0, 0] = True
+        M = np.unique(M, axis=0)
+        rng.shuffle(M)
+        cnt = M.shape[0]
+        st = np.zeros((cnt, W), dtype=np.uint64)
+        for i, row in enumerate(M):
+            for q in np.flatnonzero(row):
+                st[i, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
+        ylo, lo = int(rng.integers(0, cnt)), int(rng.integers(0, cnt))
+        got = kern.dominated_in_store(st, ylo, cnt, lo, cnt, n, max_bytes=int(rng.choice([8 * n, 10 ** 6])))
+        want = [any((M[j] >= M[i]).all() and M[j].sum() > M[i].sum() for j in range(ylo, cnt)) for i in range(lo, cnt)]
+        assert got.tolist() == want
+        flagged += sum(want)
+    assert flagged > 0
+
+
+def test_backward_dominance_keeps_the_answers(monkeypatch):
+    """With the (off by default) backward subset dominance switched on, the shortest lengths on 40
+    small random automata are still the brute-force ones."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", True)
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
+    for _, table in small_tables(40, 4350):
+        aut = SyncAutomaton.from_table(table)
+        r = shortest_synchronizing_word(aut, time_budget=None)
+        want = brute(table)
+        assert r.length == want and (want is None or is_synchronizing_word(aut, r.word))
