@@ -297,6 +297,15 @@ class BulletWorld:
             raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
                                f"expected {BULLET_HULL_MARGIN_UNITS}")
         pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
+        if st.contact_pairs == "needed":
+            # the prism never touches the floor, the supports never touch a wall: no tests for them
+            prism = range(4, 4 + n_parts)
+            for link in range(n):
+                if link in prism:
+                    pb.setCollisionFilterPair(self.floor, ob, -1, link, 0, physicsClientId=cid)
+                elif link in self.support_links:
+                    for wall in self.walls:
+                        pb.setCollisionFilterPair(wall, ob, -1, link, 0, physicsClientId=cid)
         return leg_xy
 
     def _set_supports(self, shape, mu, leg_xy):
