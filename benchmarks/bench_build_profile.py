@@ -22,7 +22,9 @@ runs the same measurements with the code of another checkout (e.g. ``/work/main`
 side in one run (``KRUSKAL_BENCH_PROFILE_ONLY=before`` or ``after``: one of the two). The parallel
 build also profiles the parent alone: the time it waits for results, against the work only it
 does (snapping, weights, assembly, checkpoints), during which the workers wait. Every build also prints a digest of the model's arrays, so a before/after pair
-shows whether the two models are identical.
+shows whether the two models are identical. ``KRUSKAL_BENCH_PROFILE_SIM`` (JSON, e.g.
+``{"contact_pairs": "needed"}``) changes the simulator settings of the builds;
+``KRUSKAL_BENCH_PROFILE_SAVE=PATH`` saves the parallel build's model there.
 """
 from __future__ import annotations
 
@@ -126,7 +128,7 @@ def _serial(spec: str) -> dict:
     from transition_builder.executors import SerialExecutor
     from transition_builder.scene import scene_from_options
 
-    scene = scene_from_options("allen-key")
+    scene = scene_from_options("allen-key", **json.loads(os.environ.get("KRUSKAL_BENCH_PROFILE_SIM", "{}")))
     settings = _settings(spec)
     t = time.perf_counter()
     plain = build_model(scene, settings, executor=SerialExecutor())
@@ -186,7 +188,7 @@ def _parallel(spec: str, workers: int = 2) -> dict:
     from transition_builder.executors import LocalExecutor
     from transition_builder.scene import scene_from_options
 
-    scene = scene_from_options("allen-key")
+    scene = scene_from_options("allen-key", **json.loads(os.environ.get("KRUSKAL_BENCH_PROFILE_SIM", "{}")))
     ex = LocalExecutor(workers)
     pool = executors._get_pool(workers)
     for f in [pool.submit(executors._worker_pid) for _ in range(4 * workers)]:
@@ -199,6 +201,9 @@ def _parallel(spec: str, workers: int = 2) -> dict:
     pr.disable()
     wall = time.perf_counter() - t
     workers_cpu, parent_cpu = _proc_cpu(pids) - cpu0, time.process_time() - par0
+    save = os.environ.get("KRUSKAL_BENCH_PROFILE_SAVE")
+    if save:
+        res.model.save(save)             # e.g. for a held-out validation of the model afterwards
     s = pstats.Stats(pr).stats
     # the parent's time: waiting for the workers' results (inside the executor's map) and its own work
     wait = _ct(s, "map", "executors.py")
