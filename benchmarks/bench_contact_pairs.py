@@ -8,9 +8,11 @@ setting is a physics change, judged like one. This benchmark measures, side by s
 
 1. CPU seconds per tilt of both settings (allen key, E and NE, ``KRUSKAL_BENCH_PAIRS_STARTS``
    uniform starts of seed 31) and how many landings agree within 1 mm / 1 degree and exactly;
-2. the free-sliding judges (:mod:`transition_builder.judges`, the table's slides at 1/16 of the
+2. a small build (8 mm / 8 deg, 50 starts, serial) with each setting, twice, alternating: tilts
+   per CPU second;
+3. the free-sliding judges (:mod:`transition_builder.judges`, the table's slides at 1/16 of the
    step) for both settings against :data:`~transition_builder.judges.JUDGE_TARGETS`;
-3. with ``KRUSKAL_BENCH_PAIRS_BUILD=1``, the key's default model built from scratch with
+4. with ``KRUSKAL_BENCH_PAIRS_BUILD=1``, the key's default model built from scratch with
    ``needed`` on 2 workers (wall time, states, tilts; saved to ``KRUSKAL_BENCH_PAIRS_SAVE`` if set).
 
 The step convergence of ``needed`` is ``python -m benchmarks contact`` with
@@ -76,6 +78,22 @@ def _judges(pairs: str, mu: float = 0.3, refine: int = 16) -> dict:
             "isotropy_slide": iso[0], "isotropy_turn": iso[1]}
 
 
+def _small_builds(rounds: int = 2) -> None:
+    """A small allen-key build (8 mm / 8 deg, 50 starts, seed 5; serial) with each setting,
+    alternating, ``rounds`` times: CPU seconds and tilts per CPU second."""
+    from transition_builder.builder import BuildSettings, build_model
+    from transition_builder.executors import SerialExecutor
+    from transition_builder.scene import scene_from_options
+    for pairs in ("all", "needed") * rounds:
+        t = time.process_time()
+        r = build_model(scene_from_options("allen-key", contact_pairs=pairs),
+                        BuildSettings(tol_mm=8, tol_deg=8, start_samples=50, seed=5), executor=SerialExecutor())
+        c = time.process_time() - t
+        n = int(r.stats["tilts_simulated"])
+        print(f"small build, contact_pairs={pairs}: {c:.2f} CPU s, {n} tilts, {n / c:.0f} tilts per CPU s, "
+              f"{r.model.n_states} states", flush=True)
+
+
 def _build_needed() -> dict:
     from transition_builder.builder import BuildSettings, build_model
     from transition_builder.scene import scene_from_options
@@ -104,6 +122,7 @@ def main():
     n = 2 * STARTS
     print(f"CPU per tilt: all {1e3 * ca / n:.2f} ms, needed {1e3 * cb / n:.2f} ms ({ca / cb:.2f}x); landings "
           f"within 1 mm / 1 deg {100 * np.mean(agree):.1f}%, bit-identical {100 * np.mean(same):.1f}%", flush=True)
+    _small_builds()
     for pairs in ("all", "needed"):
         j = _judges(pairs)
         fails = [k for k, v in j.items() if not v <= JUDGE_TARGETS[k]]
