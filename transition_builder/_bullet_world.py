@@ -33,6 +33,7 @@ BULLET_HULL_MARGIN_UNITS = 0.001
 _EPS_MASS_FRACTION = 1e-4      # mass of each massless-in-spirit link, relative to the part
 _FLOOR_T_MM = 10.0              # floor slab thickness (mm)
 J_X, J_Y, J_Z, J_YAW = 0, 1, 2, 3
+_JOINTS = (J_X, J_Y, J_Z, J_YAW)
 
 
 def _in_outline(vertices, pts) -> np.ndarray:
@@ -162,6 +163,7 @@ class BulletWorld:
     def _build(self, scene, st, cid):
         """Reset the physics server and build everything (the same PyBullet calls in the same
         order every time: results depend on it)."""
+        self._after = None       # joint states read after the last physics step (coulomb contact)
         self._configure_engine(scene, st, cid)
         mu = self._build_tray(scene, cid)
         leg_xy = self._build_part(scene, st, cid)
@@ -295,6 +297,15 @@ class BulletWorld:
             raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
                                f"expected {BULLET_HULL_MARGIN_UNITS}")
         pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
+        if st.contact_pairs == "needed":
+            # the prism never touches the floor, the supports never touch a wall: no tests for them
+            prism = range(4, 4 + n_parts)
+            for link in range(n):
+                if link in prism:
+                    pb.setCollisionFilterPair(self.floor, ob, -1, link, 0, physicsClientId=cid)
+                elif link in self.support_links:
+                    for wall in self.walls:
+                        pb.setCollisionFilterPair(wall, ob, -1, link, 0, physicsClientId=cid)
         return leg_xy
 
     def _set_supports(self, shape, mu, leg_xy):
@@ -359,17 +370,25 @@ class BulletWorld:
                 pb.resetJointState(ob, j, 0.0, 0.0, physicsClientId=cid)
         if self.contact.kind == "coulomb":
             self._cb_mem[:] = 0.0           # no previous step: no prediction on the first
+        self._after = None
 
     def lift_mm(self) -> float:
         """Largest height of a support above its resting height (mm)."""
         if not self.legs:
-            return pb.getJointState(self.body, J_Z, physicsClientId=self.cid)[0] / self.mm
+            s = self._after
+            z = s[2][0] if s is not None else pb.getJointState(self.body, J_Z, physicsClientId=self.cid)[0]
+            return z / self.mm
         s = pb.getJointStates(self.body, self.support_links, physicsClientId=self.cid)
         return max(abs(v[0]) for v in s) / self.mm
 
     def state(self):
-        """(x, y, z, yaw, vx, vy, wz) in the world frame (m, rad, m/s, rad/s)."""
-        s = pb.getJointStates(self.body, (J_X, J_Y, J_Z, J_YAW), physicsClientId=self.cid)
+        """(x, y, z, yaw, vx, vy, wz) in the world frame (m, rad, m/s, rad/s).
+
+        After a coulomb step the joint states read after its last physics step are used (nothing
+        has moved since): one PyBullet call fewer per rest-test interval."""
+        s = self._after
+        if s is None:
+            s = pb.getJointStates(self.body, _JOINTS, physicsClientId=self.cid)
         k = self.inv_scale
         return (s[0][0] * k, s[1][0] * k, s[2][0] * k, s[3][0], s[0][1] * k, s[1][1] * k, s[3][1])
 
@@ -406,14 +425,20 @@ class BulletWorld:
     def _step_coulomb(self):
         """``substeps`` physics steps, each after setting the support's friction limits and the
         explicit friction force from the twist predicted for the end of the step (distributed
-        Coulomb friction, :func:`transition_builder._coulomb._contact_update`)."""
+        Coulomb friction, :func:`transition_builder._coulomb._contact_update`).
+
+        The joint states are read once after every call of ``stepSimulation`` (x, y, z and yaw in
+        one call); the last read is kept (``_after``) for :meth:`state` and the next interval's
+        first update, which read the same values again before."""
         cid, ob = self.cid, self.body
         mem, geom, grid, params, out = self._cb_mem, self._cb_geom, self._cb_grid, self._cb_params, self._cb_out
         n, z = self.normal_force, self._cb_z
-        joints = (J_X, J_Y, J_YAW)
+        joints = _JOINTS
         get_states, change, force, step = pb.getJointStates, pb.changeDynamics, pb.applyExternalForce, pb.stepSimulation
         mode = 0
-        s = get_states(ob, joints, physicsClientId=cid)
+        s = self._after
+        if s is None:
+            s = get_states(ob, joints, physicsClientId=cid)
         if self._cb_free_factor > 1:
             mode = self._free_flight(s[0][0], s[1][0], s[0][1], s[1][1])
             if mode != self._cb_mode:
@@ -423,7 +448,7 @@ class BulletWorld:
         for i in range(self._cb_modes[mode][2]):
             if i:                   # the first update uses the state read above
                 s = get_states(ob, joints, physicsClientId=cid)
-            sx, sy, sw = s
+            sx, sy, _, sw = s
             _contact_update(sx[0], sy[0], sw[0], sx[1], sy[1], sw[1], mem, geom, grid, params, out)
             caps = (out[0], out[1])
             if caps != self._cb_caps:
@@ -433,6 +458,7 @@ class BulletWorld:
                 force(ob, J_YAW, (out[2] * n, out[3] * n, 0.0), (sx[0], sy[0], z), pb.WORLD_FRAME,
                       physicsClientId=cid)
             step(physicsClientId=cid)
+        self._after = get_states(ob, joints, physicsClientId=cid)
 
     def _free_flight(self, x, y, vx, vy) -> int:
         """1 if the part's bounding circle is clear of every wall by the margin (free flight), else 0.
@@ -449,7 +475,9 @@ class BulletWorld:
         """Advance one rest-test interval (``substeps`` physics steps)."""
         if self.contact.kind == "coulomb":
             self._step_coulomb()
-        elif self.has_map:
+            return
+        self._after = None
+        if self.has_map:
             for _ in range(self.substeps):
                 self._apply_map()
                 pb.stepSimulation(physicsClientId=self.cid)

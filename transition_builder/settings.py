@@ -23,6 +23,8 @@ CONTACT_CHOICES = "coulomb (default), sphere, legs:K"
 #: triangles up by 0.1%). 4: the floor contact is a setting (``contact``), distributed Coulomb
 #: friction by default.
 SIMULATOR_VERSION = "planar-chain-4"
+#: values of :attr:`SimSettings.contact_pairs`.
+CONTACT_PAIRS = ("all", "needed")
 
 
 @dataclass(frozen=True)
@@ -126,6 +128,13 @@ class SimSettings:
     lift_tolerance_mm : float
         A part at rest more than this above the floor is ``TIPPED`` (lifted off it); one more than
         this below the floor during a tilt is ``ESCAPED`` (fell through it).
+    contact_pairs : str
+        Which collision pairs of the part's links Bullet tests: ``all`` (every link against the
+        floor and the walls) or ``needed`` (the floor against the support(s) only, the walls against
+        the prism only: the prism floats ``floor_clearance_mm`` above the floor and the supports lie
+        inside its outline, so the pairs left out never carry a force; Bullet still made speculative
+        contacts for them every step). Recorded in the cache key only when not ``all``
+        (docs/builder.md, "Where a build's time goes").
     """
 
     time_step_s: float = 1.0 / 480.0
@@ -147,12 +156,17 @@ class SimSettings:
     contact_threshold_mm: float = 2.0
     escape_tolerance_mm: float = 1.0
     lift_tolerance_mm: float = 2.0
+    contact_pairs: str = "all"
 
     def __post_init__(self):
         for f in fields(self):
             val = getattr(self, f.name)
             if f.name == "contact":
                 object.__setattr__(self, f.name, str(parse_contact(val)))
+                continue
+            if f.name == "contact_pairs":
+                if val not in CONTACT_PAIRS:
+                    raise ValueError(f"SimSettings.contact_pairs must be one of {', '.join(CONTACT_PAIRS)}, got {val!r}")
                 continue
             if f.type in ("int", int):
                 if isinstance(val, bool) or not isinstance(val, int) or val < 1:
@@ -174,8 +188,12 @@ class SimSettings:
             raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 
     def to_dict(self) -> dict:
-        """All fields, JSON-able."""
-        return asdict(self)
+        """All fields, JSON-able (``contact_pairs`` only when not ``all``: the content hash of
+        every scene simulated before the setting existed stays as it was)."""
+        d = asdict(self)
+        if d["contact_pairs"] == "all":
+            del d["contact_pairs"]
+        return d
 
     @classmethod
     def from_dict(cls, data: dict) -> "SimSettings":

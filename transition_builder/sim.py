@@ -37,7 +37,6 @@ mechanics: ``docs/simulator.md``):
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 
 import numpy as np
 
@@ -263,14 +262,12 @@ class TraySimulator:
         return t, out, z
 
 
-_SIMULATORS: "OrderedDict[str, TraySimulator]" = OrderedDict()
-
-
 def simulate(scene: Scene, poses, action) -> tuple[np.ndarray, np.ndarray]:
     """Tilt the tray toward ``action`` from every start pose: ``(rest_poses (n, 3), status (n,) int8)``.
 
-    Convenience form of :meth:`TraySimulator.tilt` that keeps the last few simulators of this
-    process alive (keyed by the scene's content hash). Faulted trials have NaN poses.
+    Convenience form of :meth:`TraySimulator.tilt` on the simulator of ``scene`` kept by this
+    process and thread (the one simulator cache, :func:`transition_builder.executors.simulator_for`,
+    keyed by the scene's content hash). Faulted trials have NaN poses.
 
     Parameters
     ----------
@@ -290,13 +287,6 @@ def simulate(scene: Scene, poses, action) -> tuple[np.ndarray, np.ndarray]:
     """
     if not isinstance(scene, Scene):
         raise ValueError(f"simulate needs a Scene, got {type(scene).__name__}")
-    key = scene.content_hash()
-    sim = _SIMULATORS.get(key)
-    if sim is None:
-        sim = TraySimulator(scene)
-        _SIMULATORS[key] = sim
-        while len(_SIMULATORS) > 2:
-            _SIMULATORS.popitem(last=False)[1].close()
-    else:
-        _SIMULATORS.move_to_end(key)
-    return sim.tilt(poses, action)
+    from transition_builder.executors import simulator_for
+
+    return simulator_for(scene).tilt(poses, action)

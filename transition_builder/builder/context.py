@@ -35,8 +35,8 @@ class _BuildContext:
         The tray's symmetry, the report grid and the snapping index of the representatives.
     reps : list of int
         One action per action orbit (the start poses are tilted under these only).
-    executor
-        Where the tilts run.
+    executor : transition_builder.tilting.TiltEngine
+        Where the tilts run (the one tilt engine: executor and progress bar).
     ex : _Exploration
         The resumable state (checkpointed).
     batch, batch_tilts : int

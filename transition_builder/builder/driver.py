@@ -7,7 +7,6 @@ recentring, member probes, adaptive top-ups and refinement rounds, then assembly
 from __future__ import annotations
 
 import os
-import sys
 import time
 import warnings
 
@@ -22,13 +21,14 @@ from transition_builder.builder.refinement import _PROBE_STREAM  # noqa: F401
 from transition_builder.builder.representatives import _with_rotations
 from transition_builder.builder.settings import BuildResult, BuildSettings, build_key
 from transition_builder.builder.state import CheckpointError, _Exploration
-from transition_builder.executors import SchedulerLost, make_executor
+from transition_builder.executors import SchedulerLost
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import check_noise_for_tray
 from transition_builder.scene import Scene
 from transition_builder.snapping import PoseIndex
 from transition_builder.status import OK
 from transition_builder.symmetry import tray_symmetry
+from transition_builder.tilting import TiltEngine
 
 
 class BuildWarning(UserWarning):
@@ -88,14 +88,10 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
         if c.ex is None:
             c = _context(scene, settings, executor, batch_tilts, checkpoint, checkpoint_interval_s)
     resumed = c.ex is not None
-    own_executor = executor is None
-    if own_executor:
-        c.executor = make_executor(workers, scheduler)
-    if progress is None:
-        progress = sys.stderr.isatty()
-    if progress:
-        from tqdm import tqdm
-        c.bar = tqdm(unit="tilt", desc="build", file=sys.stderr, leave=False)
+    # one tilt engine owns the executor made here (a given one stays the caller's) and the bar
+    engine = TiltEngine(executor, workers=workers, scheduler=scheduler, progress=progress, unit="tilt",
+                        desc="build")
+    c.executor, c.bar = engine, engine.bar
     try:
         if c.ex is None:
             _explore.start_phase(c)
@@ -107,10 +103,7 @@ def build_model(scene: Scene, settings: BuildSettings | None = None, *, executor
             if checkpoint and os.path.exists(checkpoint) else ""
         raise SchedulerLost(f"{exc}{kept}") from None
     finally:
-        if c.bar is not None:
-            c.bar.close()
-        if own_executor:
-            c.executor.close()
+        engine.close()
     model, stats = _assemble(scene, settings, c.sym, c.grid, c.index, c.ex, c.reps, c.key,
                              _run_stats(c, resumed, time.perf_counter() - t0))
     if checkpoint and os.path.exists(checkpoint):
