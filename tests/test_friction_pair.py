@@ -1,0 +1,168 @@
+"""Static and kinetic friction (``MU_S/MU_K``) and the tilt time: parsing, scene keys, the one-number
+guarantee (bit-identical landings and unchanged cache keys against the code before the pair existed),
+and bad input on the command line."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from transition_builder.friction import friction_map, parse_friction
+from transition_builder.scene import Scene, scene_from_options
+
+GOLDEN = os.path.join(os.path.dirname(__file__), "data", "single_coefficient_golden.json")
+
+
+def _golden():
+    with open(GOLDEN) as f:
+        return json.load(f)
+
+
+# ---------------------------------------------------------------- parsing
+@pytest.mark.parametrize("text, mu_k, mu_s", [("0.5/0.3", 0.3, 0.5), ("0.61/0.47", 0.47, 0.61),
+                                              (" 0.4 / 0.2 ", 0.2, 0.4)])
+def test_pair_parses_to_kinetic_and_static(text, mu_k, mu_s):
+    spec = parse_friction(text)
+    assert (spec.kind, spec.mu, spec.static_mu, spec.is_pair) == ("uniform", mu_k, mu_s, True)
+    assert parse_friction(str(spec)) == spec
+
+
+def test_equal_pair_is_the_single_number():
+    assert parse_friction("0.3/0.3") == parse_friction("0.3") == parse_friction(0.3)
+    assert parse_friction("0.3").static_ratio == 1.0 and not parse_friction("0.3").is_pair
+
+
+@pytest.mark.parametrize("bad", ["0.3/0.5", "-0.1/-0.2", "0.5/-0.3", "a/b", "0.5/", "/0.3", "0.5/0.3/0.1",
+                                 "0.5/0", "nan/0.3", "map:low:1:0.2/0.3"])
+def test_bad_pairs(bad):
+    with pytest.raises(ValueError) as exc:
+        parse_friction(bad)
+    assert "\n" not in str(exc.value)
+
+
+def test_map_scales_both_coefficients():
+    spec = parse_friction("map:medium:2:0.5/0.4")
+    assert (spec.mu, spec.static_mu) == (0.4, 0.5)
+    mu, _ = friction_map(spec, 200, 200)
+    assert mu.mean() == pytest.approx(0.4, abs=1e-12)
+    assert spec.static_ratio == pytest.approx(1.25)
+    # a map naming a single mean is the same scene as the scene file's base_mu
+    a = scene_from_options("allen-key", "map:low:1:0.4")
+    b = Scene.from_dict({"shape": "allen-key", "friction": "map:low:1", "base_mu": 0.4})
+    assert a.content_hash() == b.content_hash()
+
+
+# ---------------------------------------------------------------- scenes and keys
+def test_cache_keys_of_single_coefficients_unchanged():
+    for entry in _golden()["keys"]:
+        if "options" in entry:
+            sc = scene_from_options(**entry["options"])
+        else:
+            sc = Scene.from_dict(entry["scene_dict"])
+        assert sc.content_hash() == entry["hash"], entry
+
+
+def test_pair_and_tilt_time_change_the_key():
+    base = scene_from_options("allen-key", 0.3)
+    keys = {base.content_hash(), scene_from_options("allen-key", "0.5/0.3").content_hash(),
+            scene_from_options("allen-key", "0.4/0.3").content_hash(),
+            scene_from_options("allen-key", "map:low:1:0.5/0.3").content_hash(),
+            scene_from_options("allen-key", "map:low:1").content_hash(),
+            scene_from_options("allen-key", 0.3, tilt_time_s=0.5).content_hash(),
+            scene_from_options("allen-key", 0.3, tilt_time_s=1.0).content_hash()}
+    assert len(keys) == 7
+    assert scene_from_options("allen-key", 0.3, tilt_time_s=0.0).content_hash() == base.content_hash()
+
+
+def test_scene_round_trip_and_old_files(tmp_path):
+    sc = scene_from_options("allen-key", "map:high:3:0.61/0.47", tilt_time_s=0.75)
+    path = tmp_path / "scene.json"
+    sc.save(path)
+    back = Scene.load(path)
+    assert back == sc and back.content_hash() == sc.content_hash()
+    assert back.tilt_time_s == 0.75 and back.friction.static_mu == 0.61
+    # a scene file written before the pair and the tilt time existed
+    old = tmp_path / "old.toml"
+    old.write_text('shape = "allen-key"\nfriction = "0.35"\ntilt_deg = 25.0\n')
+    o = Scene.load(old)
+    assert o.tilt_time_s == 0.0 and not o.friction.is_pair and "tilt_time_s" not in o.to_dict()
+
+
+@pytest.mark.parametrize("contact", ["sphere", "legs:4"])
+def test_pair_needs_the_coulomb_contact(contact):
+    with pytest.raises(ValueError, match="coulomb"):
+        scene_from_options("allen-key", "0.5/0.3", contact=contact)
+    scene_from_options("allen-key", "0.3/0.3", contact=contact)       # one number: fine
+
+
+@pytest.mark.parametrize("bad", [-0.1, float("nan"), float("inf"), 61.0, "1", True])
+def test_bad_tilt_time(bad):
+    with pytest.raises(ValueError, match="tilt time"):
+        scene_from_options("allen-key", 0.3, tilt_time_s=bad)
+
+
+# ---------------------------------------------------------------- the one-number guarantee
+def test_single_coefficient_landings_bit_identical_to_before():
+    """Every recorded tilt (tests/data/make_single_coefficient_golden.py, run on main's code before
+    the pair existed) lands on exactly the same floats, through the ``MU/MU`` spelling as well."""
+    from transition_builder.sim import TraySimulator
+
+    rows = _golden()["landings"]
+    for spelling in ("one", "pair"):
+        for r in rows:
+            fr = r["friction"]
+            if spelling == "pair" and not fr.startswith("map"):
+                fr = f"{fr}/{fr}"
+            sc = scene_from_options(r["shape"], fr, contact=r["contact"])
+            with TraySimulator(sc) as sim:
+                rest, status = sim.tilt([r["start"]], r["action"])
+            assert int(status[0]) == r["status"]
+            assert [float(v) for v in rest[0]] == r["rest"], (spelling, r)
+
+
+def test_tilt_time_zero_is_the_instant_tilt():
+    from transition_builder.sim import TraySimulator
+
+    r = _golden()["landings"][0]
+    sc = scene_from_options(r["shape"], r["friction"], tilt_time_s=0.0)
+    with TraySimulator(sc) as sim:
+        rest, _ = sim.tilt([r["start"]], r["action"])
+    assert [float(v) for v in rest[0]] == r["rest"]
+
+
+def test_slow_tilt_changes_the_landing_but_stays_valid():
+    """A ramped tilt is a different motion (the part starts to slide part-way up the ramp) and
+    still lands against the downhill wall."""
+    from transition_builder.sim import TraySimulator
+
+    r = _golden()["landings"][0]
+    sc = scene_from_options(r["shape"], "0.5/0.3", tilt_time_s=1.0)
+    with TraySimulator(sc) as sim:
+        rest, status = sim.tilt([r["start"]], r["action"])
+    assert status[0] == 0
+    assert not np.allclose(rest[0], r["rest"], atol=1e-6)
+    assert rest[0][0] > 150.0             # at the east wall
+
+
+# ---------------------------------------------------------------- command line
+@pytest.mark.parametrize("argv", [["--friction", "0.3/0.5"], ["--friction", "-0.2"], ["--friction", "x/0.3"],
+                                  ["--tilt-time", "-1"], ["--tilt-time", "abc"],
+                                  ["--friction", "0.5/0.3", "--contact", "sphere"]])
+def test_cli_bad_friction_or_tilt_time_exit_2(argv):
+    proc = subprocess.run([sys.executable, "-m", "analysis", "simulate", "--sequence", "E", "--trials", "1",
+                           *argv], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
+
+
+def test_cli_pair_and_tilt_time_run(capsys):
+    from analysis.cli import main
+
+    code = main(["simulate", "--sequence", "E", "--trials", "2", "--friction", "0.5/0.3", "--tilt-time", "0.5",
+                 "--workers", "1", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["friction"] == "0.5/0.3" and out["tilt_time_s"] == 0.5
