@@ -166,3 +166,43 @@ def test_cli_pair_and_tilt_time_run(capsys):
                  "--workers", "1", "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["friction"] == "0.5/0.3" and out["tilt_time_s"] == 0.5
+
+
+# ---------------------------------------------------------------- judges (analytic mechanics)
+@pytest.mark.parametrize("pair", ["0.5/0.3", "0.61/0.47"])
+def test_static_kinetic_judges_pass(pair):
+    """Hold below the static angle, slide by the kinetic law, break away above the static angle,
+    start on a ramping tray at atan(mu_s): every judge within its target."""
+    from transition_builder.judges import PAIR_JUDGE_TARGETS, pair_judges
+
+    table = pair_judges(pair, shapes=("allen-key",))["allen-key"]
+    for judge, target in PAIR_JUDGE_TARGETS.items():
+        assert table[judge] <= target, (pair, judge, table[judge])
+
+
+def test_hold_judge_fails_without_static_friction():
+    """The same slope with one coefficient (the kinetic one): the key slides away; the judge can fail."""
+    from transition_builder.judges import engine_incline, pair_judge_slopes
+
+    a_hold = pair_judge_slopes(0.5, 0.3)[0]
+    run = engine_incline("allen-key", "0.3", a_hold, 1.0)
+    assert run.distance[-1] > 50.0
+
+
+def test_one_coefficient_ramp_starts_at_its_friction_angle():
+    from transition_builder.judges import engine_incline, onset_slope_deg
+
+    run = engine_incline("allen-key", "0.4", 32.0, 3.5, tilt_time_s=4.0, refine=4)
+    assert abs(onset_slope_deg(run) - np.degrees(np.arctan(0.4))) <= 0.5
+
+
+def test_free_slide_judge_holds_for_a_pair():
+    """On a level floor a pair slides by its kinetic coefficient: the free-slide judge against the
+    integration of Coulomb's law at mu_k (0.2 mm, 0.5 degrees) still passes."""
+    from transition_builder.judges import TABLE_SLIDES, engine_free_slide, reference_free_slide
+
+    _, pose, twist = TABLE_SLIDES[2]
+    eng = engine_free_slide("allen-key", pose, twist, mu="0.5/0.3", refine=16)
+    ref = reference_free_slide("allen-key", pose, twist, mu=0.3)
+    assert np.hypot(*(eng.final[:2] - ref.final[:2])) <= 0.2
+    assert abs(np.degrees(eng.final[2] - ref.final[2])) <= 0.5
