@@ -321,6 +321,11 @@ def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progre
         _log(progress, "the contact judges (free sliding against the integration of Coulomb's law)")
         out["contact_judges"] = {"table": judges_table((default_contact, "sphere", "legs:4", "legs:25")),
                                  "targets": JUDGE_TARGETS}
+        from transition_builder.judges import PAIR_JUDGE_TARGETS, pair_judges
+        _log(progress, "the static/kinetic judges (a part on an incline against the block-on-a-slope laws)")
+        out["contact_judges"]["pairs"] = {"table": {pair: pair_judges(pair, shapes=("allen-key",))["allen-key"]
+                                                    for pair in ("0.5/0.3", "0.61/0.47")},
+                                          "targets": PAIR_JUDGE_TARGETS}
 
     if s.sensitivity:
         from analysis.sensitivity import sensitivity_study

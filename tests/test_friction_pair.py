@@ -206,3 +206,15 @@ def test_free_slide_judge_holds_for_a_pair():
     ref = reference_free_slide("allen-key", pose, twist, mu=0.3)
     assert np.hypot(*(eng.final[:2] - ref.final[:2])) <= 0.2
     assert abs(np.degrees(eng.final[2] - ref.final[2])) <= 0.5
+
+
+def test_report_shows_the_pair_judges_and_marks_a_miss():
+    from analysis.report import _judges_lines
+    from transition_builder.judges import JUDGE_TARGETS, PAIR_JUDGE_TARGETS
+
+    row = {k: 0.0 for k in PAIR_JUDGE_TARGETS}
+    lines = _judges_lines({"table": {"coulomb": {k: 0.0 for k in JUDGE_TARGETS}}, "targets": JUDGE_TARGETS,
+                           "pairs": {"table": {"0.5/0.3": row, "0.61/0.47": dict(row, onset_deg=0.9)},
+                                     "targets": PAIR_JUDGE_TARGETS}})
+    text = "\n".join(lines)
+    assert "`0.5/0.3` | `0.61/0.47`" in text and "**0.90**" in text and "| 0.50 | 0.00 |" in text
