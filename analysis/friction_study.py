@@ -122,8 +122,9 @@ def mean_maps(s: FrictionStudySettings) -> list[tuple[str, float]]:
     return [(f"map:low:{k + 1}:{m:g}", float(m)) for k, m in enumerate(means)]
 
 
-def c_reading(s: FrictionStudySettings, which: str, progress=print) -> dict:
-    """One reading of C (``"amplitude"`` or ``"mean"``): every map's entropy curve along the sequence."""
+def c_reading(s: FrictionStudySettings, which: str, progress=print, on_item=None) -> dict:
+    """One reading of C (``"amplitude"`` or ``"mean"``): every map's entropy curve along the sequence.
+    ``on_item(results_so_far)`` is called after every map (to save partial results)."""
     if which == "amplitude":
         maps = [(f"map:{lv}:{k}", 0.3, lv) for lv, n in s.amplitude_maps for k in range(1, n + 1)]
     elif which == "mean":
@@ -140,6 +141,8 @@ def c_reading(s: FrictionStudySettings, which: str, progress=print) -> dict:
     for spec, mean, group in maps:
         progress(f"C ({which}): {spec}, {s.trials} trials")
         out[spec] = dict(_direct(spec, s.sequence, s.trials, s.seed, s.workers), mean=mean, group=group)
+        if on_item:
+            on_item(out)
     return out
 
 
@@ -148,8 +151,9 @@ def criterion(share: float, h20: float, h0: float) -> float:
     return abs(share - PAPER["A_converged"] / PAPER["A_sequences"]) + h20 / h0
 
 
-def physics_search(s: FrictionStudySettings, progress=print) -> dict:
-    """Every candidate physics on K random 50-tilt sequences: share reaching zero, mean entropy at 20, D."""
+def physics_search(s: FrictionStudySettings, progress=print, on_item=None) -> dict:
+    """Every candidate physics on K random 50-tilt sequences: share reaching zero, mean entropy at 20, D.
+    ``on_item(results_so_far)`` is called after every candidate."""
     from analysis.sequences import random_sequences_for
     from transition_builder.scene import ACTIONS
 
@@ -165,6 +169,8 @@ def physics_search(s: FrictionStudySettings, progress=print) -> dict:
                       "share_ending_zero": float(np.mean([r["ends_zero"] for r in runs])),
                       "mean_entropy_20": h20, "mean_entropy_50": float(curves[:, 50].mean()), "entropy_0": h0,
                       "D": criterion(share, h20, h0), "sequences": len(runs), "trials": s.search_trials}
+        if on_item:
+            on_item(out)
     return out
 
 
@@ -293,8 +299,11 @@ def main(argv=None) -> int:
             res.figures(a.out)
             print(res.markdown())
             continue
-        data = (c_reading(s, part[2:]) if part.startswith("c_") else physics_search(s))
-        atomic_write_text(os.path.join(a.out, f"{part}.json"), json.dumps(data, indent=1))
+        path = os.path.join(a.out, f"{part}.json")
+
+        def save(data, path=path):
+            atomic_write_text(path, json.dumps(data, indent=1))
+        save(c_reading(s, part[2:], on_item=save) if part.startswith("c_") else physics_search(s, on_item=save))
     return 0
 
 
