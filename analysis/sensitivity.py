@@ -98,7 +98,10 @@ def sensitivity_study(key_scene, s, *, workers=None, progress=None, build=None) 
         ``friction_checks`` (mu -> direct simulation and the model on the same sequences),
         ``conclusions`` and ``seconds``.
     """
+    from dataclasses import replace
+
     from kruskal_markov.ensemble import run_ensemble
+    from transition_builder.friction import parse_friction
     from transition_builder.scene import scene_from_options
 
     t0 = time.perf_counter()
@@ -116,6 +119,10 @@ def sensitivity_study(key_scene, s, *, workers=None, progress=None, build=None) 
             **({} if s.contact is None else {"contact": s.contact}))
 
     variants += [(f"mu {mu:g}", mu_scene(mu), {}) for mu in mus if mu != mu0]
+    # static/kinetic friction and the tilt's own motion (issue 40; a pair needs the coulomb contact)
+    variants += [(label, replace(key_scene, friction=parse_friction(spec or key_scene.friction), tilt_time_s=tt), {})
+                 for label, spec, tt in s.sensitivity_physics
+                 if not parse_friction(spec or key_scene.friction).is_pair or key_scene.settings.contact == "coulomb"]
     table, models = {}, {}
     for label, scene, changes in variants:
         model, info = build(scene, {**coarse, **changes}, f"sensitivity: {label}")
