@@ -218,3 +218,16 @@ def test_report_shows_the_pair_judges_and_marks_a_miss():
                                      "targets": PAIR_JUDGE_TARGETS}})
     text = "\n".join(lines)
     assert "`0.5/0.3` | `0.61/0.47`" in text and "**0.90**" in text and "| 0.50 | 0.00 |" in text
+
+
+def test_build_keys_differ_for_pairs_and_tilt_times_and_match_for_one_number():
+    """The model cache's key (scene hash and build settings): a pair or a tilt time never meets
+    another scene's model; ``0.3/0.3`` and a zero tilt time meet today's."""
+    from transition_builder.builder import BuildSettings
+    from transition_builder.builder.settings import build_key
+
+    b = BuildSettings()
+    keys = [build_key(scene_from_options("allen-key", f, tilt_time_s=t), b)
+            for f, t in (("0.3", 0.0), ("0.5/0.3", 0.0), ("0.5/0.3", 0.5), ("0.3", 0.5), ("0.4/0.3", 0.0))]
+    assert len(set(keys)) == len(keys)
+    assert build_key(scene_from_options("allen-key", "0.3/0.3", tilt_time_s=0.0), b) == keys[0]
