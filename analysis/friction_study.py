@@ -43,6 +43,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 __all__ = ["FrictionStudySettings", "FrictionStudyResult", "c_reading", "mean_maps", "physics_search",
+           "run_friction_study",
            "criterion", "study_from_parts", "PAPER"]
 
 #: the paper's numbers (Mannam et al.): A 29 of 43, B 10 of 15, C 10 of 13 / 0 of 3 / 0 of 4.
@@ -264,6 +265,17 @@ class FrictionStudyResult:
         plt.close(fig)
         os.replace(path + ".tmp.png", path)
         return [path]
+
+
+def run_friction_study(settings: FrictionStudySettings | None = None, parts=("c_amplitude", "c_mean", "search"),
+                       progress=print) -> FrictionStudyResult:
+    """Run the study in one call (the entry a report section registers): the named parts of
+    ``settings`` (default :class:`FrictionStudySettings`), as :func:`main` runs them one by one."""
+    s = settings or FrictionStudySettings()
+    out = {}
+    for part in parts:
+        out[part] = c_reading(s, part[2:], progress) if part.startswith("c_") else physics_search(s, progress)
+    return FrictionStudyResult(settings=asdict(s), **out)
 
 
 def study_from_parts(out_dir: str, settings: FrictionStudySettings) -> FrictionStudyResult:
