@@ -211,16 +211,20 @@ class FrictionStudyResult:
                   "zero at tilt 50 (reached: at any tilt).", "",
                   "| reading | low | medium | high |", "|---|---|---|---|",
                   "| the paper (20 maps grouped by mean friction) | 10 of 13 | 0 of 3 | 0 of 4 |"]
-        for name, maps in (("today's maps: mean 0.3, growing amplitude", self.c_amplitude),
-                           ("20 maps of differing mean (low amplitude), grouped by mean as the paper did",
-                            self.c_mean)):
+        planned = {"amplitude": dict(s.get("amplitude_maps", ())),
+                   "mean": dict(zip(("low", "medium", "high"), s.get("groups", ())))}
+        for which, name, maps in (("amplitude", "today's maps: mean 0.3, growing amplitude", self.c_amplitude),
+                                  ("mean", "20 maps of differing mean (low amplitude), grouped by mean as the "
+                                   "paper did", self.c_mean)):
             g = _groups(maps)
             if g:
                 cells = []
                 for lv in ("low", "medium", "high"):
                     x = g.get(lv)
-                    cells.append("-" if x is None else
-                                 f"{x['ends_zero']} of {x['maps']} (reached {x['reaches_zero']}); mean mu "
+                    n = planned[which].get(lv)
+                    of = "" if n is None or n == (x or {}).get("maps") else f" measured of {n}"
+                    cells.append(f"- (0{of})" if x is None else
+                                 f"{x['ends_zero']} of {x['maps']}{of} (reached {x['reaches_zero']}); mean mu "
                                  f"{min(x['mean_coefficients']):.2f}-{max(x['mean_coefficients']):.2f}")
                 lines.append(f"| {name} | " + " | ".join(cells) + " |")
         if self.c_mean:
