@@ -209,7 +209,7 @@ def test_free_slide_judge_holds_for_a_pair():
 
 
 def test_report_shows_the_pair_judges_and_marks_a_miss():
-    from analysis.report import _judges_lines
+    from analysis.experiments.contact import judges_lines as _judges_lines
     from transition_builder.judges import JUDGE_TARGETS, PAIR_JUDGE_TARGETS
 
     row = {k: 0.0 for k in PAIR_JUDGE_TARGETS}

@@ -11,6 +11,7 @@ from analysis.friction_study import (
     criterion,
     mean_maps,
 )
+from analysis.reproduce import ReproduceSettings
 from transition_builder.friction import parse_friction
 
 
@@ -49,3 +50,31 @@ def test_markdown_groups_maps_by_mean_as_the_paper_did(tmp_path):
     d = res.to_dict()
     assert d["c_groups"]["mean"]["low"]["ends_zero"] == 1 and d["paper"]["C"]["medium"] == (0, 3)
     assert res.figures(str(tmp_path)) == [str(tmp_path / "fig_friction_c.png")]
+
+
+def test_sensitivity_physics_variants():
+    """The sensitivity study's static/kinetic and tilt-time variants: the key's scene with the pair
+    or tilt time set, the key's own friction when the spec is None, pairs skipped off coulomb."""
+    from analysis.experiments.sensitivity import Settings, _physics_variants
+    from analysis.reproduce import SENSITIVITY_PHYSICS, ReproduceSettings
+    from transition_builder.scene import scene_from_options
+
+    st = Settings.from_settings(ReproduceSettings(sensitivity_physics=SENSITIVITY_PHYSICS))
+    key = scene_from_options("allen-key", 0.25)
+    got = {label: sc for label, sc, _ in _physics_variants(key, st)}
+    assert str(got["friction 0.5/0.3 (Simscape's defaults)"].friction) == "0.5/0.3"
+    assert got["tilt time 0.5 s"].tilt_time_s == 0.5 and str(got["tilt time 0.5 s"].friction) == "0.25"
+    assert got["0.5/0.3, tilt time 0.5 s"].content_hash() != key.content_hash()
+    sphere = {label for label, _, _ in _physics_variants(scene_from_options("allen-key", contact="sphere"), st)}
+    assert sphere == {"tilt time 0.5 s"}
+    assert Settings.from_settings(ReproduceSettings()).physics == ()
+
+
+def test_friction_section_is_off_by_default():
+    from analysis.experiments import EXPERIMENTS
+    from analysis.experiments.context import Context
+    from analysis.experiments.friction import markdown, run
+
+    assert EXPERIMENTS["friction"] == "analysis.experiments.friction"
+    r = run(Context(ReproduceSettings()))
+    assert r.to_dict() == {} and markdown(r) == ""
