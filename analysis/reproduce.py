@@ -34,6 +34,11 @@ from analysis.orientability import CONVERGED_BITS
 __all__ = ["PAPER", "ReproduceSettings", "direct_summary", "first_at_most", "reproduce", "settled_steps"]
 
 
+#: the static/kinetic friction and tilt-time variants of issue 40 for ``sensitivity_physics``.
+SENSITIVITY_PHYSICS = (("friction 0.5/0.3 (Simscape's defaults)", "0.5/0.3", 0.0),
+                       ("tilt time 0.5 s", None, 0.5), ("0.5/0.3, tilt time 0.5 s", "0.5/0.3", 0.5))
+
+
 @dataclasses.dataclass(frozen=True)
 class ReproduceSettings:
     """What :func:`reproduce` runs; :meth:`full` is the paper's scale, :meth:`quick` a few minutes.
@@ -75,8 +80,9 @@ class ReproduceSettings:
         and the comparison's ensemble size.
     epsilon : float
         The convergence threshold (bits).
-    sensitivity, sensitivity_noise, sensitivity_mu, sensitivity_check_mu, sensitivity_check_sequences, sensitivity_check_trials
-        The sensitivity study (:mod:`analysis.sensitivity`): whether it runs, the pose noises and floor
+    sensitivity, sensitivity_noise, sensitivity_mu, sensitivity_physics, sensitivity_check_mu, sensitivity_check_sequences, sensitivity_check_trials
+        The sensitivity study (:mod:`analysis.sensitivity`): whether it runs, the pose noises, the
+        static/kinetic pairs and tilt times (``(label, friction or None, tilt_time_s)``) and floor
         friction coefficients the key is rebuilt under, and the direct checks of the friction curve.
     """
 
@@ -124,9 +130,15 @@ class ReproduceSettings:
     sensitivity: bool = True
     sensitivity_noise: tuple = ("pose:0.2,0.2", "pose:0.5,0.5")
     sensitivity_mu: tuple = (0.15, 0.2, 0.4, 0.5)
+    #: static/kinetic pairs and tilt times of the sensitivity study: (label, friction spec or None for the
+    #: key's, tilt time s); off by default (each is one more key build), e.g. SENSITIVITY_PHYSICS
+    sensitivity_physics: tuple = ()
     sensitivity_check_mu: tuple = (0.15, 0.3, 0.5)
     sensitivity_check_sequences: int = 12
     sensitivity_check_trials: int = 60
+    #: the friction study (analysis.friction_study: C read by mean and amplitude, the search for the
+    #: physics of A); off by default (about 40 minutes of direct simulation on 2 cores at its defaults)
+    friction_study: bool = False
 
     @classmethod
     def full(cls, seed: int = 0) -> "ReproduceSettings":

@@ -37,7 +37,7 @@ def test_non_square_tray_covers_it():
     assert mu.shape == (21, 12)
 
 
-@pytest.mark.parametrize("bad", ["", "x", "map:", "map:low", "map:low:1:2", "map:foo:1", "map:low:-1",
+@pytest.mark.parametrize("bad", ["", "x", "map:", "map:low", "map:low:1:2:3", "map:low:1:x", "map:low:1:0.3/0.5", "map:foo:1", "map:low:-1",
                                  "-0.1", "inf", None, [0.3]])
 def test_bad_specs(bad):
     with pytest.raises(ValueError):

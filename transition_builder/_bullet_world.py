@@ -191,6 +191,16 @@ class BulletWorld:
         g = G * st.world_units_per_m
         pb.setGravity(g * math.sin(a), 0.0, -g * math.cos(a), physicsClientId=cid)
 
+    def set_slope(self, a_rad: float):
+        """Tilt this world's tray to ``a_rad`` (radians, about the axis normal to its downhill
+        direction): gravity ``g (sin a, 0, -cos a)`` and the normal force of the ``coulomb`` contact
+        follow. The tilt-time ramp of :class:`transition_builder.sim.TraySimulator` calls this; an
+        instant tilt never does (the world keeps the scene's tilt set at build)."""
+        st = self.scene.settings
+        g = G * st.world_units_per_m
+        pb.setGravity(g * math.sin(a_rad), 0.0, -g * math.cos(a_rad), physicsClientId=self.cid)
+        self.normal_force = self.scene.shape.mass_kg * G * st.world_units_per_m * math.cos(a_rad)
+
     def _build_tray(self, scene, cid) -> np.ndarray:
         """The floor slab and the four walls, in the downhill frame; returns the friction grid."""
         yaw_tray = -self.phi
@@ -331,7 +341,8 @@ class BulletWorld:
             self._cb_grid = np.ascontiguousarray(mu, dtype=np.float64)
             a, b, c, d = self._to_tray
             self._cb_params = np.array([self.tile_mm, a, b, c, d, self.centre[0], self.centre[1],
-                                        st.stick_speed_mm_s * self.mm, float(r.max())])
+                                        st.stick_speed_mm_s * self.mm, float(r.max()),
+                                        self.scene.friction.static_ratio])
             self._cb_mem = np.zeros(4)
             self._cb_out = np.zeros(4)
             self._cb_z = st.support_radius_mm * self.mm     # height of the yaw link (its z slide at 0)

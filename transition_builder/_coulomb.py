@@ -69,9 +69,11 @@ def _contact_update(x, y, yaw, vx, vy, wz, mem, geom, mu_grid, params, out):
     ``2 v - v_prev`` (Bullet's contacts solve for the end-of-step velocity). ``geom``: rows
     ``bx, by, weight, radius`` of the quadrature points (body frame, world units). ``mu_grid``: the
     floor's coefficients on square tiles; ``params``: ``[tile (mm), a, b, c, d, cx, cy]`` (the world
-    -> tray map, mm), ``stick_speed``, ``r_max`` (world units). Below ``stick_speed`` of its fastest
-    point the contact sticks. Writes into ``out``: ``[lateral limit, spinning limit (world length),
-    explicit fx, explicit fy]``, all per unit normal force.
+    -> tray map, mm), ``stick_speed``, ``r_max`` (world units), ``static_ratio``. Below
+    ``stick_speed`` of its fastest point the contact sticks: its limits are those of the static
+    coefficients, the kinetic ones times ``static_ratio`` (``MU_S / MU_K``; exactly 1 for one
+    coefficient, which leaves every result bit for bit as before). Writes into ``out``: ``[lateral
+    limit, spinning limit (world length), explicit fx, explicit fy]``, all per unit normal force.
     """
     if mem[3] > 0.0:
         px0 = mem[0]
@@ -142,6 +144,11 @@ def _contact_update(x, y, yaw, vx, vy, wz, mem, geom, mu_grid, params, out):
             fy -= uy
             tz -= px * uy - py * ux
     if stick:
+        # static friction: the wrench that holds the footprint is bounded by the static limits
+        ratio = params[9]
+        if ratio != 1.0:
+            lat_box *= ratio
+            spin_box *= ratio
         out[0] = lat_box
         out[1] = spin_box
         out[2] = 0.0

@@ -25,7 +25,7 @@ from transition_builder.friction import DEFAULT_MU, FrictionSpec, parse_friction
 from transition_builder.settings import SIMULATOR_VERSION, SimSettings
 from transition_builder.shapes import Shape, check_fits, make_shape, parse_shape
 
-__all__ = ["Scene", "scene_from_options", "ACTIONS", "ACTION_ANGLES_DEG", "DEFAULT_TILT_DEG"]
+__all__ = ["Scene", "scene_from_options", "check_tilt_time", "ACTIONS", "ACTION_ANGLES_DEG", "DEFAULT_TILT_DEG"]
 
 #: canonical action names in index order (docs/commands.md).
 ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
@@ -66,11 +66,18 @@ class Scene:
     wall_height_mm, wall_thickness_mm : float
         Wall size. Walls are taller than any part so nothing can jump them.
     friction : FrictionSpec or str or float
-        Floor friction: a uniform coefficient or ``map:LEVEL:SEED`` (see :mod:`transition_builder.friction`).
+        Floor friction: a uniform coefficient, a static/kinetic pair ``MU_S/MU_K`` or
+        ``map:LEVEL:SEED[:MEAN]`` (see :mod:`transition_builder.friction`). A pair needs the
+        ``coulomb`` contact.
     wall_mu : float or None
-        Coulomb coefficient between part and walls; ``None`` means the floor's (base) coefficient.
+        Coulomb coefficient between part and walls; ``None`` means the floor's (base, kinetic)
+        coefficient. Walls have one coefficient (Bullet's contact friction, static and kinetic alike).
     tilt_deg : float
         Tilt angle of every action (default 30 degrees), in (0, 90).
+    tilt_time_s : float
+        Seconds the tray takes to rotate from level to its tilt (the robot's motion), the gravity
+        direction following; 0 (the default) is today's instant tilt. Only a non-zero value enters
+        :meth:`to_dict` and the content hash, so existing scenes keep their keys.
     actions : tuple of str
         The action set, a subset of ``N, NE, E, SE, S, SW, W, NW`` kept in canonical order.
     settings : SimSettings
@@ -87,6 +94,7 @@ class Scene:
     tilt_deg: float = DEFAULT_TILT_DEG
     actions: tuple = ACTIONS
     settings: SimSettings = field(default_factory=SimSettings)
+    tilt_time_s: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.shape, Shape):
@@ -95,6 +103,7 @@ class Scene:
             object.__setattr__(self, name, _positive(name.replace("_", " "), getattr(self, name)))
         object.__setattr__(self, "tilt_deg", _positive("tilt angle (deg)", self.tilt_deg, upper=90.0))
         object.__setattr__(self, "friction", parse_friction(self.friction))
+        object.__setattr__(self, "tilt_time_s", check_tilt_time(self.tilt_time_s))
         if self.wall_mu is not None:
             wm = self.wall_mu
             if isinstance(wm, bool) or not isinstance(wm, (int, float)) or not math.isfinite(wm) or wm < 0:
@@ -119,6 +128,9 @@ class Scene:
             raise ValueError(f"walls ({self.wall_height_mm:g} mm) must be taller than the part "
                              f"({self.shape.thickness_mm:g} mm)")
         check_fits(self.shape, self.tray_x_mm, self.tray_y_mm)
+        if self.friction.is_pair and self.settings.contact != "coulomb":
+            raise ValueError(f"a static/kinetic friction pair ({self.friction}) needs the coulomb contact: the "
+                             f"{self.settings.contact} contact has one Bullet coefficient, static and kinetic alike")
         _check_support_inside(self.shape, self.settings.support_radius_mm)
 
     # ------------------------------------------------------------------ actions
@@ -161,6 +173,8 @@ class Scene:
             "tilt_deg": self.tilt_deg,
             "actions": list(self.actions),
             "settings": self.settings.to_dict(),
+            # only when set: an instant tilt keeps the scene's dict, hash and cache keys of before
+            **({"tilt_time_s": self.tilt_time_s} if self.tilt_time_s else {}),
         }
 
     @classmethod
@@ -173,7 +187,7 @@ class Scene:
         if not isinstance(data, dict):
             raise ValueError(f"a scene must be a table/object, got {type(data).__name__}")
         known = {"format", "shape", "tray_x_mm", "tray_y_mm", "wall_height_mm", "wall_thickness_mm",
-                 "friction", "base_mu", "wall_mu", "tilt_deg", "actions", "settings"}
+                 "friction", "base_mu", "wall_mu", "tilt_deg", "actions", "settings", "tilt_time_s"}
         unknown = sorted(set(data) - known)
         if unknown:
             raise ValueError(f"unknown scene key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
@@ -198,7 +212,7 @@ class Scene:
         else:
             raise ValueError(f"scene shape must be a spec string or a table, got {type(sh).__name__}")
         kw = {k: data[k] for k in ("tray_x_mm", "tray_y_mm", "wall_height_mm", "wall_thickness_mm",
-                                   "wall_mu", "tilt_deg") if k in data}
+                                   "wall_mu", "tilt_deg", "tilt_time_s") if k in data}
         base_mu = data.get("base_mu", DEFAULT_MU)
         kw["friction"] = parse_friction(data.get("friction", base_mu), base_mu=base_mu)
         if "actions" in data:
@@ -249,8 +263,21 @@ class Scene:
         return hash(self.content_hash())
 
     def __repr__(self):
+        ramp = f" over {self.tilt_time_s:g} s" if self.tilt_time_s else ""
         return (f"Scene({self.shape.name!r}, tray {self.tray_x_mm:g}x{self.tray_y_mm:g} mm, "
-                f"friction {self.friction}, tilt {self.tilt_deg:g} deg, actions {','.join(self.actions)})")
+                f"friction {self.friction}, tilt {self.tilt_deg:g} deg{ramp}, actions {','.join(self.actions)})")
+
+
+#: the longest tilt time accepted (s).
+MAX_TILT_TIME_S = 60.0
+
+
+def check_tilt_time(val) -> float:
+    """A tilt time in seconds: a finite number in [0, 60]; one-line ValueError otherwise."""
+    if (isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating))
+            or not math.isfinite(val) or not 0.0 <= val <= MAX_TILT_TIME_S):
+        raise ValueError(f"tilt time must be a number of seconds in [0, {MAX_TILT_TIME_S:g}], got {val!r}")
+    return float(val)
 
 
 def _check_support_inside(shape: Shape, radius_mm: float) -> None:
@@ -273,11 +300,12 @@ def _check_support_inside(shape: Shape, radius_mm: float) -> None:
 
 def scene_from_options(shape_spec, friction_spec=DEFAULT_MU, tilt_deg: float = DEFAULT_TILT_DEG,
                        actions=None, tray_mm=(200.0, 200.0), wall_mu=None,
-                       settings: SimSettings | None = None, **setting_changes) -> Scene:
+                       settings: SimSettings | None = None, tilt_time_s: float = 0.0,
+                       **setting_changes) -> Scene:
     """Build a :class:`Scene` from command-line style options.
 
-    ``shape_spec`` is a shape spec string or a :class:`Shape`; ``friction_spec`` a number or
-    ``map:LEVEL:SEED``; ``actions`` ``None`` (all eight), a list of names or ``"N,E,S"``;
+    ``shape_spec`` is a shape spec string or a :class:`Shape`; ``friction_spec`` a number, a pair
+    ``MU_S/MU_K`` or ``map:LEVEL:SEED[:MEAN]``; ``actions`` ``None`` (all eight), a list of names or ``"N,E,S"``;
     extra keyword arguments change :class:`SimSettings` fields. Raises a one-line ValueError on bad input.
 
     Parameters
@@ -296,6 +324,8 @@ def scene_from_options(shape_spec, friction_spec=DEFAULT_MU, tilt_deg: float = D
         Friction of the walls (default: the floor's).
     settings : SimSettings, optional
         Simulator settings; ``**setting_changes`` change its fields.
+    tilt_time_s : float, default 0
+        Seconds the tray takes to rotate from level to its tilt (0: instant).
 
     Returns
     -------
@@ -311,4 +341,4 @@ def scene_from_options(shape_spec, friction_spec=DEFAULT_MU, tilt_deg: float = D
     tx, ty = tray_mm
     return Scene(shape=shape, tray_x_mm=tx, tray_y_mm=ty, friction=parse_friction(friction_spec),
                  wall_mu=wall_mu, tilt_deg=tilt_deg, actions=ACTIONS if actions is None else actions,
-                 settings=settings)
+                 settings=settings, tilt_time_s=tilt_time_s)

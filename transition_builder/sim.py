@@ -6,8 +6,10 @@ direction (``a`` = tilt angle), stepped until the part is at rest (centroid spee
 mean speeds over each rest-test interval of ``substeps`` steps, so a contact that jitters
 without moving the part counts as rest) or until ``max_time_s`` (``UNSETTLED``). The tray is then
 levelled: the part stays where it came to rest, so the rest pose is read and mapped back to the
-tray frame. A faulted trial is never returned as a pose (NaN pose, status code from
-:mod:`transition_builder.status`). Sleeping is disabled and every joint is reset before a trial.
+tray frame. With a tilt time (``Scene.tilt_time_s``) the tray starts level and rotates to its tilt
+over that time, gravity following in steps of one rest-test interval, and the rest test starts once
+the tilt is reached (docs/simulator.md, "The tilt's own motion"). A faulted trial is never returned
+as a pose (NaN pose, status code from :mod:`transition_builder.status`). Sleeping is disabled and every joint is reset before a trial.
 
 The design, in short (the measurements behind each choice, and the errors measured against
 mechanics: ``docs/simulator.md``):
@@ -100,6 +102,8 @@ class TraySimulator:
         self._w_rest = st.rest_angular_speed_rad_s
         half = 0.5 * math.hypot(scene.tray_x_mm, scene.tray_y_mm) / 1000.0
         self._r_out = half + scene.wall_thickness_mm / 1000.0     # centroid beyond this: escaped
+        # tilt-time ramp: rest-test intervals from level to the tilt (0: an instant tilt, no ramp calls)
+        self._ramp_checks = int(math.ceil(scene.tilt_time_s / self._dt_check - 1e-9))
 
     # ------------------------------------------------------------------ worlds
     def _world(self, action) -> BulletWorld:
@@ -161,6 +165,16 @@ class TraySimulator:
             pass
 
     # ------------------------------------------------------------------ one trial
+    def _ramp(self, w: BulletWorld, i: int):
+        """Set the tray's slope for rest-test interval ``i`` of a tilt-time ramp: the tilt at the
+        interval's midpoint, ``tilt * min((i + 1/2) dt / tilt_time, 1)`` (linear in time, from level),
+        and the full tilt from the first interval after the ramp on."""
+        a = math.radians(self.scene.tilt_deg)
+        if i < self._ramp_checks:
+            w.set_slope(a * min((i + 0.5) * self._dt_check / self.scene.tilt_time_s, 1.0))
+        elif i == self._ramp_checks:
+            w.set_slope(a)
+
     def _run(self, w: BulletWorld, pose) -> tuple[tuple[float, float, float], int]:
         w.set_pose(pose)
         still = 0
@@ -172,7 +186,10 @@ class TraySimulator:
         d_lin = self._v_rest * self._dt_check
         d_ang = self._w_rest * self._dt_check
         px, py, _, pyaw = w.state()[:4]
-        for _ in range(self._max_checks):
+        ramp = self._ramp_checks
+        for i in range(ramp + self._max_checks):
+            if ramp:
+                self._ramp(w, i)
             w.step()
             x, y, z, yaw, vx, vy, wz = w.state()
             if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw) and math.isfinite(vx)
@@ -182,7 +199,7 @@ class TraySimulator:
                 return None, st_codes.ESCAPED
             dx, dy, dyaw = x - px, y - py, yaw - pyaw
             px, py, pyaw = x, y, yaw
-            if dx * dx + dy * dy < d_lin * d_lin and abs(dyaw) < d_ang:
+            if i >= ramp and dx * dx + dy * dy < d_lin * d_lin and abs(dyaw) < d_ang:
                 still += 1
                 if still >= self._dwell_checks:
                     break
@@ -238,6 +255,8 @@ class TraySimulator:
 
         ``twist``: an initial tray-frame velocity ``(vx_mm_s, vy_mm_s, omega_rad_s)`` (default at rest).
 
+        With a tilt time the tray rotates from level as in :meth:`tilt`.
+
         Returns ``(t, poses, z)``: times (s, from the start of the tilt), tray-frame poses (mm, rad;
         theta unwrapped, not reduced modulo 2 pi) and the height of the part above its resting
         height (mm). A lower-level view for mechanics tests.
@@ -254,6 +273,8 @@ class TraySimulator:
         x, y, zz, yaw = w.state()[:4]
         for i in range(k + 1):
             if i:
+                if self._ramp_checks:
+                    self._ramp(w, i - 1)
                 w.step()
                 x, y, zz, yaw = w.state()[:4]
             px, py, _ = w.to_tray(x, y, 0.0)

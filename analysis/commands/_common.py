@@ -152,6 +152,40 @@ def add_contact(parser: argparse.ArgumentParser) -> None:
                              "or legs:K (K point legs); see docs/simulator.md")
 
 
+#: the help of ``--friction`` on every command that simulates.
+FRICTION_HELP = ("floor friction: a number (Coulomb coefficient, default 0.3), a static/kinetic pair MU_S/MU_K "
+                 "(e.g. 0.61/0.47; needs the coulomb contact) or map:LEVEL:SEED[:MEAN] (LEVEL low|medium|high, "
+                 "MEAN a number or a pair; default 0.3)")
+
+
+def add_tilt_time(parser: argparse.ArgumentParser) -> None:
+    """``--tilt-time S``: the tray rotates from level to its tilt over S seconds (0, the default, is
+    the instant tilt: the same models and cache keys as before the option existed)."""
+    parser.add_argument("--tilt-time", type=float, default=None, metavar="S",
+                        help="seconds the tray takes to rotate from level to its tilt, gravity following "
+                             "(default 0: an instant tilt); see docs/simulator.md")
+
+
+def parse_friction_arg(text: str):
+    """The :class:`~transition_builder.friction.FrictionSpec` of a ``--friction`` value; one-line InputError."""
+    from transition_builder.friction import parse_friction
+    try:
+        return parse_friction(text)
+    except ValueError as exc:
+        raise InputError(f"--friction: {exc}") from None
+
+
+def _tilt_time_arg(args):
+    value = getattr(args, "tilt_time", None)
+    if value is None:
+        return None
+    from transition_builder.scene import check_tilt_time
+    try:
+        return check_tilt_time(value)
+    except ValueError as exc:
+        raise InputError(f"--tilt-time: {exc}") from None
+
+
 def parse_contact_arg(text: str | None):
     """The canonical spelling of a ``--contact`` value (None stays None); one-line InputError."""
     if text is None:
@@ -164,14 +198,13 @@ def parse_contact_arg(text: str | None):
 
 
 def scene_from_args(args):
-    """The scene of --scene (a scene file; --shape/--friction/--tilt-deg replace its parts) or of
-    --shape/--friction/--tilt-deg."""
+    """The scene of --scene (a scene file; --shape/--friction/--tilt-deg/--tilt-time replace its
+    parts) or of --shape/--friction/--tilt-deg/--tilt-time."""
     from transition_builder.scene import Scene, scene_from_options
 
     if args.scene:
         from dataclasses import replace
 
-        from transition_builder.friction import parse_friction
         from transition_builder.shapes import parse_shape
 
         if not os.path.isfile(args.scene):
@@ -181,9 +214,11 @@ def scene_from_args(args):
         if args.shape is not None:
             changes["shape"] = parse_shape(args.shape)
         if args.friction is not None:
-            changes["friction"] = parse_friction(args.friction)
+            changes["friction"] = parse_friction_arg(args.friction)
         if args.tilt_deg is not None:
             changes["tilt_deg"] = args.tilt_deg
+        if _tilt_time_arg(args) is not None:
+            changes["tilt_time_s"] = _tilt_time_arg(args)
         contact = parse_contact_arg(getattr(args, "contact", None))
         if contact is not None:
             changes["settings"] = replace(scene.settings, contact=contact)
@@ -193,9 +228,11 @@ def scene_from_args(args):
     if contact is not None:
         kw["contact"] = contact
     if args.friction is not None:
-        kw["friction_spec"] = args.friction
+        kw["friction_spec"] = parse_friction_arg(args.friction)
     if args.tilt_deg is not None:
         kw["tilt_deg"] = args.tilt_deg
+    if _tilt_time_arg(args) is not None:
+        kw["tilt_time_s"] = _tilt_time_arg(args)
     if args.shape is not None and not args.shape.strip():
         raise InputError("--shape is empty; name a shape, e.g. allen-key (the default when --shape is not given)")
     return scene_from_options(args.shape or "allen-key", **kw)

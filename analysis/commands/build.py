@@ -10,7 +10,15 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import add_contact, add_seed, check_positive, check_writable_file, parse_resolution
+from analysis.commands._common import (
+    FRICTION_HELP,
+    add_contact,
+    add_seed,
+    add_tilt_time,
+    check_positive,
+    check_writable_file,
+    parse_resolution,
+)
 from transition_builder.builder.options import BUILD_OPTIONS
 
 
@@ -22,8 +30,9 @@ def _flagged():
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shape", default=None, help="allen-key | triangle:SEED | rectangle:WxH | "
                         "polygon:x1,y1;x2,y2;... | FILE.json (default allen-key)")
-    parser.add_argument("--friction", default=None, help="a Coulomb coefficient or map:LEVEL:SEED")
+    parser.add_argument("--friction", default=None, help=FRICTION_HELP)
     parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
+    add_tilt_time(parser)
     parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml)")
     parser.add_argument("--noise", default="none", help="process noise: none | pose:SIGMA_MM,SIGMA_DEG")
     parser.add_argument("--resolution", default=None, metavar="MM,DEG",
@@ -83,7 +92,7 @@ def run(args: argparse.Namespace) -> dict:
            "voxels_total": stats.get("voxels_total"),
            "tilts_simulated": 0 if cached else stats.get("tilts_simulated"),
            "fault_rate": stats.get("fault_rate"), "cached": cached, "shape": scene.shape.name,
-           "friction": str(scene.friction), "noise": settings.noise, "contact": scene.settings.contact}
+           "friction": str(scene.friction), "tilt_time_s": scene.tilt_time_s, "noise": settings.noise, "contact": scene.settings.contact}
     if cached:
         stats["tilts_simulated_when_built"] = stats.pop("tilts_simulated", None)
     out.update({k: v for k, v in stats.items() if k not in out})

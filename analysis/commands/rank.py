@@ -12,8 +12,10 @@ import argparse
 
 from analysis.commands import InputError
 from analysis.commands._common import (
+    FRICTION_HELP,
     add_contact,
     add_seed,
+    add_tilt_time,
     check_writable_file,
     parse_resolution,
     positive_float,
@@ -23,8 +25,9 @@ from analysis.orientability import random_tilts_text
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shapes", nargs="+", required=True, metavar="S", help="shape specs (as --shape)")
-    parser.add_argument("--friction", default=None, help="a Coulomb coefficient or map:LEVEL:SEED")
+    parser.add_argument("--friction", default=None, help=FRICTION_HELP)
     parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
+    add_tilt_time(parser)
     parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml): tray, friction, simulator; "
                         "each shape replaces its part")
     add_contact(parser)
@@ -112,8 +115,8 @@ def _command_line(args) -> str:
     import shlex
 
     parts = ["kruskal rank --shapes", " ".join(shlex.quote(s) for s in args.shapes)]
-    for opt in ("friction", "tilt_deg", "scene", "contact", "support_points", "resolution", "recenter_rounds",
-                "start_samples", "count", "runs", "sync_time_budget", "check_trials", "seed"):
+    for opt in ("friction", "tilt_deg", "tilt_time", "scene", "contact", "support_points", "resolution",
+                "recenter_rounds", "start_samples", "count", "runs", "sync_time_budget", "check_trials", "seed"):
         value = getattr(args, opt, None)
         if value is not None:
             parts.append(f"--{opt.replace('_', '-')} {shlex.quote(str(value))}")

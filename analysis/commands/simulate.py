@@ -11,8 +11,10 @@ import argparse
 import sys
 
 from analysis.commands._common import (
+    FRICTION_HELP,
     add_contact,
     add_seed,
+    add_tilt_time,
     check_positive,
     check_writable_file,
     parse_sequence,
@@ -33,10 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--theta-offset", type=float, default=None, metavar="RAD",
                         help="shift of the theta bin edges in radians (default half a bin: bins centred "
                              "on the tray axes; 0 gives the paper's edges)")
-    parser.add_argument("--friction", default=None,
-                        help="floor friction: a number (Coulomb coefficient) or map:LEVEL:SEED "
-                             "(LEVEL low|medium|high)")
+    parser.add_argument("--friction", default=None, help=FRICTION_HELP)
     parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
+    add_tilt_time(parser)
     parser.add_argument("--scene", metavar="FILE",
                         help="a scene file (.json/.toml); --shape/--friction/--tilt-deg then override it "
                              "only when given explicitly")
@@ -75,6 +76,7 @@ def run(args: argparse.Namespace) -> dict:
     out = result.to_dict()
     out["shape"] = scene.shape.name
     out["friction"] = str(scene.friction)
+    out["tilt_time_s"] = scene.tilt_time_s
     out["contact"] = scene.settings.contact
     out["scene_hash"] = scene.content_hash()
     if args.poses is not None:

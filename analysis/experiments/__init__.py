@@ -59,4 +59,5 @@ register("sensitivity", "analysis.experiments.sensitivity")    # intervals and t
 register("robot_log", "analysis.experiments.robot_log")        # a robot's log beside the model
 register("B", "analysis.experiments.experiment_b")             # B: other parts (Fig. 4)
 register("C", "analysis.experiments.experiment_c")             # C: friction maps (Fig. 6)
+register("friction", "analysis.experiments.friction")          # C by mean, the physics of A (issue 40)
 register("notes", "analysis.experiments.notes")                # how the differences arise

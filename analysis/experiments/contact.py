@@ -89,6 +89,12 @@ def run(ctx) -> Result:
 
         ctx.log("the contact judges (free sliding against the integration of Coulomb's law)")
         judges = {"table": judges_table((default, "sphere", "legs:4", "legs:25")), "targets": JUDGE_TARGETS}
+        if default == "coulomb":
+            from transition_builder.judges import PAIR_JUDGE_TARGETS, pair_judges
+
+            ctx.log("the static/kinetic judges (a part on an incline against the block-on-a-slope laws)")
+            judges["pairs"] = {"table": {p: pair_judges(p, shapes=("allen-key",))["allen-key"]
+                                         for p in ("0.5/0.3", "0.61/0.47")}, "targets": PAIR_JUDGE_TARGETS}
     return Result(st, answers, models, judges)
 
 
@@ -119,7 +125,30 @@ def judges_lines(judges: dict) -> list:
         lines.append(f"| {label} | {format(targets[key], f)} | " + " | ".join(cells) + " |")
     passed = [k for k in keys if all(table[k][c] is not None and table[k][c] <= targets[c] for c in targets)]
     lines += ["", f"Passing every judge: {', '.join(f'`{k}`' for k in passed) if passed else 'none'}.", ""]
+    if judges.get("pairs"):
+        lines += pair_judges_lines(judges["pairs"])
     return lines
+
+
+_PAIR_JUDGE_ROWS = (("hold_mm", "at rest between the friction angles: largest displacement in 2 s (mm)", ".3f"),
+                    ("hold_deg", "the same: largest rotation (deg)", ".3f"),
+                    ("slide_error", "released downhill at 100 mm/s: distance against g (sin a - mu_k cos a)", ".1%"),
+                    ("break_error", "at rest 3.4 deg above atan(mu_s): distance against the kinetic law", ".1%"),
+                    ("onset_deg", "tray tilting from level: start of sliding from atan(mu_s) (deg)", ".2f"))
+
+
+def pair_judges_lines(pairs: dict) -> list:
+    """The static/kinetic judges' table: a part on an incline against the block-on-a-slope laws."""
+    table, targets = pairs["table"], pairs["targets"]
+    keys = list(table)
+    lines = ["**Static and kinetic friction** (`coulomb` contact, the allen key on an incline, "
+             "`transition_builder.judges.pair_judges`, at 1/4 of the default step):", "",
+             "| judge | target | " + " | ".join(f"`{k}`" for k in keys) + " |", "|---|---|" + "---|" * len(keys)]
+    for key, label, f in _PAIR_JUDGE_ROWS:
+        cells = [(f"**{format(table[k][key], f)}**" if table[k][key] > targets[key] else format(table[k][key], f))
+                 for k in keys]
+        lines.append(f"| {label} | {format(targets[key], f)} | " + " | ".join(cells) + " |")
+    return lines + [""]
 
 
 def _rows(st: Settings, cm: dict, keys: list):

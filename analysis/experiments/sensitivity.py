@@ -43,12 +43,14 @@ class Settings:
     check_trials: int
     build: dict
     sync_time_budget: float
+    physics: tuple = ()
 
     @classmethod
     def from_settings(cls, s) -> "Settings":
         return cls(s.sensitivity, tuple(s.sensitivity_noise), tuple(s.sensitivity_mu), tuple(s.sensitivity_check_mu),
                    s.sensitivity_check_sequences, s.sensitivity_check_trials,
-                   dict(s.key_build if s.contact_build is None else s.contact_build), s.part_sync_time_budget)
+                   dict(s.key_build if s.contact_build is None else s.contact_build), s.part_sync_time_budget,
+                   tuple(s.sensitivity_physics))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -103,6 +105,22 @@ def _friction_checks(ctx, st: Settings, models: dict, mu_scene, mu0) -> dict:
     return checks
 
 
+def _physics_variants(key_scene, st: Settings) -> list:
+    """The key's scene under each static/kinetic pair and tilt time of ``st.physics`` (issue 40):
+    ``(label, scene, {})``; a pair is skipped unless the contact is ``coulomb``."""
+    from dataclasses import replace
+
+    from transition_builder.friction import parse_friction
+
+    out = []
+    for label, spec, tilt_time in st.physics:
+        friction = parse_friction(spec or key_scene.friction)
+        if friction.is_pair and key_scene.settings.contact != "coulomb":
+            continue
+        out.append((label, replace(key_scene, friction=friction, tilt_time_s=tilt_time), {}))
+    return out
+
+
 def sensitivity_study(ctx, st: Settings) -> dict:
     """Answers of the key's model under every setting of ``st`` (see the module docstring).
 
@@ -125,6 +143,7 @@ def sensitivity_study(ctx, st: Settings) -> dict:
         return key_scene if mu == mu0 else ctx.scene(friction_spec=str(mu))
 
     variants += [(f"mu {mu:g}", mu_scene(mu), {}) for mu in mus if mu != mu0]
+    variants += _physics_variants(key_scene, st)
     table, models = {}, {}
     for label, scene, changes in variants:
         model, info = ctx.build(scene, {**st.build, **changes}, f"sensitivity: {label}")
