@@ -1,0 +1,213 @@
+"""``kruskal fit``: recovery, interval coverage, untidy logs, bad logs, friction ranges.
+
+The statistical tests use an exact synthetic family of models (every state a pose in the tray, and
+under every tilt a state goes to one successor with probability ``1 - mu`` and to another with
+probability ``mu``): logs are drawn from the family's hidden Markov model at a coefficient between
+the grid points, so they check the fit's machinery (forward algorithm, grid, refinement, estimate,
+bootstrap interval) without minutes of physics. The physics end to end is a ``slow`` test and the
+paper-protocol benchmark (benchmarks/bench_fit.py, docs/fit.md).
+"""
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from analysis.cli import main
+from analysis.fit import FitSettings, fit_log, read_fit_log
+from analysis.friction_range import parse_friction_range
+from analysis.montecarlo import report_grid_for
+from kruskal_markov.model import TransitionModel
+from transition_builder.scene import scene_from_options
+
+SHAPE = "polygon:0,0;40,0;0,25"         # asymmetric: theta over the full circle
+N_REST = 60
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return scene_from_options(SHAPE)
+
+
+def _family(scene):
+    """State poses and the two successor maps of the synthetic family (fixed, seed 7)."""
+    rng = np.random.default_rng(7)
+    grid = report_grid_for(scene)
+    poses = np.column_stack([rng.uniform(20, scene.tray_x_mm - 20, N_REST),
+                             rng.uniform(20, scene.tray_y_mm - 20, N_REST),
+                             rng.uniform(0, 2 * np.pi, N_REST)])
+    n_start = grid.n_voxels
+    first = rng.integers(0, N_REST, size=(8, n_start + N_REST))
+    second = rng.integers(0, N_REST, size=(8, n_start + N_REST))
+    return grid, poses, n_start, first, second
+
+
+def synthetic_model(scene, mu: float) -> TransitionModel:
+    grid, poses, n_start, first, second = _family(scene)
+    n = n_start + N_REST
+    mats = []
+    for a in range(8):
+        P = np.zeros((n, n))
+        P[np.arange(n), n_start + first[a]] += 1 - mu
+        P[np.arange(n), n_start + second[a]] += mu
+        mats.append(P)
+    state_poses = np.full((n, 3), np.nan)
+    state_poses[n_start:] = poses
+    partition = np.concatenate([np.arange(n_start), grid.voxel_index(poses)])
+    initial = np.concatenate([np.full(n_start, 1.0 / n_start), np.zeros(N_REST)])
+    return TransitionModel(scene.actions, mats, initial=initial, partition=partition, n_cells=grid.n_voxels,
+                           metadata={"build_settings": {"tol_mm": 0.0, "tol_deg": 0.0}},
+                           extras={"state_poses": state_poses})
+
+
+def synthetic_log(scene, path, mu, trials, tilts, seed, camera=0.5, drop=0.0, truncate=False):
+    """Write a log drawn from the family at ``mu``: uniform starts, camera noise, optional gaps."""
+    grid, poses, n_start, first, second = _family(scene)
+    rng = np.random.default_rng(seed)
+    seq = np.random.default_rng(seed + 1000).integers(0, 8, tilts)
+    rows = []
+    for t in range(trials):
+        start = np.array([rng.uniform(25, scene.tray_x_mm - 25), rng.uniform(25, scene.tray_y_mm - 25),
+                          rng.uniform(0, 2 * np.pi)])
+        state = int(grid.voxel_index(start[None])[0])
+        length = rng.integers(tilts // 2, tilts + 1) if truncate else tilts
+        rows.append((t, 0, *start, "ok"))
+        for k in range(1, length + 1):
+            nxt = first if rng.random() >= mu else second
+            r = int(nxt[seq[k - 1], state])
+            state = n_start + r
+            p = poses[r] + rng.normal(0, 1, 3) * [camera, camera, np.radians(camera)]
+            p[2] %= 2 * np.pi
+            if drop and rng.random() < drop:
+                if rng.random() < 0.5:
+                    continue                                 # a missing row
+                rows.append((t, k, "", "", "", "unsettled"))  # a status other than ok
+                continue
+            rows.append((t, k, *p, "ok"))
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["trial", "step", "x_mm", "y_mm", "theta_rad", "status", "action"])
+        for t, k, x, y, th, st in rows:
+            w.writerow([t, k, x, y, th, st, "" if k == 0 else scene.actions[seq[k - 1]]])
+    return seq
+
+
+def _fit(scene, path, seed=0, lo=0.1, hi=0.5, points=9, camera=None):
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+    settings = FitSettings(ranges={"mu": (lo, hi)}, points={"mu": points}, camera=camera, seed=seed,
+                           bootstrap=200)
+    return fit_log(scene, log, settings, build=lambda sc, st: (synthetic_model(sc, sc.friction.mu), "synthetic"))
+
+
+def test_recovers_a_coefficient_between_grid_points(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.33, trials=300, tilts=20, seed=1)
+    r = _fit(scene, path)
+    assert abs(r.estimate["mu"] - 0.33) < 0.03
+    lo, hi = r.interval_90["mu"]
+    assert lo <= 0.33 <= hi and hi - lo < 0.1
+    assert not r.at_edge
+    assert r.trials == 300 and r.tilts == 20
+    assert r.camera_noise["estimated"] and r.camera_noise["mm"] == 0.5   # the candidate that made the log
+
+
+def test_interval_covers_at_its_nominal_rate(scene, tmp_path):
+    """20 seeded logs at coefficients drawn before looking: the 90% interval must cover the truth
+    in at least 15 (a 60% interval covers 15 of 20 with probability 0.13, a 90% one 0.99)."""
+    truths = np.random.default_rng(2041).uniform(0.2, 0.4, 20)
+    covered = 0
+    for i, mu in enumerate(truths):
+        path = tmp_path / f"log{i}.csv"
+        synthetic_log(scene, path, mu, trials=150, tilts=15, seed=100 + i)
+        r = _fit(scene, path, seed=i, camera=(0.5, 0.5))
+        lo, hi = r.interval_90["mu"]
+        covered += lo <= mu <= hi
+    assert covered >= 15
+
+
+def test_untidy_log_missing_rows_faults_and_unequal_lengths(scene, tmp_path):
+    path = tmp_path / "untidy.csv"
+    synthetic_log(scene, path, 0.27, trials=300, tilts=20, seed=3, drop=0.2, truncate=True)
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+    assert len(set(log.length.tolist())) > 1
+    assert log.n_observations < 300 * 21 * 0.9
+    r = _fit(scene, path)
+    assert abs(r.estimate["mu"] - 0.27) < 0.04
+    lo, hi = r.interval_90["mu"]
+    assert lo <= 0.27 <= hi
+
+
+def test_best_fit_at_the_edge_says_so(scene, tmp_path):
+    path = tmp_path / "edge.csv"
+    synthetic_log(scene, path, 0.03, trials=200, tilts=15, seed=4)
+    r = _fit(scene, path, lo=0.15, hi=0.5, points=8)
+    assert r.at_edge and r.interval_90 is None
+    assert r.estimate["mu"] == pytest.approx(0.15, abs=0.03)
+
+
+def test_same_log_and_seed_same_fit(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=100, tilts=10, seed=5)
+    assert _fit(scene, path, seed=9).to_dict() == _fit(scene, path, seed=9).to_dict()
+
+
+def test_histogram_baseline_is_smallest_near_the_truth(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=400, tilts=15, seed=6)
+    r = _fit(scene, path)
+    best = min(r.criterion, key=lambda c: c["histogram_distance"])
+    assert abs(best["mu"] - 0.3) <= 0.1
+
+
+# --- bad logs: one line on stderr, exit 2, before any model is built ---------------------------------
+
+_HEADER = "trial,step,x_mm,y_mm,theta_rad,status,action\n"
+_BAD = {
+    "unknown action": _HEADER + "0,0,50,50,1,ok,\n0,1,50,60,1,ok,XX\n",
+    "outside the": _HEADER + "0,0,50,50,1,ok,\n0,1,250,60,1,ok,N\n",
+    "finite pose": _HEADER + "0,0,50,50,1,ok,\n0,1,nan,60,1,ok,N\n",
+    "appears twice": _HEADER + "0,0,50,50,1,ok,\n0,1,50,60,1,ok,N\n0,1,50,61,1,ok,N\n",
+    "no row with status ok": _HEADER + "0,0,,,,unsettled,\n0,1,,,,tipped,N\n",
+    "missing column": "0,0,50,50,1,ok,\n0,1,50,60,1,ok,N\n",
+    "no action column": "trial,step,x_mm,y_mm,theta_rad,status\n0,0,50,50,1,ok\n",
+}
+
+
+@pytest.mark.parametrize("expected", sorted(_BAD))
+def test_bad_log_is_one_line_and_exit_2(expected, tmp_path, capsys):
+    path = tmp_path / "bad.csv"
+    path.write_text(_BAD[expected])
+    status = main(["fit", "--poses", str(path), "--shape", SHAPE, "--json"])
+    err = capsys.readouterr().err.strip()
+    assert status == 2
+    assert len(err.splitlines()) == 1 and expected in err
+
+
+def test_bad_options_exit_2(tmp_path, capsys, scene):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=5, tilts=3, seed=1)
+    for extra, words in ((["--range", "0.5..0.2"], "low end"), (["--fit", "mu_s,mu_k"], "friction issue"),
+                         (["--fit", "speed"], "bad --fit"), (["--camera-noise", "0,1"], "camera-noise")):
+        assert main(["fit", "--poses", str(path), "--shape", SHAPE, *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and words in err
+
+
+def test_sequence_must_agree_with_action_column(tmp_path, scene, capsys):
+    path = tmp_path / "log.csv"
+    seq = synthetic_log(scene, path, 0.3, trials=5, tilts=3, seed=1)
+    other = ",".join(scene.actions[(a + 1) % 8] for a in seq)
+    assert main(["fit", "--poses", str(path), "--shape", SHAPE, "--sequence", other]) == 2
+    assert "--sequence has" in capsys.readouterr().err
+
+
+# --- friction ranges -----------------------------------------------------------------------------------
+
+def test_friction_range_points_and_errors():
+    r = parse_friction_range("0.2..0.4")
+    assert r.points(5) == ["0.2", "0.25", "0.3", "0.35", "0.4"]
+    assert str(r) == "0.2..0.4" and not r.paired
+    for bad in ("0.4..0.2", "0.2..", "a..0.3", "map:low:1..0.3", "0.2..0.3..0.4", "0.3"):
+        with pytest.raises(ValueError, match="friction range"):
+            parse_friction_range(bad)
