@@ -211,3 +211,61 @@ def test_friction_range_points_and_errors():
     for bad in ("0.4..0.2", "0.2..", "a..0.3", "map:low:1..0.3", "0.2..0.3..0.4", "0.3"):
         with pytest.raises(ValueError, match="friction range"):
             parse_friction_range(bad)
+
+
+def _synthetic_range(monkeypatch, scene, tmp_path):
+    """Stand in for the range's builds: synthetic models at the range's points, saved as files."""
+    import analysis.friction_range as fr_mod
+
+    def models(sc, frange, points, build_settings=None, **kw):
+        out = []
+        for spec in frange.points(points):
+            m = synthetic_model(scene, float(spec))
+            path = str(tmp_path / f"m{spec}.npz")
+            m.save(path)
+            out.append((spec, m, path))
+        return out
+
+    monkeypatch.setattr(fr_mod, "models_over_range", models)
+
+
+def test_ensemble_and_convergence_over_a_range(monkeypatch, scene, tmp_path, capsys):
+    import json
+
+    _synthetic_range(monkeypatch, scene, tmp_path)
+    assert main(["ensemble", "--friction", "0.1..0.5", "--shape", SHAPE, "--count", "20", "--length", "8",
+                 "--range-points", "3", "--draws", "0", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    r = out["friction_range"]
+    assert r["friction"] == ["0.1", "0.3", "0.5"] and len(r["models"]) == 3
+    lo, hi = r["range"]["mean"][-1]
+    assert lo <= out["mean"][-1] <= hi and lo < hi       # a stochastic family: the answers move with mu
+    assert main(["convergence", "--friction", "0.1..0.5", "--shape", SHAPE, "--range-points", "3",
+                 "--runs", "50", "--draws", "0", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert "friction_range" in out and "expected_length" in out
+    assert main(["ensemble", "--friction", "0.1..0.5", "--model", "x.npz", "--count", "2", "--length", "2"]) == 2
+    assert "drop --model" in capsys.readouterr().err
+
+
+def test_robust_plan_over_a_range(monkeypatch, scene, tmp_path, capsys):
+    import json
+
+    _synthetic_range(monkeypatch, scene, tmp_path)
+    assert main(["plan", "--friction", "0.0..0.0", "--shape", SHAPE, "--range-points", "2",
+                 "--target", "state", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["friction_range"]["friction"] == ["0"]
+    assert out["word"] is not None
+
+
+def test_rankings_over_range_orders_that_hold():
+    from analysis.friction_range import rankings_over_range
+
+    rows = [[{"shape": "a", "rank": 1}, {"shape": "b", "rank": 2}, {"shape": "c", "rank": 3}],
+            [{"shape": "a", "rank": 1}, {"shape": "c", "rank": 2}, {"shape": "b", "rank": 3}]]
+    r = rankings_over_range(["0.2", "0.4"], rows)
+    assert r["rank_range"] == {"a": [1, 1], "b": [2, 3], "c": [2, 3]}
+    assert r["orders_that_hold"] == [["a", "b"], ["a", "c"]]
+    assert r["orders_that_flip"] == [["b", "c"]]
+    assert r["kendall_tau_ends"] == pytest.approx(1 / 3)
