@@ -269,3 +269,21 @@ def test_rankings_over_range_orders_that_hold():
     assert r["orders_that_hold"] == [["a", "b"], ["a", "c"]]
     assert r["orders_that_flip"] == [["b", "c"]]
     assert r["kendall_tau_ends"] == pytest.approx(1 / 3)
+
+
+def test_figure_and_study_pieces(scene, tmp_path):
+    from analysis.fit.figure import fit_figure
+    from analysis.fit.study import TrayLogStudy, hidden_coefficient
+
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=100, tilts=10, seed=2)
+    r = _fit(scene, path).to_dict()
+    png = fit_figure(r, tmp_path / "fit.png", truth=0.3)
+    assert (tmp_path / "fit.png").stat().st_size > 1000 and png.endswith("fit.png")
+    assert hidden_coefficient(7) == hidden_coefficient(7) and 0.15 <= hidden_coefficient(7) <= 0.45
+    study = TrayLogStudy(truth=0.3, fit=r, sequence=["N"] * 10, trials=100, camera=(0.5, 0.5),
+                         interval_models=["0.28", "0.3", "0.32"], answers={"share": (0.2, 0.4)},
+                         plan={"word": ["N", "E"], "length": 2, "success_probability": [1.0, 1.0]})
+    md = study.markdown()
+    assert "## A tray's log" in md and "mu = 0.300" in md and "N,E" in md
+    assert study.to_dict()["truth"] == 0.3
