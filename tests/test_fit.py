@@ -31,7 +31,7 @@ def scene():
 
 
 def _family(scene):
-    """State poses and the two successor maps of the synthetic family (fixed, seed 7)."""
+    """State poses and the successor maps of the synthetic family (fixed, seed 7)."""
     rng = np.random.default_rng(7)
     grid = report_grid_for(scene)
     poses = np.column_stack([rng.uniform(20, scene.tray_x_mm - 20, N_REST),
@@ -40,17 +40,20 @@ def _family(scene):
     n_start = grid.n_voxels
     first = rng.integers(0, N_REST, size=(8, n_start + N_REST))
     second = rng.integers(0, N_REST, size=(8, n_start + N_REST))
-    return grid, poses, n_start, first, second
+    third = rng.integers(0, N_REST, size=(8, n_start + N_REST))
+    return grid, poses, n_start, first, second, third
 
 
-def synthetic_model(scene, mu: float) -> TransitionModel:
-    grid, poses, n_start, first, second = _family(scene)
+def synthetic_model(scene, mu: float, noise: float = 0.0) -> TransitionModel:
+    """The family at ``mu``; ``noise`` moves that much probability to a third successor."""
+    grid, poses, n_start, first, second, third = _family(scene)
     n = n_start + N_REST
     mats = []
     for a in range(8):
         P = np.zeros((n, n))
-        P[np.arange(n), n_start + first[a]] += 1 - mu
+        P[np.arange(n), n_start + first[a]] += 1 - mu - noise
         P[np.arange(n), n_start + second[a]] += mu
+        P[np.arange(n), n_start + third[a]] += noise
         mats.append(P)
     state_poses = np.full((n, 3), np.nan)
     state_poses[n_start:] = poses
@@ -61,9 +64,9 @@ def synthetic_model(scene, mu: float) -> TransitionModel:
                            extras={"state_poses": state_poses})
 
 
-def synthetic_log(scene, path, mu, trials, tilts, seed, camera=0.5, drop=0.0, truncate=False):
+def synthetic_log(scene, path, mu, trials, tilts, seed, camera=0.5, drop=0.0, truncate=False, noise=0.0):
     """Write a log drawn from the family at ``mu``: uniform starts, camera noise, optional gaps."""
-    grid, poses, n_start, first, second = _family(scene)
+    grid, poses, n_start, first, second, third = _family(scene)
     rng = np.random.default_rng(seed)
     seq = np.random.default_rng(seed + 1000).integers(0, 8, tilts)
     rows = []
@@ -74,7 +77,8 @@ def synthetic_log(scene, path, mu, trials, tilts, seed, camera=0.5, drop=0.0, tr
         length = rng.integers(tilts // 2, tilts + 1) if truncate else tilts
         rows.append((t, 0, *start, "ok"))
         for k in range(1, length + 1):
-            nxt = first if rng.random() >= mu else second
+            u = rng.random()
+            nxt = second if u < mu else third if u < mu + noise else first
             r = int(nxt[seq[k - 1], state])
             state = n_start + r
             p = poses[r] + rng.normal(0, 1, 3) * [camera, camera, np.radians(camera)]
@@ -124,6 +128,23 @@ def test_interval_covers_at_its_nominal_rate(scene, tmp_path):
         lo, hi = r.interval_90["mu"]
         covered += lo <= mu <= hi
     assert covered >= 15
+
+
+def test_fits_mu_and_noise_together(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=300, tilts=15, seed=8, noise=0.1)
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+    settings = FitSettings(params=("mu", "noise"), ranges={"mu": (0.1, 0.5), "noise": (0.0, 0.2)},
+                           points={"mu": 9, "noise": 3}, camera=(0.5, 0.5), bootstrap=100)
+
+    def build(sc, st):
+        nz = 0.0 if st.noise == "none" else float(st.noise.split(":")[1].split(",")[0])
+        return synthetic_model(sc, sc.friction.mu, nz), "synthetic"
+
+    r = fit_log(scene, log, settings, build=build)
+    assert r.estimate == {"mu": pytest.approx(0.3), "noise": pytest.approx(0.1)}
+    assert not r.at_edge and set(r.interval_90) == {"mu", "noise"}
+    assert len(r.criterion) == 27 and {"mu", "noise", "loglik"} <= set(r.criterion[0])
 
 
 def test_untidy_log_missing_rows_faults_and_unequal_lengths(scene, tmp_path):
