@@ -308,3 +308,24 @@ def test_figure_and_study_pieces(scene, tmp_path):
     md = study.markdown()
     assert "## A tray's log" in md and "mu = 0.300" in md and "N,E" in md
     assert study.to_dict()["truth"] == 0.3
+
+
+@pytest.mark.slow
+def test_physics_log_recovered_end_to_end(tmp_path, monkeypatch, capsys):
+    """A rectangle's log by direct simulation at mu = 0.33, fitted by the command line on coarse builds."""
+    import json
+
+    from analysis.fit.study import add_camera_noise
+    from analysis.montecarlo import run_direct, write_poses_csv
+
+    monkeypatch.setenv("KRUSKAL_CACHE", str(tmp_path / "cache"))
+    shape = "rectangle:60x20"
+    sc = scene_from_options(shape, friction_spec=0.33)
+    seq = ",".join(np.array(sc.actions)[np.random.default_rng(11).integers(0, 8, 12)])
+    res = add_camera_noise(run_direct(sc, seq, 200, seed=11, workers=2), 0.5, 0.5, 11)
+    log = write_poses_csv(tmp_path / "log.csv", res)
+    assert main(["fit", "--poses", log, "--shape", shape, "--sequence", seq, "--range", "0.2..0.5",
+                 "--points", "4", "--resolution", "2,2", "--start-samples", "300", "--recenter-rounds", "0",
+                 "--workers", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert abs(out["estimate"]["mu"] - 0.33) < 0.05
