@@ -133,3 +133,25 @@ def run(args: argparse.Namespace) -> dict:
         from analysis.fit.figure import fit_figure
         out["figure"] = fit_figure(out, args.figure)
     return out
+
+
+def format_text(result: dict) -> str:
+    """A short human summary: the estimate, its interval, the criterion over the range."""
+    lines = []
+    for name, value in result["estimate"].items():
+        iv = (result["interval_90"] or {}).get(name)
+        tail = "best at the edge of the range: no interval" if result["at_edge"] else (
+            f"90% interval {iv[0]:.4g} .. {iv[1]:.4g}" if iv else "no interval")
+        lines.append(f"{name} = {value:.4g}   {tail}")
+    cam = result["camera_noise"]
+    lines.append(f"camera noise {cam['mm']:g} mm / {cam['deg']:g} deg ({'estimated' if cam['estimated'] else 'given'});"
+                 f" {result['trials']} trials, {result['tilts']} tilts, {result['observations']} observations")
+    names = list(result["estimate"])
+    lines.append("  ".join(f"{n:>6}" for n in names) + "      loglik  hist_dist")
+    for row in result["criterion"]:
+        lines.append("  ".join(f"{row[n]:6.3f}" for n in names) + f"  {row['loglik']:10.1f}  {row['histogram_distance']:9.4f}")
+    needed = result["trials_needed"]["half_width_90"]
+    if needed:
+        lines.append("trials for a 90% half-width of " + ", ".join(f"{k}: {v:,}" for k, v in needed.items()))
+    lines.append(f"seconds: {result['seconds']:.1f}")
+    return "\n".join(lines)

@@ -309,7 +309,7 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     boots = np.array(boots)
     interval = profile = None
     needed = {}
-    if not at_edge:
+    if not at_edge and len(x) >= 3:         # fewer models cannot show a curve: no interval
         if boots.size:
             interval = [float(v) for v in np.quantile(boots, [0.05, 0.95])]
             se = float(boots.std(ddof=1))
