@@ -130,7 +130,7 @@ def timing() -> dict:
     return row
 
 
-def plan(trials: int = 200) -> dict:
+def plan(trials: int = 100) -> dict:
     """Robust plan over mu 0.2..0.4 against the mu = 0.3 optimum, replayed between the models."""
     from analysis.friction_range import check_plan_between, models_over_range, parse_friction_range
     from kruskal_markov.sync.plan import shortest_plan
@@ -142,7 +142,7 @@ def plan(trials: int = 200) -> dict:
     rows = {}
     for name, ms in (("robust 0.2..0.4", [m for _, m, _ in models]), ("single mu 0.3", [models[2][1]])):
         t = time.perf_counter()
-        res = shortest_plan(ms, target, node_budget=20_000_000, time_budget=120)
+        res = shortest_plan(ms, target, node_budget=20_000_000, time_budget=45)
         d = res.to_dict()
         check = check_plan_between(_key(), d["word"], d["final_cell"], fr, 5, trials, SEED0) if d["word"] else []
         rows[name] = {"word": d["word"], "length": d["length"], "exact": d["exact"],
