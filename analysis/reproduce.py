@@ -127,11 +127,16 @@ class ReproduceSettings:
     sensitivity_check_mu: tuple = (0.15, 0.3, 0.5)
     sensitivity_check_sequences: int = 12
     sensitivity_check_trials: int = 60
+    #: the tray's-log section (analysis.experiments.tray_log): a log of this many trials x tilts at a hidden
+    #: coefficient, fitted (about ten coarse builds of the key; on in :meth:`full` only)
+    tray_log: bool = False
+    tray_log_trials: int = 500
+    tray_log_tilts: int = 50
 
     @classmethod
     def full(cls, seed: int = 0) -> "ReproduceSettings":
         """The committed report's settings (about an hour on 2 cores with the key's model cached)."""
-        return cls(seed=seed)
+        return cls(seed=seed, tray_log=True)
 
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":

@@ -143,94 +143,112 @@ def trial_loglik(model, log, em: EmissionSettings, grid) -> np.ndarray:
 
 
 @numba.njit(cache=True)
+def _start(t, n, init, start_state, alpha, sup):  # pragma: no cover - compiled
+    """Step 0: the observed start cell's state, else the initial distribution; returns the support size."""
+    if start_state[t] >= 0:
+        sup[0] = start_state[t]
+        alpha[sup[0]] = 1.0
+        return 1
+    nsup = 0
+    for s in range(n):
+        if init[s] > 0:
+            sup[nsup] = s
+            alpha[s] = init[s]
+            nsup += 1
+    return nsup
+
+
+@numba.njit(cache=True)
+def _predict(ptrs, offs, idxs, vals, a, alpha, sup, nsup, pred, touched, mark):  # pragma: no cover - compiled
+    """``pred = alpha P_a`` over the support (alpha is cleared); returns the number of touched states."""
+    base = offs[a]
+    nt = 0
+    for ii in range(nsup):
+        i = sup[ii]
+        w = alpha[i]
+        alpha[i] = 0.0
+        for p in range(ptrs[a, i], ptrs[a, i + 1]):
+            j = idxs[base + p]
+            if not mark[j]:
+                mark[j] = True
+                touched[nt] = j
+                nt += 1
+            pred[j] += w * vals[base + p]
+    return nt
+
+
+@numba.njit(cache=True)
+def _carry(pred, touched, nt, mark, alpha, sup):  # pragma: no cover - compiled
+    """No emission (a missed observation, or no state near it): the prediction becomes the filter."""
+    for ii in range(nt):
+        j = touched[ii]
+        sup[ii] = j
+        alpha[j] = pred[j]
+        pred[j] = 0.0
+        mark[j] = False
+    return nt
+
+
+@numba.njit(cache=True)
+def _emission_loglik(pred, lo, hi, nb, lp, log_in, log_out):  # pragma: no cover - compiled
+    """(log p(y | prediction) with the outlier share, the Gaussian part's log, the largest log density)."""
+    m = -1e300
+    for p in range(lo, hi):
+        m = max(m, lp[p])
+    lik = 0.0
+    for p in range(lo, hi):
+        lik += pred[nb[p]] * np.exp(lp[p] - m)
+    gauss = log_in + m + np.log(lik) if (hi > lo and lik > 0.0) else -1e300
+    big = max(gauss, log_out)
+    return big + np.log(np.exp(gauss - big) + np.exp(log_out - big)), gauss, m
+
+
+@numba.njit(cache=True)
+def _update(pred, touched, nt, mark, alpha, sup, lo, hi, nb, lp, m, restart):  # pragma: no cover - compiled
+    """The filter after an observation: the Gaussian part of the posterior on the states near it (or,
+    for an outlier, those states weighted by the emission alone); returns the support size."""
+    nsup = 0
+    total = 0.0
+    for p in range(lo, hi):         # the neighbours of one observation are distinct
+        j = nb[p]
+        w = np.exp(lp[p] - m) if restart else pred[j] * np.exp(lp[p] - m)
+        if w > 0.0:
+            sup[nsup] = j
+            nsup += 1
+            alpha[j] = w
+            total += w
+    if total <= 0.0:
+        return _carry(pred, touched, nt, mark, alpha, sup)
+    for ii in range(nsup):
+        alpha[sup[ii]] /= total
+    for ii in range(nt):
+        j = touched[ii]
+        pred[j] = 0.0
+        mark[j] = False
+    return nsup
+
+
+@numba.njit(cache=True)
 def _forward(ptrs, offs, idxs, vals, n, init, start_state, actions, length, obs_slot, ptr_o, nb, lp,
              log_in, log_out, out):  # pragma: no cover - compiled
     alpha = np.zeros(n)
     pred = np.zeros(n)
     sup = np.empty(n, dtype=np.int64)
-    nsup = 0
     touched = np.empty(n, dtype=np.int64)
     mark = np.zeros(n, dtype=np.bool_)
     for t in range(len(length)):
-        nsup = 0
-        if start_state[t] >= 0:
-            sup[0] = start_state[t]
-            alpha[sup[0]] = 1.0
-            nsup = 1
-        else:
-            for s in range(n):
-                if init[s] > 0:
-                    sup[nsup] = s
-                    alpha[s] = init[s]
-                    nsup += 1
+        nsup = _start(t, n, init, start_state, alpha, sup)
         ll = 0.0
         for k in range(1, length[t] + 1):
-            a = actions[t, k - 1]
-            base = offs[a]
-            nt = 0
-            for ii in range(nsup):
-                i = sup[ii]
-                w = alpha[i]
-                alpha[i] = 0.0
-                for p in range(ptrs[a, i], ptrs[a, i + 1]):
-                    j = idxs[base + p]
-                    if not mark[j]:
-                        mark[j] = True
-                        touched[nt] = j
-                        nt += 1
-                    pred[j] += w * vals[base + p]
+            nt = _predict(ptrs, offs, idxs, vals, actions[t, k - 1], alpha, sup, nsup, pred, touched, mark)
             slot = obs_slot[t, k]
             if slot < 0:                    # missed observation: carry the prediction on
-                nsup = nt
-                for ii in range(nt):
-                    j = touched[ii]
-                    sup[ii] = j
-                    alpha[j] = pred[j]
-                    pred[j] = 0.0
-                    mark[j] = False
+                nsup = _carry(pred, touched, nt, mark, alpha, sup)
                 continue
             lo, hi = ptr_o[slot], ptr_o[slot + 1]
-            m = -1e300
-            for p in range(lo, hi):
-                if lp[p] > m:
-                    m = lp[p]
-            lik = 0.0
-            for p in range(lo, hi):
-                lik += pred[nb[p]] * np.exp(lp[p] - m)
-            if hi > lo and lik > 0.0:
-                gauss = log_in + m + np.log(lik)
-            else:
-                gauss = -1e300
-            big = max(gauss, log_out)
-            ll += big + np.log(np.exp(gauss - big) + np.exp(log_out - big))
-            nsup = 0
-            total = 0.0
-            restart = gauss < log_out      # an outlier for this model: restart near the observation
-            for p in range(lo, hi):         # the neighbours of one observation are distinct
-                j = nb[p]
-                w = np.exp(lp[p] - m) if restart else pred[j] * np.exp(lp[p] - m)
-                if w > 0.0:
-                    sup[nsup] = j
-                    nsup += 1
-                    alpha[j] = w
-                    total += w
-            if total > 0.0:                 # filtered: the Gaussian part of the posterior
-                for ii in range(nsup):
-                    alpha[sup[ii]] /= total
-                for ii in range(nt):
-                    j = touched[ii]
-                    pred[j] = 0.0
-                    mark[j] = False
-            else:                           # no state near the observation: keep the prediction
-                nsup = nt
-                for ii in range(nt):
-                    j = touched[ii]
-                    sup[ii] = j
-                    alpha[j] = pred[j]
-                    pred[j] = 0.0
-                    mark[j] = False
+            step, gauss, m = _emission_loglik(pred, lo, hi, nb, lp, log_in, log_out)
+            ll += step
+            nsup = _update(pred, touched, nt, mark, alpha, sup, lo, hi, nb, lp, m, gauss < log_out)
         out[t] = ll
         for ii in range(nsup):
             alpha[sup[ii]] = 0.0
-        nsup = 0
-
