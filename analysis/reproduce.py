@@ -139,11 +139,16 @@ class ReproduceSettings:
     #: the friction study (analysis.friction_study: C read by mean and amplitude, the search for the
     #: physics of A); off by default (about 40 minutes of direct simulation on 2 cores at its defaults)
     friction_study: bool = False
+    #: the tray's-log section (analysis.experiments.tray_log): a log of this many trials x tilts at a hidden
+    #: coefficient, fitted (about ten coarse builds of the key; on in :meth:`full` only)
+    tray_log: bool = False
+    tray_log_trials: int = 500
+    tray_log_tilts: int = 50
 
     @classmethod
     def full(cls, seed: int = 0) -> "ReproduceSettings":
         """The committed report's settings (about an hour on 2 cores with the key's model cached)."""
-        return cls(seed=seed)
+        return cls(seed=seed, tray_log=True, friction_study=True)
 
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":

@@ -55,4 +55,6 @@ register("convergence", "analysis.commands.convergence",
          "expected length of a random synchronizing sequence")
 register("validate", "analysis.commands.validate", "model prediction against direct simulation")
 register("rank", "analysis.commands.rank", "orientability ranking of shapes")
+register("fit", "analysis.commands.fit",
+         "the tray's physics (floor friction, process noise) from a pose log, with a 90% interval")
 register("reproduce", "analysis.commands.reproduce", "the paper's experiments as a report")

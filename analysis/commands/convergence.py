@@ -20,6 +20,7 @@ from analysis.commands._common import (
     parse_weights,
     positive_float,
 )
+from analysis.commands._range import add_range_options, is_range, run_over_range
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,9 +52,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--epsilon", type=float, default=None,
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
     add_interval_options(parser)
+    add_range_options(parser)
 
 
 def run(args: argparse.Namespace) -> dict:
+    if is_range(args):
+        return run_over_range(args, run)
     from kruskal_markov.convergence import (
         expected_sync_length,
         letter_weights,

@@ -17,6 +17,7 @@ from analysis.commands._common import (
     load_model_source,
     parse_weights,
 )
+from analysis.commands._range import add_range_options, is_range, run_over_range
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,11 +32,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "NAME=W pairs (default uniform)")
     parser.add_argument("--threads", type=int, default=None, help="Numba threads (default: all cores)")
     add_interval_options(parser)
+    add_range_options(parser)
 
 
 def run(args: argparse.Namespace) -> dict:
     from kruskal_markov.ensemble import run_ensemble
 
+    if is_range(args):
+        return run_over_range(args, run)
     check_positive(args.count, "--count")
     check_positive(args.length, "--length")
     if args.threads is not None:

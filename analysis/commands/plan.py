@@ -15,6 +15,7 @@ import numpy as np
 
 from analysis.commands import InputError
 from analysis.commands._common import positive_float
+from analysis.commands._range import add_range_options, is_range, plan_over_range
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -38,6 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-length", type=int, default=64, help="longest plan considered (default 64)")
     parser.add_argument("--threshold", type=float, default=0.0,
                         help="state/cell targets: the support automaton keeps entries >= T (default 0)")
+    add_range_options(parser, check=True)
 
 
 def grid_cells(model, spec: str) -> np.ndarray:
@@ -78,6 +80,8 @@ def run(args: argparse.Namespace) -> dict:
             raise InputError(f"--{name.replace('_', '-')} must be a positive integer")
     if not 0.0 <= args.threshold <= 1.0:
         raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
+    if is_range(args):
+        return plan_over_range(args, run)
     if args.model:
         models = [TransitionModel.load(p) for p in args.model]
     elif args.automaton:

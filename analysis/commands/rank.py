@@ -20,12 +20,14 @@ from analysis.commands._common import (
     parse_resolution,
     positive_float,
 )
+from analysis.commands._range import is_range, rank_over_range
 from analysis.orientability import random_tilts_text
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shapes", nargs="+", required=True, metavar="S", help="shape specs (as --shape)")
-    parser.add_argument("--friction", default=None, help=FRICTION_HELP)
+    parser.add_argument("--friction", default=None,
+                        help=FRICTION_HELP + "; or a range LO..HI (ranks across it)")
     parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
     add_tilt_time(parser)
     parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml): tray, friction, simulator; "
@@ -46,6 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--markdown", metavar="FILE.md", help="also write the ranking as a Markdown table")
     add_seed(parser)
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    parser.add_argument("--range-points", type=int, default=3,
+                        help="with --friction LO..HI: rankings across the range (default 3)")
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -57,6 +61,8 @@ def run(args: argparse.Namespace) -> dict:
     from transition_builder.builder import BuildSettings
     from transition_builder.cache import cached_build
 
+    if is_range(args):
+        return rank_over_range(args, run)
     if args.count < 1 or args.runs < 2 or args.check_trials < 0 or args.recenter_rounds < 0:
         raise InputError("--count >= 1, --runs >= 2, --check-trials >= 0 and --recenter-rounds >= 0 required")
     if not args.sync_time_budget > 0:

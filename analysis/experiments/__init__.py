@@ -57,6 +57,7 @@ register("plans", "analysis.experiments.plans")                # plans for every
 register("contact", "analysis.experiments.contact")            # contact models and time steps
 register("sensitivity", "analysis.experiments.sensitivity")    # intervals and the settings' sensitivity
 register("robot_log", "analysis.experiments.robot_log")        # a robot's log beside the model
+register("tray_log", "analysis.experiments.tray_log")          # a tray's log: the friction fitted
 register("B", "analysis.experiments.experiment_b")             # B: other parts (Fig. 4)
 register("C", "analysis.experiments.experiment_c")             # C: friction maps (Fig. 6)
 register("friction", "analysis.experiments.friction")          # C by mean, the physics of A (issue 40)

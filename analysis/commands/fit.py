@@ -1,0 +1,157 @@
+"""``kruskal fit``: the tray's physics from a pose log (e.g. an overhead camera's).
+
+The floor's friction coefficient (``--fit mu``, the default), optionally with the process noise
+(``--fit mu,noise``), that explains a ``--poses`` log best: models at a grid of values across
+``--range`` (cached builds), every trial's likelihood under each (the model as a hidden Markov model
+of the camera's view), the estimate, a 90% interval, the criterion over the range, the goodness of
+fit and the trials a log needs for a given precision. Method and measurements: docs/fit.md.
+"""
+from __future__ import annotations
+
+import argparse
+
+from analysis.commands import InputError
+from analysis.commands._common import (
+    add_contact,
+    add_seed,
+    check_positive,
+    check_writable_file,
+    parse_resolution,
+    parse_sequence,
+    scene_from_args,
+    sequence_rng,
+)
+
+_PAIR_NOTE = ("--fit mu_s,mu_k needs the static/kinetic friction pair in the simulator "
+              "(the friction issue); fit mu or mu,noise")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--poses", required=True, metavar="LOG.csv",
+                        help="the log: columns trial,step,x_mm,y_mm,theta_rad[,status][,action]")
+    parser.add_argument("--shape", default=None, help="the logged part (default allen-key)")
+    parser.add_argument("--sequence", default=None,
+                        help="the tilts of every trial (NE,S,... or random:N from --seed); "
+                             "default: the log's action column")
+    parser.add_argument("--fit", default="mu", help="what to fit: mu (default) or mu,noise")
+    parser.add_argument("--range", default="0.1..0.55", metavar="LO..HI",
+                        help="friction range searched (default 0.1..0.55; below tan(tilt) for sliding)")
+    parser.add_argument("--noise-range", default="0..0.5", metavar="LO..HI",
+                        help="with --fit mu,noise: process noise range, mm = deg (default 0..0.5)")
+    parser.add_argument("--points", type=int, default=10,
+                        help="models across the friction range before refinement (default 10)")
+    parser.add_argument("--noise-points", type=int, default=3, help="with --fit mu,noise: noise levels (default 3)")
+    parser.add_argument("--refine", type=int, default=1,
+                        help="refinement rounds: midpoints beside the best model (default 1)")
+    parser.add_argument("--camera-noise", default=None, metavar="MM,DEG",
+                        help="camera noise (standard deviation); default: estimated from the log")
+    parser.add_argument("--criterion", choices=("likelihood", "histogram"), default="likelihood",
+                        help="likelihood (hidden Markov model, default) or histogram (cell-histogram distance)")
+    parser.add_argument("--bootstrap", type=int, default=400, help="bootstrap resamples of the trials (default 400)")
+    parser.add_argument("--figure", metavar="PNG", help="write the criterion and goodness-of-fit figure here")
+    parser.add_argument("--resolution", default="1,1", metavar="MM,DEG",
+                        help="snapping tolerance of the grid's models (default 1,1; see docs/fit.md)")
+    parser.add_argument("--start-samples", type=int, default=2000, help="start samples of each model (default 2000)")
+    parser.add_argument("--recenter-rounds", type=int, default=1, help="recentring rounds of each model (default 1)")
+    parser.add_argument("--build-seed", type=int, default=0, help="seed of the models' builds (default 0)")
+    parser.add_argument("--grid", default="4x4x4", help="report grid AxBxG of the histograms (default 4x4x4)")
+    parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
+    parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml); its friction is ignored")
+    add_contact(parser)
+    add_seed(parser)
+    parser.add_argument("--workers", type=int, default=None, help="worker processes of the builds")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask distributed scheduler")
+    parser.add_argument("--progress", action="store_true", help="progress bars on standard error")
+
+
+def _float_range(text: str, option: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in text.split(".."))
+    except ValueError:
+        raise InputError(f"bad {option} {text!r}: expected LO..HI, e.g. 0..0.5") from None
+    if not (0 <= lo <= hi):
+        raise InputError(f"bad {option} {text!r}: need 0 <= LO <= HI")
+    return lo, hi
+
+
+def _settings(args):
+    from analysis.fit import FitSettings
+    from analysis.friction_range import parse_friction_range
+
+    params = tuple(p.strip().lower() for p in args.fit.split(","))
+    if params == ("mu_s", "mu_k"):
+        raise InputError(_PAIR_NOTE)
+    if params not in (("mu",), ("mu", "noise")):
+        raise InputError(f"bad --fit {args.fit!r}: expected mu or mu,noise")
+    try:
+        fr = parse_friction_range(args.range)
+    except ValueError as exc:
+        raise InputError(f"--range: {exc}") from None
+    if fr.paired:
+        raise InputError(_PAIR_NOTE)
+    check_positive(args.points, "--points")
+    check_positive(args.noise_points, "--noise-points")
+    if args.refine < 0 or args.bootstrap < 0:
+        raise InputError("--refine and --bootstrap must be >= 0")
+    camera = None
+    if args.camera_noise is not None:
+        camera = parse_resolution(args.camera_noise)
+        if min(camera) <= 0:
+            raise InputError(f"--camera-noise must be positive, got {args.camera_noise!r}")
+    return FitSettings(params=params, ranges={"mu": (fr.lo[0], fr.hi[0]),
+                                              "noise": _float_range(args.noise_range, "--noise-range")},
+                       points={"mu": args.points, "noise": args.noise_points}, refine=args.refine,
+                       camera=camera, criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed)
+
+
+def run(args: argparse.Namespace) -> dict:
+    from analysis.fit import fit_log, read_fit_log
+    from transition_builder.builder import BuildSettings
+
+    settings = _settings(args)
+    check_writable_file(args.figure, "--figure")
+    if args.workers is not None:
+        check_positive(args.workers, "--workers")
+    check_positive(args.start_samples, "--start-samples")
+    scene = scene_from_args(argparse.Namespace(**{**vars(args), "friction": None}))
+    sequence = None
+    if args.sequence is not None:
+        sequence = parse_sequence(args.sequence, scene.actions, sequence_rng(args.seed))
+    log = read_fit_log(args.poses, scene.actions, (scene.tray_x_mm, scene.tray_y_mm), sequence)
+    mm, deg = parse_resolution(args.resolution)
+    bs = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=args.recenter_rounds,
+                       start_samples=args.start_samples, seed=args.build_seed, grid=args.grid)
+    result = fit_log(scene, log, settings, build_settings=bs, workers=args.workers, scheduler=args.scheduler,
+                     progress=True if args.progress else None, grid=args.grid)
+    out = result.to_dict()
+    out.update({"shape": scene.shape.name, "contact": scene.settings.contact, "range": args.range,
+                "tilts_from": log.source, "fit": list(settings.params)})
+    seq = log.common_sequence()
+    if seq is not None:
+        out["sequence"] = [scene.actions[a] for a in seq]
+    if args.figure:
+        from analysis.fit.figure import fit_figure
+        out["figure"] = fit_figure(out, args.figure)
+    return out
+
+
+def format_text(result: dict) -> str:
+    """A short human summary: the estimate, its interval, the criterion over the range."""
+    lines = []
+    for name, value in result["estimate"].items():
+        iv = (result["interval_90"] or {}).get(name)
+        tail = "best at the edge of the range: no interval" if result["at_edge"] else (
+            f"90% interval {iv[0]:.4g} .. {iv[1]:.4g}" if iv else "no interval")
+        lines.append(f"{name} = {value:.4g}   {tail}")
+    cam = result["camera_noise"]
+    lines.append(f"camera noise {cam['mm']:g} mm / {cam['deg']:g} deg ({'estimated' if cam['estimated'] else 'given'});"
+                 f" {result['trials']} trials, {result['tilts']} tilts, {result['observations']} observations")
+    names = list(result["estimate"])
+    lines.append("  ".join(f"{n:>6}" for n in names) + "      loglik  hist_dist")
+    for row in result["criterion"]:
+        lines.append("  ".join(f"{row[n]:6.3f}" for n in names) + f"  {row['loglik']:10.1f}  {row['histogram_distance']:9.4f}")
+    needed = result["trials_needed"]["half_width_90"]
+    if needed:
+        lines.append("trials for a 90% half-width of " + ", ".join(f"{k}: {v:,}" for k, v in needed.items()))
+    lines.append(f"seconds: {result['seconds']:.1f}")
+    return "\n".join(lines)

@@ -1,0 +1,342 @@
+"""The fit: the parameters whose model explains a pose log best, with a 90% interval.
+
+Models are built at a grid of parameter values across the range (ordinary cached builds,
+:func:`transition_builder.cache.cached_build`), each trial's log-likelihood is computed under
+every one (:mod:`analysis.fit.hmm`), and the grid is refined around the best point. The estimate
+is the vertex of a quadratic through the log-likelihood at the best grid point and its neighbours
+(each model is its own sampled build, so the curve between points is smoothed, not interpolated).
+The 90% interval is the 5-95% range of the same estimate on bootstrap resamples of the trials
+(trials are independent; Efron & Tibshirani 1993, ch. 13), which is cheap here because every
+trial's likelihood under every model is already known. The profile-likelihood interval (the
+values within 1.353 of the maximum, chi-square(1) at 90%) is reported beside it. A best grid point
+at an end of the range is reported as such (``at_edge``), without an interval.
+
+The likelihood-free baseline, the report-cell histogram distance (:mod:`analysis.fit.histograms`),
+is computed at every grid point too (``criterion="histogram"`` fits on it).
+
+Parameters are named (``mu``; ``noise``, the process noise ``pose:S,S`` of the build): a second one
+makes the grid a product and the estimate its best point, so further parameters (the friction
+pair) slot in as one more entry of :data:`PARAMETERS`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
+from analysis.fit.hmm import EmissionSettings, trial_loglik
+
+__all__ = ["FitSettings", "FitResult", "PARAMETERS", "fit_log", "CAMERA_CANDIDATES"]
+
+#: camera noise candidates (mm = deg) tried when the camera noise is estimated from the data.
+CAMERA_CANDIDATES = (0.1, 0.25, 0.5, 1.0, 2.0)
+#: chi-square(1) 90% quantile / 2: the profile-likelihood drop of a 90% interval.
+_PROFILE_DROP = 1.3528
+_SALT = 0x464954
+
+
+def _set_mu(scene, settings, value):
+    from transition_builder.friction import parse_friction
+    return replace(scene, friction=parse_friction(float(value))), settings
+
+
+def _set_noise(scene, settings, value):
+    spec = "none" if value <= 0 else f"pose:{value:g},{value:g}"
+    return scene, replace(settings, noise=spec)
+
+
+#: parameter name -> function (scene, build settings, value) -> (scene, build settings).
+PARAMETERS = {"mu": _set_mu, "noise": _set_noise}
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """What to fit and how.
+
+    Attributes
+    ----------
+    params : tuple of str
+        Parameter names (keys of :data:`PARAMETERS`), e.g. ``("mu",)`` or ``("mu", "noise")``.
+    ranges : dict
+        Parameter name -> (lo, hi).
+    points : dict
+        Parameter name -> number of grid points across its range.
+    refine : int
+        Refinement rounds (1-D fits): each adds the midpoints beside the best point.
+    camera : tuple or None
+        Camera noise (mm, deg); None estimates it from the data (:data:`CAMERA_CANDIDATES`).
+    criterion : str
+        ``"likelihood"`` (the hidden Markov model) or ``"histogram"`` (the cell-histogram distance).
+    bootstrap : int
+        Bootstrap resamples of the trials for the interval.
+    seed : int
+        Seed of the bootstrap and of the goodness-of-fit band.
+    outlier : float
+        Share of observations allowed from anywhere in the tray (:class:`EmissionSettings`).
+    """
+
+    params: tuple = ("mu",)
+    ranges: dict = field(default_factory=lambda: {"mu": (0.1, 0.55), "noise": (0.0, 0.5)})
+    points: dict = field(default_factory=lambda: {"mu": 10, "noise": 3})
+    refine: int = 1
+    camera: tuple | None = None
+    criterion: str = "likelihood"
+    bootstrap: int = 400
+    seed: int = 0
+    outlier: float = 1e-3
+
+    def __post_init__(self):
+        for p in self.params:
+            if p not in PARAMETERS:
+                raise ValueError(f"unknown fit parameter {p!r}; known: {', '.join(PARAMETERS)}")
+            lo, hi = self.ranges[p]
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise ValueError(f"bad range {lo}..{hi} of {p}")
+        if self.criterion not in ("likelihood", "histogram"):
+            raise ValueError(f"unknown criterion {self.criterion!r}: likelihood or histogram")
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Outcome of :func:`fit_log` (``to_dict`` gives the ``kruskal fit`` JSON keys)."""
+
+    estimate: dict
+    interval_90: dict
+    interval_90_profile: dict
+    at_edge: bool
+    criterion: list
+    criterion_name: str
+    camera_noise: dict
+    trials: int
+    tilts: int
+    observations: int
+    trials_needed: dict
+    goodness: dict
+    models: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"estimate": self.estimate, "interval_90": self.interval_90,
+                "interval_90_profile": self.interval_90_profile, "at_edge": self.at_edge,
+                "criterion": self.criterion, "criterion_name": self.criterion_name,
+                "camera_noise": self.camera_noise, "trials": self.trials, "tilts": self.tilts,
+                "observations": self.observations, "trials_needed": self.trials_needed,
+                "goodness_of_fit": self.goodness, "models": self.models}
+
+
+class _Grid:
+    """Grid points, their models, every trial's log-likelihood and the histogram distance."""
+
+    def __init__(self, build, log, grid, cams):
+        self.build, self.log, self.grid, self.cams = build, log, grid, cams
+        self.points: list[tuple] = []
+        self.ll: dict = {}                  # point -> (n_cams, T)
+        self.dist: dict = {}
+        self.paths: dict = {}
+        self.counts = log_histograms(log, grid)
+
+    def add(self, point: tuple) -> None:
+        point = tuple(round(float(v), 10) for v in point)
+        if point in self.ll:
+            return
+        model, path = self.build(point)
+        self.paths[point] = path
+        self.ll[point] = np.stack([trial_loglik(model, self.log, em, self.grid) for em in self.cams])
+        self.dist[point] = histogram_distance(model, self.log, self.grid, self.counts)
+        self.points.append(point)
+
+    def sorted_points(self) -> list[tuple]:
+        return sorted(self.points)
+
+
+def _quadratic_vertex(x: np.ndarray, y: np.ndarray, j: int) -> float:
+    """The maximum of a quadratic through the best point ``j`` and up to two neighbours each side
+    (``x`` sorted); the best point itself when the fit is not concave or its vertex leaves the window."""
+    lo, hi = max(0, j - 2), min(len(x), j + 3)
+    xs, ys = x[lo:hi], y[lo:hi]
+    if len(xs) >= 3:
+        a, b, _ = np.polyfit(xs - x[j], ys - y[j], 2)
+        if a < 0:
+            v = x[j] - b / (2 * a)
+            if xs[0] <= v <= xs[-1]:
+                return float(v)
+    return float(x[j])
+
+
+def _estimate_1d(x: np.ndarray, y: np.ndarray) -> tuple[float, int]:
+    j = int(np.argmax(y))
+    return _quadratic_vertex(x, y, j), j
+
+
+def _profile_interval(x, y, j) -> list | None:
+    """Values where the quadratic through the best point's window stays within the 90% drop."""
+    lo, hi = max(0, j - 2), min(len(x), j + 3)
+    xs, ys = x[lo:hi], y[lo:hi]
+    if len(xs) < 3:
+        return None
+    a, b, c = np.polyfit(xs - x[j], ys - y[j], 2)
+    if a >= 0:
+        return None
+    v = -b / (2 * a)
+    top = c - b * b / (4 * a)
+    half = math.sqrt(_PROFILE_DROP / -a)
+    return [float(x[j] + v - half), float(x[j] + v + half)] if math.isfinite(top) else None
+
+
+def _criterion_values(g: _Grid, pts, cam: int, criterion: str, rows=None) -> np.ndarray:
+    if criterion == "histogram":
+        return -np.array([g.dist[p] for p in pts])
+    if rows is None:
+        return np.array([g.ll[p][cam].sum() for p in pts])
+    return np.array([g.ll[p][cam][rows].sum() for p in pts])
+
+
+def _best_camera(g: _Grid) -> int:
+    best = [max(g.ll[p][c].sum() for p in g.points) for c in range(len(g.cams))]
+    return int(np.argmax(best))
+
+
+def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=None, build=None,
+            workers=None, scheduler=None, progress=None, grid="4x4x4") -> FitResult:
+    """Fit the parameters of ``settings`` to a pose log.
+
+    Parameters
+    ----------
+    scene : transition_builder.scene.Scene
+        The tray, the part, the tilt and the contact (friction is what is fitted).
+    log : FitLog
+        The log (:func:`analysis.fit.log.read_fit_log`).
+    settings : FitSettings, optional
+    build_settings : transition_builder.builder.BuildSettings, optional
+        Settings of the grid's builds (default: ``BuildSettings(tol_mm=1, tol_deg=1,
+        recenter_rounds=1, start_samples=2000)``, the report's compared resolution).
+    build : callable, optional
+        ``build(scene, build_settings) -> (model, path)``; default cached builds.
+    workers, scheduler, progress
+        Passed to the builds.
+    grid : str
+        Report grid of the histograms and of the goodness of fit.
+
+    Returns
+    -------
+    FitResult
+    """
+    from analysis.montecarlo import report_grid_for
+    from transition_builder.builder import BuildSettings
+
+    s = settings or FitSettings()
+    bs = build_settings or BuildSettings(tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, start_samples=2000)
+    rgrid = report_grid_for(scene, grid)
+    if build is None:
+        def build(sc, st):
+            from transition_builder.cache import cached_build
+            res, path, _ = cached_build(sc, st, workers=workers, scheduler=scheduler, progress=progress)
+            return res.model, path
+
+    def build_point(point):
+        sc, st = scene, bs
+        for name, v in zip(s.params, point):
+            sc, st = PARAMETERS[name](sc, st, v)
+        return build(sc, st)
+
+    cams = ([EmissionSettings(*s.camera, outlier=s.outlier)] if s.camera is not None
+            else [EmissionSettings(c, c, outlier=s.outlier) for c in CAMERA_CANDIDATES])
+    g = _Grid(build_point, log, rgrid, cams)
+    axes = [np.linspace(*s.ranges[p], s.points[p]) if s.points[p] > 1 else np.array([np.mean(s.ranges[p])])
+            for p in s.params]
+    for point in np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T:
+        g.add(tuple(point))
+    if len(s.params) == 1:
+        _refine(g, s, axes[0])
+    cam = _best_camera(g) if s.criterion == "likelihood" else 0
+    pts = g.sorted_points()
+    out = (_summary_1d if len(s.params) == 1 else _summary_nd)(g, s, pts, cam, axes)
+    best_point = min(pts, key=lambda p: sum((a - b) ** 2 for a, b in zip(p, out["estimate_tuple"])))
+    model, _ = build_point(best_point)
+    pred = predicted_histograms(model, log)
+    band = entropy_band(pred, g.counts, np.random.default_rng([s.seed, _SALT, 1]))
+    crit = []
+    for p in pts:
+        row = {name: v for name, v in zip(s.params, p)}
+        row["loglik"] = float(g.ll[p][cam].sum())
+        row["histogram_distance"] = g.dist[p]
+        crit.append(row)
+    cam_used = cams[cam]
+    return FitResult(
+        estimate=out["estimate"], interval_90=out["interval"], interval_90_profile=out["profile"],
+        at_edge=out["at_edge"], criterion=crit, criterion_name=s.criterion,
+        camera_noise={"mm": cam_used.sigma_mm, "deg": cam_used.sigma_deg,
+                      "estimated": s.camera is None},
+        trials=log.trials, tilts=log.tilts, observations=log.n_observations,
+        trials_needed=out["trials_needed"],
+        goodness={"model_point": dict(zip(s.params, best_point)), "entropy": band,
+                  "log_histograms": g.counts.tolist(), "model_histograms": pred.tolist()},
+        models={",".join(f"{v:g}" for v in p): g.paths[p] for p in pts})
+
+
+def _refine(g: _Grid, s: FitSettings, axis: np.ndarray) -> None:
+    step = float(axis[1] - axis[0]) if len(axis) > 1 else 0.0
+    cam = None
+    for _ in range(s.refine):
+        if step <= 0:
+            return
+        cam = _best_camera(g) if s.criterion == "likelihood" else 0
+        pts = g.sorted_points()
+        y = _criterion_values(g, pts, cam, s.criterion)
+        j = int(np.argmax(y))
+        step /= 2
+        for v in (pts[j][0] - step, pts[j][0] + step):
+            if s.ranges[s.params[0]][0] - 1e-12 <= v <= s.ranges[s.params[0]][1] + 1e-12:
+                g.add((v,))
+
+
+def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
+    name = s.params[0]
+    x = np.array([p[0] for p in pts])
+    y = _criterion_values(g, pts, cam, s.criterion)
+    est, j = _estimate_1d(x, y)
+    lo, hi = s.ranges[name]
+    at_edge = bool(len(x) > 1 and (x[j] <= lo + 1e-9 or x[j] >= hi - 1e-9))
+    rng = np.random.default_rng([s.seed, _SALT])
+    T = g.log.trials
+    boots = []
+    if s.criterion == "likelihood" and T > 1:
+        L = np.stack([g.ll[p][cam] for p in pts], axis=1)             # (T, points)
+        for _ in range(s.bootstrap):
+            rows = rng.integers(0, T, T)
+            boots.append(_estimate_1d(x, L[rows].sum(axis=0))[0])
+    boots = np.array(boots)
+    interval = profile = None
+    needed = {}
+    if not at_edge and len(x) >= 3:         # fewer models cannot show a curve: no interval
+        if boots.size:
+            interval = [float(v) for v in np.quantile(boots, [0.05, 0.95])]
+            se = float(boots.std(ddof=1))
+            for half in (0.01, 0.02, 0.05):
+                needed[f"{half:g}"] = int(math.ceil(T * (1.645 * se / half) ** 2)) if se > 0 else 1
+        if s.criterion == "likelihood":
+            profile = _profile_interval(x, y, j)
+    return {"estimate": {name: round(est, 6)}, "estimate_tuple": (est,),
+            "interval": None if interval is None else {name: interval},
+            "profile": None if profile is None else {name: profile},
+            "at_edge": at_edge, "trials_needed": {"half_width_90": needed, "bootstrap_sd": (
+                float(boots.std(ddof=1)) if boots.size > 1 else None)}}
+
+
+def _summary_nd(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
+    y = _criterion_values(g, pts, cam, s.criterion)
+    j = int(np.argmax(y))
+    best = pts[j]
+    at_edge = any(len(ax) > 1 and (v <= ax[0] + 1e-9 or v >= ax[-1] - 1e-9) for v, ax in zip(best, axes))
+    rng = np.random.default_rng([s.seed, _SALT])
+    T = g.log.trials
+    interval = None
+    if s.criterion == "likelihood" and not at_edge and T > 1:
+        L = np.stack([g.ll[p][cam] for p in pts], axis=1)
+        picks = np.array([pts[int(np.argmax(L[rng.integers(0, T, T)].sum(axis=0)))] for _ in range(s.bootstrap)])
+        interval = {name: [float(v) for v in np.quantile(picks[:, i], [0.05, 0.95])]
+                    for i, name in enumerate(s.params)}
+    return {"estimate": {n: float(v) for n, v in zip(s.params, best)}, "estimate_tuple": best,
+            "interval": interval, "profile": None, "at_edge": bool(at_edge),
+            "trials_needed": {"half_width_90": {}, "bootstrap_sd": None}}

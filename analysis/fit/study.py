@@ -1,0 +1,139 @@
+"""The report's section "A tray's log": a log made at a coefficient the fit is not told, the fit
+beside the truth, and the key's answers and robust plan over the fitted interval.
+
+:func:`tray_log_study` returns a frozen :class:`TrayLogStudy` with ``to_dict``, ``markdown`` and
+``figures`` (the shape of the report's experiments, so that it becomes one module of
+``analysis/experiments/`` once that registry exists).
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+__all__ = ["TrayLogStudy", "tray_log_study", "hidden_coefficient", "add_camera_noise"]
+
+_SALT = 0x7E41
+
+
+def hidden_coefficient(seed: int, lo: float = 0.15, hi: float = 0.45) -> float:
+    """The coefficient a study's log is made at, drawn from the report's ``seed`` (3 decimals)."""
+    return round(float(np.random.default_rng([seed, _SALT]).uniform(lo, hi)), 3)
+
+
+def add_camera_noise(result, sigma_mm: float, sigma_deg: float, seed: int):
+    """A copy of a :class:`~analysis.montecarlo.DirectResult` whose poses carry Gaussian camera noise
+    (x and y in mm, theta in degrees, theta wrapped to [0, 2 pi)); faults stay NaN."""
+    rng = np.random.default_rng([seed, 0xCA])
+    p = result.poses.copy()
+    p[..., :2] += rng.normal(0.0, sigma_mm, p[..., :2].shape)
+    p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(sigma_deg), p[..., 2].shape), 2 * np.pi)
+    return replace(result, poses=p)
+
+
+@dataclass(frozen=True)
+class TrayLogStudy:
+    """Outcome of :func:`tray_log_study`."""
+
+    truth: float
+    fit: dict
+    sequence: list
+    trials: int
+    camera: tuple
+    interval_models: list
+    answers: dict
+    plan: dict
+
+    def to_dict(self) -> dict:
+        return {"truth": self.truth, "fit": self.fit, "sequence": self.sequence, "trials": self.trials,
+                "camera": list(self.camera), "interval_models": self.interval_models, "answers": self.answers,
+                "plan": self.plan}
+
+    def markdown(self) -> str:
+        f = self.fit
+        est = f["estimate"]["mu"]
+        iv = (f["interval_90"] or {}).get("mu")
+        ivt = "at the range's edge: no interval" if iv is None else f"90% interval {iv[0]:.3f}..{iv[1]:.3f}"
+        covered = "" if iv is None else (" (covers the truth)" if iv[0] <= self.truth <= iv[1] else
+                                         " (misses the truth)")
+        lines = ["## A tray's log", "",
+                 f"A log made by direct simulation of the key: {self.trials} trials of one random "
+                 f"{len(self.sequence)}-tilt sequence, camera noise {self.camera[0]:g} mm / {self.camera[1]:g} degree, "
+                 f"at a floor coefficient drawn from the report's seed and not told to the fit: mu = {self.truth:.3f}.",
+                 "", f"`kruskal fit` estimates mu = {est:.3f}, {ivt}{covered}; camera noise estimated at "
+                 f"{f['camera_noise']['mm']:g} mm; {len(f['models'])} models.", ""]
+        if self.answers:
+            lines.append("Answers over the fitted interval (models at " + ", ".join(self.interval_models) + "):")
+            lines.append("")
+            for k, v in self.answers.items():
+                lines.append(f"- {k}: {v[0]:.3g} .. {v[1]:.3g}")
+        if self.plan.get("word") is not None:
+            lines += ["", f"Robust one-cell plan over the interval: {','.join(self.plan['word'])} "
+                          f"(length {self.plan['length']}, success probability per model "
+                          f"{self.plan['success_probability']})."]
+        return "\n".join(lines) + "\n"
+
+    def figures(self, directory) -> list:
+        from analysis.fit.figure import fit_figure
+
+        return [fit_figure(self.fit, os.path.join(directory, "fig_tray_log.png"), truth=self.truth)]
+
+
+def tray_log_study(scene, seed: int, *, trials: int = 500, tilts: int = 50, camera=(0.5, 0.5), fit_settings=None,
+                   build_settings=None, workers=None, count: int = 500) -> TrayLogStudy:
+    """Run the study (see the module docstring).
+
+    Parameters
+    ----------
+    scene : transition_builder.scene.Scene
+        The key's scene (its friction is replaced by the hidden coefficient).
+    seed : int
+        The report's seed: the hidden coefficient, the sequence, the starts, the camera noise, the fit.
+    trials, tilts : int
+    camera : (float, float)
+        Camera noise added to the log (mm, degrees).
+    fit_settings : FitSettings, optional
+    build_settings : BuildSettings, optional
+        The fit grid's builds (default: the fit's).
+    workers : int, optional
+    count : int
+        Random sequences of the converging-share answer.
+
+    Returns
+    -------
+    TrayLogStudy
+    """
+    from analysis.fit.core import FitSettings, fit_log
+    from analysis.fit.log import read_fit_log
+    from analysis.friction_range import FrictionRange, models_over_range
+    from analysis.montecarlo import run_direct, write_poses_csv
+    from kruskal_markov.ensemble import run_ensemble
+    from kruskal_markov.sync.plan import shortest_plan
+    from kruskal_markov.sync.targets import parse_target
+    from transition_builder.friction import parse_friction
+
+    truth = hidden_coefficient(seed)
+    seq = np.random.default_rng([seed, _SALT, 1]).integers(0, len(scene.actions), tilts)
+    names = [scene.actions[a] for a in seq]
+    res = run_direct(replace(scene, friction=parse_friction(truth)), names, trials, seed=seed, workers=workers)
+    noisy = add_camera_noise(res, camera[0], camera[1], seed)
+    with tempfile.TemporaryDirectory() as d:
+        path = write_poses_csv(os.path.join(d, "log.csv"), noisy)
+        log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm), seq)
+    fs = fit_settings or FitSettings(seed=seed)
+    fit = fit_log(scene, log, fs, build_settings=build_settings, workers=workers).to_dict()
+    answers, plan, specs = {}, {}, []
+    iv = (fit["interval_90"] or {}).get("mu")
+    if iv is not None:
+        lo, hi = round(iv[0], 3), round(iv[1], 3)
+        fr = FrictionRange((lo, lo), (hi, hi))
+        models = models_over_range(scene, fr, 3, build_settings, workers=workers)
+        specs = [s for s, _, _ in models]
+        shares = [run_ensemble(m, count, 50, seed=seed).converged / count for _, m, _ in models]
+        answers["converging share of random 50-tilt sequences"] = (min(shares), max(shares))
+        p = shortest_plan([m for _, m, _ in models], parse_target("cell"), node_budget=5_000_000, time_budget=60)
+        plan = {k: v for k, v in p.to_dict().items() if k in ("word", "length", "exact", "success_probability")}
+    return TrayLogStudy(truth=truth, fit=fit, sequence=names, trials=trials, camera=tuple(camera),
+                        interval_models=specs, answers=answers, plan=plan)

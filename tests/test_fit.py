@@ -1,0 +1,331 @@
+"""``kruskal fit``: recovery, interval coverage, untidy logs, bad logs, friction ranges.
+
+The statistical tests use an exact synthetic family of models (every state a pose in the tray, and
+under every tilt a state goes to one successor with probability ``1 - mu`` and to another with
+probability ``mu``): logs are drawn from the family's hidden Markov model at a coefficient between
+the grid points, so they check the fit's machinery (forward algorithm, grid, refinement, estimate,
+bootstrap interval) without minutes of physics. The physics end to end is a ``slow`` test and the
+paper-protocol benchmark (benchmarks/bench_fit.py, docs/fit.md).
+"""
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from analysis.cli import main
+from analysis.fit import FitSettings, fit_log, read_fit_log
+from analysis.friction_range import parse_friction_range
+from analysis.montecarlo import report_grid_for
+from kruskal_markov.model import TransitionModel
+from transition_builder.scene import scene_from_options
+
+SHAPE = "polygon:0,0;40,0;0,25"         # asymmetric: theta over the full circle
+N_REST = 60
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return scene_from_options(SHAPE)
+
+
+def _family(scene):
+    """State poses and the successor maps of the synthetic family (fixed, seed 7)."""
+    rng = np.random.default_rng(7)
+    grid = report_grid_for(scene)
+    poses = np.column_stack([rng.uniform(20, scene.tray_x_mm - 20, N_REST),
+                             rng.uniform(20, scene.tray_y_mm - 20, N_REST),
+                             rng.uniform(0, 2 * np.pi, N_REST)])
+    n_start = grid.n_voxels
+    first = rng.integers(0, N_REST, size=(8, n_start + N_REST))
+    second = rng.integers(0, N_REST, size=(8, n_start + N_REST))
+    third = rng.integers(0, N_REST, size=(8, n_start + N_REST))
+    return grid, poses, n_start, first, second, third
+
+
+def synthetic_model(scene, mu: float, noise: float = 0.0) -> TransitionModel:
+    """The family at ``mu``; ``noise`` moves that much probability to a third successor."""
+    grid, poses, n_start, first, second, third = _family(scene)
+    n = n_start + N_REST
+    mats = []
+    for a in range(8):
+        P = np.zeros((n, n))
+        P[np.arange(n), n_start + first[a]] += 1 - mu - noise
+        P[np.arange(n), n_start + second[a]] += mu
+        P[np.arange(n), n_start + third[a]] += noise
+        mats.append(P)
+    state_poses = np.full((n, 3), np.nan)
+    state_poses[n_start:] = poses
+    partition = np.concatenate([np.arange(n_start), grid.voxel_index(poses)])
+    initial = np.concatenate([np.full(n_start, 1.0 / n_start), np.zeros(N_REST)])
+    return TransitionModel(scene.actions, mats, initial=initial, partition=partition, n_cells=grid.n_voxels,
+                           metadata={"build_settings": {"tol_mm": 0.0, "tol_deg": 0.0}},
+                           extras={"state_poses": state_poses})
+
+
+def synthetic_log(scene, path, mu, trials, tilts, seed, camera=0.5, drop=0.0, truncate=False, noise=0.0):
+    """Write a log drawn from the family at ``mu``: uniform starts, camera noise, optional gaps."""
+    grid, poses, n_start, first, second, third = _family(scene)
+    rng = np.random.default_rng(seed)
+    seq = np.random.default_rng(seed + 1000).integers(0, 8, tilts)
+    rows = []
+    for t in range(trials):
+        start = np.array([rng.uniform(25, scene.tray_x_mm - 25), rng.uniform(25, scene.tray_y_mm - 25),
+                          rng.uniform(0, 2 * np.pi)])
+        state = int(grid.voxel_index(start[None])[0])
+        length = rng.integers(tilts // 2, tilts + 1) if truncate else tilts
+        rows.append((t, 0, *start, "ok"))
+        for k in range(1, length + 1):
+            u = rng.random()
+            nxt = second if u < mu else third if u < mu + noise else first
+            r = int(nxt[seq[k - 1], state])
+            state = n_start + r
+            p = poses[r] + rng.normal(0, 1, 3) * [camera, camera, np.radians(camera)]
+            p[2] %= 2 * np.pi
+            if drop and rng.random() < drop:
+                if rng.random() < 0.5:
+                    continue                                 # a missing row
+                rows.append((t, k, "", "", "", "unsettled"))  # a status other than ok
+                continue
+            rows.append((t, k, *p, "ok"))
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["trial", "step", "x_mm", "y_mm", "theta_rad", "status", "action"])
+        for t, k, x, y, th, st in rows:
+            w.writerow([t, k, x, y, th, st, "" if k == 0 else scene.actions[seq[k - 1]]])
+    return seq
+
+
+def _fit(scene, path, seed=0, lo=0.1, hi=0.5, points=9, camera=None):
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+    settings = FitSettings(ranges={"mu": (lo, hi)}, points={"mu": points}, camera=camera, seed=seed,
+                           bootstrap=200)
+    return fit_log(scene, log, settings, build=lambda sc, st: (synthetic_model(sc, sc.friction.mu), "synthetic"))
+
+
+def test_recovers_a_coefficient_between_grid_points(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.33, trials=300, tilts=20, seed=1)
+    r = _fit(scene, path)
+    assert abs(r.estimate["mu"] - 0.33) < 0.03
+    lo, hi = r.interval_90["mu"]
+    assert lo <= 0.33 <= hi and hi - lo < 0.1
+    assert not r.at_edge
+    assert r.trials == 300 and r.tilts == 20
+    assert r.camera_noise["estimated"] and r.camera_noise["mm"] == 0.5   # the candidate that made the log
+
+
+def test_interval_covers_at_its_nominal_rate(scene, tmp_path):
+    """20 seeded logs at coefficients drawn before looking: the 90% interval must cover the truth
+    in at least 15 (a 60% interval covers 15 of 20 with probability 0.13, a 90% one 0.99)."""
+    truths = np.random.default_rng(2041).uniform(0.2, 0.4, 20)
+    covered = 0
+    for i, mu in enumerate(truths):
+        path = tmp_path / f"log{i}.csv"
+        synthetic_log(scene, path, mu, trials=150, tilts=15, seed=100 + i)
+        r = _fit(scene, path, seed=i, camera=(0.5, 0.5))
+        lo, hi = r.interval_90["mu"]
+        covered += lo <= mu <= hi
+    assert covered >= 15
+
+
+def test_fits_mu_and_noise_together(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=300, tilts=15, seed=8, noise=0.1)
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+    settings = FitSettings(params=("mu", "noise"), ranges={"mu": (0.1, 0.5), "noise": (0.0, 0.2)},
+                           points={"mu": 9, "noise": 3}, camera=(0.5, 0.5), bootstrap=100)
+
+    def build(sc, st):
+        nz = 0.0 if st.noise == "none" else float(st.noise.split(":")[1].split(",")[0])
+        return synthetic_model(sc, sc.friction.mu, nz), "synthetic"
+
+    r = fit_log(scene, log, settings, build=build)
+    assert r.estimate == {"mu": pytest.approx(0.3), "noise": pytest.approx(0.1)}
+    assert not r.at_edge and set(r.interval_90) == {"mu", "noise"}
+    assert len(r.criterion) == 27 and {"mu", "noise", "loglik"} <= set(r.criterion[0])
+
+
+def test_untidy_log_missing_rows_faults_and_unequal_lengths(scene, tmp_path):
+    path = tmp_path / "untidy.csv"
+    synthetic_log(scene, path, 0.27, trials=300, tilts=20, seed=3, drop=0.2, truncate=True)
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+    assert len(set(log.length.tolist())) > 1
+    assert log.n_observations < 300 * 21 * 0.9
+    r = _fit(scene, path)
+    assert abs(r.estimate["mu"] - 0.27) < 0.04
+    lo, hi = r.interval_90["mu"]
+    assert lo <= 0.27 <= hi
+
+
+def test_best_fit_at_the_edge_says_so(scene, tmp_path):
+    path = tmp_path / "edge.csv"
+    synthetic_log(scene, path, 0.03, trials=200, tilts=15, seed=4)
+    r = _fit(scene, path, lo=0.15, hi=0.5, points=8)
+    assert r.at_edge and r.interval_90 is None
+    assert r.estimate["mu"] == pytest.approx(0.15, abs=0.03)
+
+
+def test_same_log_and_seed_same_fit(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=100, tilts=10, seed=5)
+    assert _fit(scene, path, seed=9).to_dict() == _fit(scene, path, seed=9).to_dict()
+
+
+def test_histogram_baseline_is_smallest_near_the_truth(scene, tmp_path):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=400, tilts=15, seed=6)
+    r = _fit(scene, path)
+    best = min(r.criterion, key=lambda c: c["histogram_distance"])
+    assert abs(best["mu"] - 0.3) <= 0.1
+
+
+# --- bad logs: one line on stderr, exit 2, before any model is built ---------------------------------
+
+_HEADER = "trial,step,x_mm,y_mm,theta_rad,status,action\n"
+_BAD = {
+    "unknown action": _HEADER + "0,0,50,50,1,ok,\n0,1,50,60,1,ok,XX\n",
+    "outside the": _HEADER + "0,0,50,50,1,ok,\n0,1,250,60,1,ok,N\n",
+    "finite pose": _HEADER + "0,0,50,50,1,ok,\n0,1,nan,60,1,ok,N\n",
+    "appears twice": _HEADER + "0,0,50,50,1,ok,\n0,1,50,60,1,ok,N\n0,1,50,61,1,ok,N\n",
+    "no row with status ok": _HEADER + "0,0,,,,unsettled,\n0,1,,,,tipped,N\n",
+    "missing column": "0,0,50,50,1,ok,\n0,1,50,60,1,ok,N\n",
+    "no action column": "trial,step,x_mm,y_mm,theta_rad,status\n0,0,50,50,1,ok\n",
+}
+
+
+@pytest.mark.parametrize("expected", sorted(_BAD))
+def test_bad_log_is_one_line_and_exit_2(expected, tmp_path, capsys):
+    path = tmp_path / "bad.csv"
+    path.write_text(_BAD[expected])
+    status = main(["fit", "--poses", str(path), "--shape", SHAPE, "--json"])
+    err = capsys.readouterr().err.strip()
+    assert status == 2
+    assert len(err.splitlines()) == 1 and expected in err
+
+
+def test_bad_options_exit_2(tmp_path, capsys, scene):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=5, tilts=3, seed=1)
+    for extra, words in ((["--range", "0.5..0.2"], "low end"), (["--fit", "mu_s,mu_k"], "friction issue"),
+                         (["--fit", "speed"], "bad --fit"), (["--camera-noise", "0,1"], "camera-noise")):
+        assert main(["fit", "--poses", str(path), "--shape", SHAPE, *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and words in err
+
+
+def test_sequence_must_agree_with_action_column(tmp_path, scene, capsys):
+    path = tmp_path / "log.csv"
+    seq = synthetic_log(scene, path, 0.3, trials=5, tilts=3, seed=1)
+    other = ",".join(scene.actions[(a + 1) % 8] for a in seq)
+    assert main(["fit", "--poses", str(path), "--shape", SHAPE, "--sequence", other]) == 2
+    assert "--sequence has" in capsys.readouterr().err
+
+
+# --- friction ranges -----------------------------------------------------------------------------------
+
+def test_friction_range_points_and_errors():
+    r = parse_friction_range("0.2..0.4")
+    assert r.points(5) == ["0.2", "0.25", "0.3", "0.35", "0.4"]
+    assert str(r) == "0.2..0.4" and not r.paired
+    for bad in ("0.4..0.2", "0.2..", "a..0.3", "map:low:1..0.3", "0.2..0.3..0.4", "0.3"):
+        with pytest.raises(ValueError, match="friction range"):
+            parse_friction_range(bad)
+
+
+def _synthetic_range(monkeypatch, scene, tmp_path):
+    """Stand in for the range's builds: synthetic models at the range's points, saved as files."""
+    import analysis.friction_range as fr_mod
+
+    def models(sc, frange, points, build_settings=None, **kw):
+        out = []
+        for spec in frange.points(points):
+            m = synthetic_model(scene, float(spec))
+            path = str(tmp_path / f"m{spec}.npz")
+            m.save(path)
+            out.append((spec, m, path))
+        return out
+
+    monkeypatch.setattr(fr_mod, "models_over_range", models)
+
+
+def test_ensemble_and_convergence_over_a_range(monkeypatch, scene, tmp_path, capsys):
+    import json
+
+    _synthetic_range(monkeypatch, scene, tmp_path)
+    assert main(["ensemble", "--friction", "0.1..0.5", "--shape", SHAPE, "--count", "20", "--length", "8",
+                 "--range-points", "3", "--draws", "0", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    r = out["friction_range"]
+    assert r["friction"] == ["0.1", "0.3", "0.5"] and len(r["models"]) == 3
+    lo, hi = r["range"]["mean"][-1]
+    assert lo <= out["mean"][-1] <= hi and lo < hi       # a stochastic family: the answers move with mu
+    assert main(["convergence", "--friction", "0.1..0.5", "--shape", SHAPE, "--range-points", "3",
+                 "--runs", "50", "--draws", "0", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert "friction_range" in out and "expected_length" in out
+    assert main(["ensemble", "--friction", "0.1..0.5", "--model", "x.npz", "--count", "2", "--length", "2"]) == 2
+    assert "drop --model" in capsys.readouterr().err
+
+
+def test_robust_plan_over_a_range(monkeypatch, scene, tmp_path, capsys):
+    import json
+
+    _synthetic_range(monkeypatch, scene, tmp_path)
+    assert main(["plan", "--friction", "0.0..0.0", "--shape", SHAPE, "--range-points", "2",
+                 "--target", "state", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["friction_range"]["friction"] == ["0"]
+    assert out["word"] is not None
+
+
+def test_rankings_over_range_orders_that_hold():
+    from analysis.friction_range import rankings_over_range
+
+    rows = [[{"shape": "a", "rank": 1}, {"shape": "b", "rank": 2}, {"shape": "c", "rank": 3}],
+            [{"shape": "a", "rank": 1}, {"shape": "c", "rank": 2}, {"shape": "b", "rank": 3}]]
+    r = rankings_over_range(["0.2", "0.4"], rows)
+    assert r["rank_range"] == {"a": [1, 1], "b": [2, 3], "c": [2, 3]}
+    assert r["orders_that_hold"] == [["a", "b"], ["a", "c"]]
+    assert r["orders_that_flip"] == [["b", "c"]]
+    assert r["kendall_tau_ends"] == pytest.approx(1 / 3)
+
+
+def test_figure_and_study_pieces(scene, tmp_path):
+    from analysis.fit.figure import fit_figure
+    from analysis.fit.study import TrayLogStudy, hidden_coefficient
+
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=100, tilts=10, seed=2)
+    r = _fit(scene, path).to_dict()
+    png = fit_figure(r, tmp_path / "fit.png", truth=0.3)
+    assert (tmp_path / "fit.png").stat().st_size > 1000 and png.endswith("fit.png")
+    assert hidden_coefficient(7) == hidden_coefficient(7) and 0.15 <= hidden_coefficient(7) <= 0.45
+    study = TrayLogStudy(truth=0.3, fit=r, sequence=["N"] * 10, trials=100, camera=(0.5, 0.5),
+                         interval_models=["0.28", "0.3", "0.32"], answers={"share": (0.2, 0.4)},
+                         plan={"word": ["N", "E"], "length": 2, "success_probability": [1.0, 1.0]})
+    md = study.markdown()
+    assert "## A tray's log" in md and "mu = 0.300" in md and "N,E" in md
+    assert study.to_dict()["truth"] == 0.3
+
+
+@pytest.mark.slow
+def test_physics_log_recovered_end_to_end(tmp_path, monkeypatch, capsys):
+    """A rectangle's log by direct simulation at mu = 0.33, fitted by the command line on coarse builds."""
+    import json
+
+    from analysis.fit.study import add_camera_noise
+    from analysis.montecarlo import run_direct, write_poses_csv
+
+    monkeypatch.setenv("KRUSKAL_CACHE", str(tmp_path / "cache"))
+    shape = "rectangle:60x20"
+    sc = scene_from_options(shape, friction_spec=0.33)
+    seq = ",".join(np.array(sc.actions)[np.random.default_rng(11).integers(0, 8, 12)])
+    res = add_camera_noise(run_direct(sc, seq, 200, seed=11, workers=2), 0.5, 0.5, 11)
+    log = write_poses_csv(tmp_path / "log.csv", res)
+    assert main(["fit", "--poses", log, "--shape", shape, "--sequence", seq, "--range", "0.2..0.5",
+                 "--points", "4", "--resolution", "2,2", "--start-samples", "300", "--recenter-rounds", "0",
+                 "--workers", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert abs(out["estimate"]["mu"] - 0.33) < 0.05
