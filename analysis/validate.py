@@ -42,7 +42,7 @@ from kruskal_markov.answers import wilson_interval
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model
-from kruskal_markov.structural import STRUCTURAL_DELTA, band_with_structure, conformal_quantile, structural_score
+from kruskal_markov.structural import band_with_structure, conformal_quantile, structural_score, structural_term
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene
 from transition_builder.status import OK
@@ -163,7 +163,7 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
 def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 1000, seed: int = 0,
                    length: int = 50, spread: bool = False, bands: int = 40, workers=None, scheduler=None,
                    progress: bool | None = False, simulate=None, contact: str | None = None,
-                   structural_delta: float = STRUCTURAL_DELTA) -> dict:
+                   structural_delta: float | None = None) -> dict:
     """Compare ``model`` with direct simulation on ``sequences`` random sequences (see module docstring).
 
     ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
@@ -192,9 +192,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         Replaces the direct simulation.
     contact : str, optional
         The reference's floor contact (default the model's).
-    structural_delta : float
+    structural_delta : float, optional
         Relative structural error of the band (:mod:`kruskal_markov.structural`; 0: the
-        Dirichlet band alone).
+        Dirichlet band alone; None: the model's own, :func:`kruskal_markov.structural.structural_term`).
 
     Returns
     -------
@@ -208,9 +208,12 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     for name, val, lo in (("sequences", sequences, 1), ("trials", trials, 2), ("length", length, 1),
                           ("bands", bands, 0)):
         check_int(val, name, lo=lo)
-    if not (isinstance(structural_delta, (int, float)) and not isinstance(structural_delta, bool)
-            and math.isfinite(structural_delta) and structural_delta >= 0):
+    if structural_delta is not None and not (isinstance(structural_delta, (int, float))
+                                             and not isinstance(structural_delta, bool)
+                                             and math.isfinite(structural_delta) and structural_delta >= 0):
         raise ValueError(f"structural_delta must be a non-negative number, got {structural_delta!r}")
+    term = structural_term(model, structural_delta)
+    structural_delta = term.delta
     scene = model_scene(model)
     model_contact = scene.settings.contact
     if contact is not None:
@@ -300,7 +303,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
                                                               len(np.concatenate(covered_dir))))
                                          if covered_dir else None),
         "band_steps": int(sum(len(c) for c in covered)),
-        "structural_delta": float(structural_delta),
+        **term.to_dict(),
         "structural_delta_q90": (_finite_or_none(conformal_quantile(np.concatenate(scores), 0.9))
                                  if scores else None),
         "band_draws": len(draws),
