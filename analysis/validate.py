@@ -48,7 +48,10 @@ from transition_builder.scene import Scene
 from transition_builder.status import OK
 
 __all__ = ["model_scene", "model_grid", "reference_seed", "validate_model", "random_sequences_for",
-           "wilson_interval", "model_band"]
+           "wilson_interval", "model_band", "coverage_verdict", "COVERAGE_WINDOW"]
+
+#: The coverage a nominal 90% band should show: a band outside it is too narrow or too wide.
+COVERAGE_WINDOW = (0.85, 0.95)
 
 _REFERENCE_STREAM = 2
 _PLUGIN_DRAWS = 200
@@ -108,6 +111,23 @@ def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
     q = q / q.sum()
     draws = rng.multinomial(m, q, size=_PLUGIN_DRAWS)
     return float(np.mean([histogram_entropy_bits(d) for d in draws]))
+
+
+def coverage_verdict(covered: int, steps: int, window: tuple[float, float] = COVERAGE_WINDOW) -> str:
+    """Judge a band's coverage against ``window``: ``"too narrow"`` when the Wilson 95% interval of
+    ``covered / steps`` lies wholly below it, ``"too wide"`` when wholly above, else ``"consistent"``.
+
+    Examples
+    --------
+    >>> coverage_verdict(90, 100), coverage_verdict(100, 100), coverage_verdict(60, 100)
+    ('consistent', 'too wide', 'too narrow')
+    """
+    lo, hi = wilson_interval(int(covered), int(steps))
+    if hi < window[0]:
+        return "too narrow"
+    if lo > window[1]:
+        return "too wide"
+    return "consistent"
 
 
 def _inside(x, lo, hi) -> np.ndarray:
@@ -303,6 +323,8 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
                                                               len(np.concatenate(covered_dir))))
                                          if covered_dir else None),
         "band_steps": int(sum(len(c) for c in covered)),
+        "band_verdict": (coverage_verdict(int(np.concatenate(covered).sum()), len(np.concatenate(covered)))
+                         if covered else None),
         **term.to_dict(),
         "structural_delta_q90": (_finite_or_none(conformal_quantile(np.concatenate(scores), 0.9))
                                  if scores else None),
