@@ -86,3 +86,79 @@ def test_plan_success_interval():
     assert out["model_ci90"][0] <= out["posterior_ci90"][0] <= 0.6 <= out["posterior_ci90"][1] <= out["model_ci90"][1]
     none = plan_success_interval(m, [0, 1, 2], 0.6, draws=0, structural_delta=0.0)
     assert none["posterior_ci90"] is None and none["model_ci90"] == [0.6, 0.6]
+
+
+def _range_by_bisection(p, d):
+    """An independent computation of the TV ball's entropy range (bisection on the clipping levels)."""
+    p = np.asarray(p, float) / np.sum(p)
+    h = lambda q: float(-(q[q > 0] * np.log2(q[q > 0])).sum())     # noqa: E731
+    if d <= 0:
+        return h(p), h(p)
+    lo_u, hi_u = 0.0, 1.0
+    for _ in range(200):
+        u = 0.5 * (lo_u + hi_u)
+        lo_u, hi_u = (u, hi_u) if np.clip(p - u, 0, None).sum() > d else (lo_u, u)
+    lo_l, hi_l = 0.0, 1.0
+    for _ in range(200):
+        lv = 0.5 * (lo_l + hi_l)
+        lo_l, hi_l = (lo_l, lv) if np.clip(lv - p, 0, None).sum() > d else (lv, hi_l)
+    top = np.log2(len(p)) if lo_l >= hi_u else h(np.clip(p, lo_l, hi_u))
+    s = np.sort(p)
+    room = min(d, 1 - s[-1])
+    q = s.copy()
+    q[-1] += room
+    for i in range(len(s) - 1):
+        t = min(q[i], room)
+        q[i] -= t
+        room -= t
+    return min(h(q), h(p)), max(top, h(p))
+
+
+def test_answer_values_match_an_independent_computation():
+    """Every figure of answer_intervals recomputed from its definition with the same random streams:
+    the ensemble, Wilson, the Monte Carlo sd on the structural subsample, the posterior quantiles over
+    draws [seed, 7, i] on the first draw_count sequences, and the structural shift of the mean entropy
+    (the TV ball's range by bisection, not the Numba kernel)."""
+    from kruskal_markov.answers import wilson_interval
+    from kruskal_markov.ensemble import random_sequences, run_ensemble
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.posterior import resample_model
+
+    m = _counted_model()
+    seed, count, length, delta, sub, draws, dc = 4, 400, 20, 0.2, 25, 6, 150
+    out = answer_intervals(m, seed=seed, count=count, length=length, epsilon=1e-3, draws=draws, draw_count=dc,
+                           structural_delta=delta, structural_sequences=sub)
+    ens = run_ensemble(m, count, length, seed=seed, epsilon=1e-3)
+    share = ens.converged / count
+    assert out["converging_share"]["value"] == share
+    assert out["converging_share"]["mc_ci95"] == pytest.approx(list(wilson_interval(ens.converged, count)))
+    seqs = random_sequences(m.n_actions, sub, length, seed=[seed, 8])
+    h, hmin, hmax = [], [], []
+    for s in seqs:
+        tr = entropy_trajectory(m, s, return_distributions=True)
+        cells = np.stack([np.bincount(m.partition, weights=p, minlength=m.n_cells) for p in tr.distributions])
+        rows = [(_range_by_bisection(c, delta * (1 - c.max() / c.sum())), tr.entropy_bits[k])
+                for k, c in enumerate(cells)]
+        h.append([e for _, e in rows])
+        hmin.append([r[0] for r, _ in rows])
+        hmax.append([r[1] for r, _ in rows])
+    h, hmin, hmax = map(np.asarray, (h, hmin, hmax))
+    base = run_ensemble(m, dc, length, seed=seed, epsilon=1e-3)
+    diffs = {10: [], 20: []}
+    for i in range(draws):
+        d = run_ensemble(resample_model(m, np.random.default_rng([seed, 7, i])), dc, length, seed=seed, epsilon=1e-3)
+        for t in diffs:
+            diffs[t].append(d.mean[t] - base.mean[t])
+    for t in (10, 20):
+        v = out[f"mean_entropy_{t}"]
+        assert v["value"] == pytest.approx(ens.mean[t])
+        half = 1.96 * h[:, t].std(ddof=1) / np.sqrt(count)
+        assert v["mc_ci95"] == pytest.approx([ens.mean[t] - half, ens.mean[t] + half])
+        q = np.quantile(diffs[t], [0.05, 0.95])
+        assert v["posterior_ci90"] == pytest.approx([min(ens.mean[t], ens.mean[t] + q[0]),
+                                                     max(ens.mean[t], ens.mean[t] + q[1])])
+        lo = max(0.0, ens.mean[t] + np.mean(hmin[:, t] - h[:, t]))
+        hi = ens.mean[t] + np.mean(hmax[:, t] - h[:, t])
+        assert v["structural_range"] == pytest.approx([lo, hi], abs=1e-9)
+        assert hi - lo > 0.05
+    assert out["settings"]["draw_count"] == dc and out["settings"]["structural_delta"] == delta
