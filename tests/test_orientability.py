@@ -109,3 +109,7 @@ def test_part_metrics_by_value_against_their_definitions():
     assert iv["settings"]["structural_sequences"] == 100 and iv["settings"]["runs"] == runs
     assert iv["settings"]["epsilon"] == eps and iv["settings"]["count"] == count
     assert np.isfinite(m.seconds)
+    # defaults: the convergence threshold 1e-3 bits, posterior draws on at most 1,000 sequences
+    big = part_metrics(model, seed=seed, count=1200, runs=20, max_tilts=cap, draws=2, sync_node_budget=2000)
+    assert big.epsilon == 1e-3 and big.intervals["settings"]["epsilon"] == 1e-3
+    assert big.intervals["settings"]["draw_count"] == 1000 and big.intervals["settings"]["draws"] == 2
