@@ -5,7 +5,7 @@ random sequences of each seed (``kruskal validate``'s code: M = 2,000 trials, 30
 seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps each run's JSON in
 ``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
 
-``python -m benchmarks.bench_coverage calibrate [--model=PATH] FILE ...`` computes the split-conformal ``delta``
+``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
 the coverage of the Dirichlet band alone (before) and with the default structural term (after),
 each with its Wilson interval. ``main()`` (``make bench``) prints the summary of what is kept.
@@ -83,16 +83,25 @@ def _model(res: dict, fallback: str | None = None):
     return TransitionModel.load(res.get("model_path") or fallback)
 
 
-def calibrate(files: list[str], model_path: str | None = None) -> float:
-    from kruskal_markov.structural import conformal_quantile
-    scores = []
+def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
+    """The split-conformal delta of kept validation runs; ``store``: written into the model file
+    (what ``kruskal validate --calibrate`` stores, for runs already kept)."""
+    from kruskal_markov.structural import conformal_quantile, with_calibration
+    scores, seeds = [], []
     for f in files:
         res = json.load(open(f))
         scores.append(_steps(res, 0.0, _model(res, model_path))[1])
+        seeds.append(res["seed"])
     s = np.concatenate(scores)
     q = conformal_quantile(s, 0.9)
     print(f"{len(s)} calibration steps from {len(files)} runs: conformal 90% delta = {q:.4f} "
           f"(share of steps needing none: {np.mean(s == 0):.3f})")
+    if store:
+        path = model_path or json.load(open(files[0]))["model_path"]
+        model = _model({}, path)
+        with_calibration(model, q, level=0.9, steps=len(s), seeds=seeds,
+                         scores=[round(float(x), 6) if math.isfinite(x) else None for x in s]).save(path)
+        print(f"stored in {path}")
     return q
 
 
@@ -141,9 +150,11 @@ def main(argv: list[str] | None = None) -> None:
     elif argv and argv[0] == "calibrate":
         model = None
         files = argv[1:]
+        store = "--store" in files
+        files = [f for f in files if f != "--store"]
         if files and files[0].startswith("--model="):
             model, files = files[0].split("=", 1)[1], files[1:]
-        calibrate(files, model)
+        calibrate(files, model, store)
     else:
         summary()
 
