@@ -162,3 +162,62 @@ def test_answer_values_match_an_independent_computation():
         assert v["structural_range"] == pytest.approx([lo, hi], abs=1e-9)
         assert hi - lo > 0.05
     assert out["settings"]["draw_count"] == dc and out["settings"]["structural_delta"] == delta
+
+
+def _merging_model():
+    """8 states on 4 cells: ``a`` halves the state (i -> i // 2, sampled 20 times), ``b`` moves it one on
+    (19 of 20 samples; 1 stays): random words converge and spread again."""
+    n = 8
+    ca = sp.csr_matrix((np.full(n, 20.0), (np.arange(n), np.arange(n) // 2)), shape=(n, n))
+    cb = sp.csr_matrix((np.r_[np.full(n, 19.0), np.ones(n)], (np.r_[np.arange(n), np.arange(n)],
+                                                             np.r_[(np.arange(n) + 1) % n, np.arange(n)])), shape=(n, n))
+    mats, extras = [], {}
+    for a, c in enumerate((ca, cb)):
+        c.sort_indices()
+        extras[f"counts_{a}"] = c.data.astype(np.int64)
+        tot = np.asarray(c.sum(1)).ravel()
+        mats.append(sp.csr_matrix((c.data / np.repeat(tot, np.diff(c.indptr)), c.indices, c.indptr), shape=(n, n)))
+    return TransitionModel(["a", "b"], mats, initial=np.full(n, 1.0 / n), partition=np.arange(n) % 4, n_cells=4,
+                           extras=extras)
+
+
+def test_share_and_random_tilts_structural_ranges_match_an_independent_computation():
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts
+    from kruskal_markov.ensemble import random_sequences, run_ensemble
+    from kruskal_markov.entropy import entropy_trajectory
+
+    m = _merging_model()
+    seed, count, length, delta, sub, runs, cap, eps = 2, 300, 12, 1.0, 15, 40, 40, 0.3
+    out = answer_intervals(m, seed=seed, count=count, length=length, epsilon=eps, runs=runs, max_steps=cap, draws=0,
+                           structural_delta=delta, structural_sequences=sub)
+    ens = run_ensemble(m, count, length, seed=seed, epsilon=eps)
+    share = ens.converged / count
+    assert 0.05 < share < 0.95
+    seqs = random_sequences(2, sub, cap, seed=[seed, 8])           # the subsample runs max(length, cap) tilts
+    h, lo, hi = [], [], []
+    for s in seqs:
+        tr = entropy_trajectory(m, s, return_distributions=True)
+        rows = []
+        for p in tr.distributions:
+            c = np.bincount(m.partition, weights=p, minlength=4)
+            rows.append(_range_by_bisection(c, delta * (1 - c.max() / c.sum())))
+        h.append(tr.entropy_bits)
+        lo.append([r[0] for r in rows])
+        hi.append([r[1] for r in rows])
+    h, lo, hi = map(np.asarray, (h, lo, hi))
+    conv = lambda a: (a[:, :length + 1] <= eps).any(1).mean()      # noqa: E731
+    assert out["converging_share"]["structural_range"] == pytest.approx(
+        [max(0.0, share + conv(hi) - conv(h)), min(1.0, share + conv(lo) - conv(h))])
+
+    def first(a):
+        f = np.argmax(a <= eps, axis=1).astype(float)
+        f[~(a <= eps).any(1)] = cap
+        return f
+    t = monte_carlo_entropy_tilts(m, eps, runs=runs, seed=[seed, 5], max_steps=cap)
+    v = out["random_tilts"]
+    assert v["value"] == pytest.approx(t["mean"] if t["mean"] is not None else t["lower"])
+    assert v["censored"] == t["censored"]
+    assert v["structural_range"] == pytest.approx([max(0.0, v["value"] + np.mean(first(lo) - first(h))),
+                                                   v["value"] + np.mean(first(hi) - first(h))])
+    # at a threshold of 0.3 bits and delta 1 the ball moves both answers (checked: not zero-width)
+    assert v["structural_range"][0] < v["value"] and out["converging_share"]["structural_range"][1] > share
