@@ -146,6 +146,8 @@ def run_ops(root: pathlib.Path, work: pathlib.Path, name: str, file: str, tests:
         except subprocess.TimeoutExpired:
             verdict = "timeout"
         counts[verdict] += 1
+        with open(ws / "ops-log.txt", "a") as fh:          # partial results survive an interrupted run
+            fh.write(f"{i} {kind} line {line}: {desc}: {verdict}\n")
         if verdict == "survived":
             survivors.append(f"=== ops {i} ({kind}) line {line}: {desc}")
     (ws / file).write_text(original)
