@@ -80,7 +80,7 @@ def _steps(res: dict, delta: float, model=None):
 
 def _model(res: dict, fallback: str | None = None):
     from kruskal_markov.model import TransitionModel
-    return TransitionModel.load(res.get("model_path") or fallback)
+    return TransitionModel.load(fallback or res.get("model_path"))
 
 
 def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
