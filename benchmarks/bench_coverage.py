@@ -55,23 +55,26 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
 
 
 def _steps(res: dict, delta: float, model=None):
-    """Per step 1..N: inside the band at ``delta``, and the score; old JSONs lack the band's parts."""
-    from kruskal_markov.entropy import entropy_trajectory
+    """Per step 1..N: inside the band at ``delta``, and the score.
+
+    The band is recomputed from ``model`` as ``kruskal validate`` computes it (40 posterior draws
+    seeded ``[seed, 4, r]``, the run's per-step reference noise, or its mean noise in JSONs that lack
+    it), so kept runs stay valid references for a rebuilt model.
+    """
+    from analysis.validate import model_band
+    from kruskal_markov.posterior import has_counts, resample_model
     from kruskal_markov.structural import band_with_structure, structural_score
 
-    z90 = 1.6448536269514722
+    draws = ([resample_model(model, np.random.default_rng([res["seed"], 4, r])) for r in range(40)]
+             if has_counts(model) else [])
+    rng = np.random.default_rng([res["seed"], 3])
     inside, scores = [], []
     for s in res["per_sequence"]:
         ref = np.asarray(s["reference"])
-        if "band_centre" in s:
-            centre, width = np.asarray(s["band_centre"]), np.asarray(s["band_width"])
-        else:       # validation JSONs before the structural term: the model's curve +- its mean noise
-            centre = np.asarray(s["model"])
-            width = np.full(len(ref), z90 * s["reference_noise_bits"])
+        sd = np.asarray(s["reference_sd"]) if "reference_sd" in s else np.full(len(ref), s["reference_noise_bits"])
         seq = [model.actions.index(a) for a in s["sequence"]]
-        traj = entropy_trajectory(model, seq, return_distributions=True)
-        cells = np.stack([np.bincount(model.partition, weights=p, minlength=model.n_cells)
-                          for p in traj.distributions])
+        band = model_band(model, seq, draws, np.full(len(ref), res["trials"]), sd, 0.0, rng)
+        cells, centre, width = band["cells"], band["centre"], band["width"]
         lo, hi = band_with_structure(cells, centre, width, delta)
         inside.append(((ref >= lo - 1e-12) & (ref <= hi + 1e-12))[1:])
         scores.append(structural_score(cells, centre, width, ref)[1:])
