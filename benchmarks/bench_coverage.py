@@ -5,6 +5,8 @@ random sequences of each seed (``kruskal validate``'s code: M = 2,000 trials, 30
 seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps each run's JSON in
 ``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
 
+``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ...`` prints the coverage of kept runs before
+(delta 0.105) and after (the model's own term).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
 the coverage of the Dirichlet band alone (before) and with the default structural term (after),
@@ -108,6 +110,34 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     return q
 
 
+def evaluate(files: list[str], model_path: str) -> None:
+    """Coverage of kept runs on ``model_path``: the Dirichlet band alone, the band at delta 0.105 (before
+    issue 45) and at the model's own term (after), each with its Wilson interval, per run and pooled."""
+    from analysis.validate import wilson_interval
+    from kruskal_markov.structural import structural_term
+
+    model = _model({}, model_path)
+    term = structural_term(model)
+    deltas = (("Dirichlet alone", 0.0), ("before: 0.105", 0.105), (f"after: {term.source} {term.delta:.4g}", term.delta))
+    pooled = {k: [] for k, _ in deltas}
+
+    def cell(x):
+        lo, hi = wilson_interval(int(x.sum()), len(x))
+        return f"{100 * x.mean():.0f}% ({100 * lo:.0f}-{100 * hi:.0f})"
+    print("| run | steps | " + " | ".join(k for k, _ in deltas) + " |")
+    print("|---" * (2 + len(deltas)) + "|")
+    for f in files:
+        res = json.load(open(f))
+        row = []
+        for k, d in deltas:
+            ins = _steps(res, d, model)[0]
+            pooled[k].append(ins)
+            row.append(cell(ins))
+        print(f"| {pathlib.Path(f).stem} | {len(ins)} | " + " | ".join(row) + " |")
+    print(f"| pooled | {sum(len(x) for x in pooled[deltas[0][0]])} | "
+          + " | ".join(cell(np.concatenate(pooled[k])) for k, _ in deltas) + " |")
+
+
 def summary() -> None:
     from analysis.validate import wilson_interval
     from kruskal_markov.structural import STRUCTURAL_DELTA
@@ -150,6 +180,8 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "run":
         run(argv[1], argv[2], [int(x) for x in argv[3:]])
+    elif argv and argv[0] == "evaluate":
+        evaluate(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "calibrate":
         model = None
         files = argv[1:]
