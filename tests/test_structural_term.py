@@ -134,3 +134,21 @@ def test_calibrate_refuses_what_it_cannot_calibrate(tmp_path):
         calibrate_model(m, _result([[0.1, 0.2]]), path)               # 2 steps: no 90% quantile
     with pytest.raises(InputError, match="contact"):
         calibrate_model(m, _result([[0.0] * 30], contact="other"), path)
+
+
+def test_the_numba_range_equals_an_independent_bisection_on_random_rows():
+    """The exact per-row kernel against plain bisection on the clipping levels (tests/test_answers.py),
+    on rows of 2-64 cells with zeros, radii from 0 past the distance to uniform."""
+    from kruskal_markov.structural import entropy_range_tv
+    from tests.test_answers import _range_by_bisection
+
+    rng = np.random.default_rng(45)
+    for n in (2, 3, 7, 64):
+        p = rng.dirichlet(np.full(n, 0.4), size=40)
+        p[p < 0.03] = 0.0
+        p[:, 0] += 1e-3
+        d = rng.uniform(0, 1.1, size=40) * (rng.random(40) < 0.9)
+        lo, hi = entropy_range_tv(p, d)
+        for i in range(40):
+            want = _range_by_bisection(p[i], min(d[i], 1.0))
+            assert (lo[i], hi[i]) == pytest.approx(want, abs=1e-9), (n, i, d[i])
