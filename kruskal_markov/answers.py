@@ -105,7 +105,7 @@ def _combine(value, mc, post, struct, note=None, **extra) -> dict:
 
 
 def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsilon: float = 1e-3,
-                     runs: int = 0, max_steps: int = 1000, draws: int = 20, draw_count: int = 300,
+                     runs: int = 0, max_steps: int = 1000, draws: int = 20, draw_count: int = 200,
                      structural_delta: float | None = None, structural_sequences: int = 200,
                      weights=None, ensemble=None, entropy_tilts=None, threads=None) -> dict:
     """The converging share, mean entropies and expected random tilts, each with its intervals.
