@@ -108,8 +108,8 @@ def structural_term(model, delta: float | None = None) -> StructuralTerm:
             and rec["delta"] >= 0:
         return StructuralTerm(float(rec["delta"]), "calibrated",
                               f"structural delta {rec['delta']:.4g} calibrated on this model "
-                              f"({rec.get('steps', '?')} steps of `kruskal validate --calibrate`, seed "
-                              f"{rec.get('seed', '?')})")
+                              f"({rec.get('steps', '?')} steps of `kruskal validate --calibrate`, seeds "
+                              f"{', '.join(map(str, rec.get('seeds', []))) or '?'})")
     return StructuralTerm(STRUCTURAL_DELTA, "default",
                           f"structural delta {STRUCTURAL_DELTA:g}: the allen key's calibration, this model has "
                           "none of its own (`kruskal validate --calibrate` stores one)")

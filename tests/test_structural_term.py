@@ -80,7 +80,7 @@ def test_a_built_model_uses_its_stored_calibration_else_the_default():
     assert (t.delta, t.source) == (STRUCTURAL_DELTA, "default")
     cal = with_calibration(m, 0.02, steps=60, seeds=[5])
     t = structural_term(cal)
-    assert (t.delta, t.source) == (0.02, "calibrated") and "60 steps" in t.note
+    assert (t.delta, t.source) == (0.02, "calibrated") and "60 steps" in t.note and "seeds 5)" in t.note
     # the structural range scales with the model's own delta: a 5x smaller delta, a narrower range
     a = answer_intervals(m, seed=1, count=300, length=20, draws=0, structural_sequences=40)["mean_entropy_10"]
     b = answer_intervals(cal, seed=1, count=300, length=20, draws=0, structural_sequences=40)["mean_entropy_10"]
