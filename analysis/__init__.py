@@ -10,7 +10,9 @@ Models against the physics
 Orientability
     :func:`part_metrics` (:class:`PartMetrics`), :func:`rank_parts`.
 The paper's experiments
-    :func:`reproduce` (:class:`ReproduceSettings`), :func:`write_report`.
+    :func:`reproduce` (:class:`ReproduceSettings`; returns a :class:`Report`), :func:`write_report`;
+    the report's sections are :mod:`analysis.experiments` (one module each, an ordered registry,
+    :class:`Context` with named random streams, :class:`ModelAnswers`).
 """
 from kruskal_markov.lazy import lazy_exports
 
@@ -30,6 +32,9 @@ _EXPORTS = {
     "ReproduceSettings": "reproduce",
     "reproduce": "reproduce",
     "write_report": "report",
+    "Report": "experiments.runner",
+    "Context": "experiments.context",
+    "ModelAnswers": "experiments.model_answers",
 }
 __all__ = sorted(_EXPORTS)
 

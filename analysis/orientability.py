@@ -22,12 +22,10 @@ import time
 
 import numpy as np
 
+from kruskal_markov.entropy import CONVERGED_BITS
 from kruskal_markov.model import TransitionModel
 
 __all__ = ["CONVERGED_BITS", "PartMetrics", "part_metrics", "rank_parts"]
-
-#: default convergence threshold in bits (see the module docstring).
-CONVERGED_BITS = 1e-3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -165,24 +163,13 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     )
     from kruskal_markov.ensemble import run_ensemble
     from kruskal_markov.entropy import entropy_trajectory
-    from kruskal_markov.sync import (
-        shortest_synchronizing_word,
-        start_set,
-        support_automaton,
-    )
+    from kruskal_markov.sync import shortest_word, start_set, support_automaton
 
     t0 = time.perf_counter()
     ens = run_ensemble(model, count, 50, seed=seed, epsilon=epsilon, threads=threads)
     aut = support_automaton(model, 0.0)
     start = start_set(model, False)
-    if model.partition is not None and not aut.deterministic:
-        # plan target state by the plan search (exact where the subset search runs out of memory)
-        from kruskal_markov.sync.plan import DEFAULT_NODE_BUDGET, state_plan
-
-        sync = state_plan(model, 0.0, time_budget=sync_time_budget,
-                          node_budget=DEFAULT_NODE_BUDGET if sync_node_budget is None else sync_node_budget)
-    else:
-        sync = shortest_synchronizing_word(aut, start, time_budget=sync_time_budget, node_budget=sync_node_budget)
+    sync = shortest_word(model, "state", start="initial", time_budget=sync_time_budget, node_budget=sync_node_budget)
     tilts = monte_carlo_entropy_tilts(model, epsilon, runs=runs, seed=[seed, 5], max_steps=max_tilts)
     rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=[seed, 6], max_steps=max_tilts)
     h0 = float(entropy_trajectory(model, []).entropy_bits[0])
@@ -194,7 +181,7 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
                                  structural_sequences=100, ensemble=ens, entropy_tilts=tilts, threads=threads)
     return PartMetrics(
         states=model.n_states,
-        sync_word=None if sync.word is None else [model.actions[a] for a in sync.word],
+        sync_word=None if sync.word is None else list(sync.word),
         sync_length=sync.length, sync_exact=bool(sync.exact),
         sync_lower_bound=sync.length if sync.exact else sync.lower_bound, sync_method=sync.method,
         random_tilts=_num(tilts["mean"]), random_tilts_ci95=tuple(_num(x) for x in tilts["ci95"]),

@@ -4,9 +4,9 @@ The allen key at the report's compared resolution (``ReproduceSettings.contact_b
 degree, 1 recentring round, 2,000 starts) is built at 1/r of the default time step (the rest test
 keeps its interval) with build seed b, for each ``r:b`` of ``KRUSKAL_BENCH_STEPS`` (default
 ``1:0,1:1,1:2,2:0,4:0,4:1,8:0,8:1``). Each model's answers are computed exactly as the report's
-contact section computes them (``analysis.reproduce._contact_summary`` after ``_key_metrics``;
-seed 0, 100,000 random 50-tilt sequences), so the rows of build seed 0 at r = 1 and 4 repeat the
-report's. Several build seeds at one step measure the build's own noise beside the step's effect.
+contact section computes them (:func:`analysis.experiments.model_answers.model_answers`; the
+report's random streams under seed 0, 100,000 random 50-tilt sequences), so the rows of build seed 0
+at r = 1 and 4 repeat the report's. Several build seeds at one step measure the build's own noise beside the step's effect.
 
 Models come from the model cache (``kruskal build`` keys), so a rerun costs the analysis only; the
 first build at 1/8 of the step takes about 6.5 minutes on 2 workers. Writes
@@ -26,15 +26,18 @@ ANSWERS = ("converging_share", "mean_entropy_20", "mean_entropy_end", "random_ti
 
 def step_answers(refine: int, build_seed: int, workers: int = 2) -> dict:
     """The report's paper-level answers of the key built at 1/``refine`` of the default step."""
-    from analysis.reproduce import ReproduceSettings, _build, _contact_summary, _key_metrics
-    from transition_builder.scene import scene_from_options
+    from analysis.experiments.context import Context
+    from analysis.experiments.model_answers import key_metrics, model_answers
+    from analysis.reproduce import ReproduceSettings
 
     s = ReproduceSettings(seed=0)
-    key = scene_from_options(s.shape, tray_mm=s.tray_mm)
+    ctx = Context(s, workers=workers, progress=print)
+    key = ctx.scene()
     scene = key if refine == 1 else key.with_settings(**key.settings.finer_step(refine))
-    model, info = _build(scene, s.contact_build, build_seed, workers, print, f"1/{refine} step, build seed {build_seed}")
-    return {**_contact_summary(model, _key_metrics(model, s), s, None), "refine": refine, "build_seed": build_seed,
-            "build_seconds": info["seconds"], "cached": info["cached"]}
+    model, info = ctx.build(scene, s.contact_build, f"1/{refine} step, build seed {build_seed}", build_seed=build_seed)
+    answers = model_answers(ctx, model, key_metrics(ctx, model, sync_time_budget=s.sync_time_budget))
+    return {**answers.to_dict(), "refine": refine, "build_seed": build_seed, "build_seconds": info.seconds,
+            "cached": info.cached}
 
 
 def table(rows: list[dict]) -> str:

@@ -88,6 +88,42 @@ def _int_list(values, what: str, label: str) -> np.ndarray:
         raise ModelError(f"{label}: {what} has an entry {big!r} beyond any state index") from None
 
 
+def _action_matrix(spec, n: int, where: str) -> sp.csr_matrix:
+    """One action of the automaton JSON: a next-state list or a stochastic ``rows/cols/probs``."""
+    if isinstance(spec, list):
+        nxt = _int_list(spec, "next-state list", where)
+        if nxt.size != n:
+            raise ModelError(f"{where}: next-state list has {nxt.size} entries, expected {n}")
+        if nxt.size and (nxt.min() < 0 or nxt.max() >= n):
+            i = int(np.flatnonzero((nxt < 0) | (nxt >= n))[0])
+            raise ModelError(f"{where}: state {i} goes to {int(nxt[i])}, out of range [0, {n})")
+        m = sp.csr_matrix((np.ones(n), nxt, np.arange(n + 1)), shape=(n, n))
+    elif isinstance(spec, dict):
+        missing = {"rows", "cols", "probs"} - set(spec)
+        extra = set(spec) - {"rows", "cols", "probs"}
+        if missing or extra:
+            raise ModelError(f"{where}: a stochastic action needs exactly 'rows', 'cols', 'probs' "
+                             f"(missing {sorted(missing)}, unexpected {sorted(extra)})")
+        rows = _int_list(spec["rows"], "'rows'", where)
+        cols = _int_list(spec["cols"], "'cols'", where)
+        probs = spec["probs"]
+        if not isinstance(probs, list) or any(isinstance(p, bool) or not isinstance(p, (int, float))
+                                              for p in probs):
+            raise ModelError(f"{where}: 'probs' must be a list of numbers")
+        probs = np.asarray(probs, dtype=np.float64)
+        if not (rows.size == cols.size == probs.size):
+            raise ModelError(f"{where}: 'rows', 'cols', 'probs' have different lengths "
+                             f"({rows.size}, {cols.size}, {probs.size})")
+        for arr, what in ((rows, "row"), (cols, "column")):
+            if arr.size and (arr.min() < 0 or arr.max() >= n):
+                bad = int(arr[(arr < 0) | (arr >= n)][0])
+                raise ModelError(f"{where}: {what} index {bad} out of range [0, {n})")
+        m = sp.coo_matrix((probs, (rows, cols)), shape=(n, n)).tocsr()
+    else:
+        raise ModelError(f"{where}: expected a next-state list or an object with rows/cols/probs")
+    return m
+
+
 def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
     """Build a :class:`TransitionModel` from the docs/commands.md automaton JSON.
 
@@ -123,42 +159,8 @@ def model_from_automaton(source, tol: float = 1e-9) -> TransitionModel:
     if not isinstance(actions, dict) or not actions:
         raise ModelError(f"{label}: 'actions' must be a non-empty object mapping action names to "
                          f"transitions")
-    names, mats = [], []
-    for name, spec in actions.items():
-        where = f"{label}: action {name!r}"
-        if isinstance(spec, list):
-            nxt = _int_list(spec, "next-state list", where)
-            if nxt.size != n:
-                raise ModelError(f"{where}: next-state list has {nxt.size} entries, expected {n}")
-            if nxt.size and (nxt.min() < 0 or nxt.max() >= n):
-                i = int(np.flatnonzero((nxt < 0) | (nxt >= n))[0])
-                raise ModelError(f"{where}: state {i} goes to {int(nxt[i])}, out of range [0, {n})")
-            m = sp.csr_matrix((np.ones(n), nxt, np.arange(n + 1)), shape=(n, n))
-        elif isinstance(spec, dict):
-            missing = {"rows", "cols", "probs"} - set(spec)
-            extra = set(spec) - {"rows", "cols", "probs"}
-            if missing or extra:
-                raise ModelError(f"{where}: a stochastic action needs exactly 'rows', 'cols', 'probs' "
-                                 f"(missing {sorted(missing)}, unexpected {sorted(extra)})")
-            rows = _int_list(spec["rows"], "'rows'", where)
-            cols = _int_list(spec["cols"], "'cols'", where)
-            probs = spec["probs"]
-            if not isinstance(probs, list) or any(isinstance(p, bool) or not isinstance(p, (int, float))
-                                                  for p in probs):
-                raise ModelError(f"{where}: 'probs' must be a list of numbers")
-            probs = np.asarray(probs, dtype=np.float64)
-            if not (rows.size == cols.size == probs.size):
-                raise ModelError(f"{where}: 'rows', 'cols', 'probs' have different lengths "
-                                 f"({rows.size}, {cols.size}, {probs.size})")
-            for arr, what in ((rows, "row"), (cols, "column")):
-                if arr.size and (arr.min() < 0 or arr.max() >= n):
-                    bad = int(arr[(arr < 0) | (arr >= n)][0])
-                    raise ModelError(f"{where}: {what} index {bad} out of range [0, {n})")
-            m = sp.coo_matrix((probs, (rows, cols)), shape=(n, n)).tocsr()
-        else:
-            raise ModelError(f"{where}: expected a next-state list or an object with rows/cols/probs")
-        names.append(name)
-        mats.append(m)
+    names = list(actions)
+    mats = [_action_matrix(spec, n, f"{label}: action {name!r}") for name, spec in actions.items()]
     initial = data.get("initial")
     if initial is not None and (not isinstance(initial, list)
                                 or any(isinstance(p, bool) or not isinstance(p, (int, float)) for p in initial)):

@@ -11,7 +11,7 @@ import dataclasses
 
 import numpy as np
 
-from kruskal_markov.entropy import batch_entropy
+from kruskal_markov.entropy import ZERO_BITS, batch_entropy
 from kruskal_markov.limits import check_memory
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.validation import action_weights
@@ -69,7 +69,7 @@ def random_sequences(n_actions: int, count: int, length: int, seed=None, weights
     return out
 
 
-def convergence_steps(entropy: np.ndarray, epsilon: float = 1e-9) -> np.ndarray:
+def convergence_steps(entropy: np.ndarray, epsilon: float = ZERO_BITS) -> np.ndarray:
     """First step (column) with entropy <= ``epsilon`` for every row; -1 where never (int64)."""
     h = np.asarray(entropy)
     if h.ndim != 2:
@@ -144,7 +144,7 @@ class EnsembleResult:
     entropy: np.ndarray | None = None
 
 
-def run_ensemble(model: TransitionModel, count: int, length: int, seed=None, epsilon: float = 1e-9,
+def run_ensemble(model: TransitionModel, count: int, length: int, seed=None, epsilon: float = ZERO_BITS,
                  weights=None, initial=None, keep_entropy: bool = False,
                  threads: int | None = None) -> EnsembleResult:
     """Run K = ``count`` random sequences of ``length`` actions through ``model``.
@@ -156,7 +156,8 @@ def run_ensemble(model: TransitionModel, count: int, length: int, seed=None, eps
     seed : int or None
         Seeds the generator of the sequences (the only randomness).
     epsilon : float
-        Convergence threshold in bits (default 1e-9).
+        Convergence threshold in bits (default :data:`~kruskal_markov.entropy.ZERO_BITS`, 1e-9;
+        the report's "converged" is :data:`~kruskal_markov.entropy.CONVERGED_BITS`).
     weights : array_like, optional
         Action probabilities (up to a factor); default uniform.
     initial : array_like, optional
@@ -167,6 +168,11 @@ def run_ensemble(model: TransitionModel, count: int, length: int, seed=None, eps
     Returns
     -------
     EnsembleResult
+
+    See Also
+    --------
+    kruskal_markov.convergence.monte_carlo_entropy_tilts : random tilts until converged, without a length cap.
+    kruskal_markov.sync.shortest.shortest_word : the shortest word instead of random ones.
 
     Notes
     -----

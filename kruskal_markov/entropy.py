@@ -61,7 +61,16 @@ def histogram_entropy_bits(counts) -> float:
 # --------------------------------------------------------------------------------------------
 __all__ = ["histogram_entropy_bits", "distribution_entropy_bits", "partition_entropy_bits",
            "EntropyTrajectory", "BatchEntropy", "entropy_trajectory", "propagate", "batch_entropy",
-           "as_sequence", "as_sequences", "prefers_images"]
+           "as_sequence", "as_sequences", "prefers_images", "CONVERGED_BITS", "ZERO_BITS"]
+
+#: "converged" for a model's predicted entropy (bits): the report's, the ranking's and the answers'
+#: threshold. A leak of about 1e-4 of the mass into a second cell gives 1e-3 bits, i.e. about one
+#: trial in 10,000 of a direct simulation (the paper's zero entropy at M = 10,000).
+CONVERGED_BITS = 1e-3
+
+#: numerically zero entropy (bits): the default threshold of :func:`kruskal_markov.ensemble.run_ensemble`
+#: and ``kruskal ensemble --epsilon``, where "converged" means one cell up to rounding.
+ZERO_BITS = 1e-9
 
 
 def distribution_entropy_bits(p) -> float:
@@ -338,11 +347,18 @@ class BatchEntropy:
         Entropy on the states.
     mass_drift : ndarray (S,)
         Largest deviation of the total mass from its start, per sequence.
+    engine : str
+        The engine that ran (``images``, ``trie`` or ``independent``; :func:`batch_entropy`'s
+        ``method`` after ``auto`` and ``share_prefixes`` were resolved).
+    gather_blocks : bool
+        Whether the gather blocks of the actions' images were used.
     """
 
     entropy_bits: np.ndarray
     entropy_bits_states: np.ndarray
     mass_drift: np.ndarray
+    engine: str = "trie"
+    gather_blocks: bool = False
 
 
 def _images_layout(model: TransitionModel):
@@ -452,7 +468,7 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
     hs = np.zeros((s_count, n_steps + 1)) if has else hc
     drift = np.zeros(s_count)
     if s_count == 0:
-        return BatchEntropy(hc, hs, drift)
+        return BatchEntropy(hc, hs, drift, method)
     prev_threads = numba.get_num_threads()
     if threads is not None:
         threads = int(threads)
@@ -464,7 +480,7 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
         k = model.n_actions
         if method == "images":
             _run_images(model, conservative, init_idx, init_p, m0, seqs, chunk, has, hc, hs, drift, n_threads)
-            return BatchEntropy(hc, hs, drift)
+            return BatchEntropy(hc, hs, drift, "images", True)
         if method == "trie":
             order, task_lo, task_hi, block_ptr = _trie_tasks(seqs, k, n_threads)
         else:
@@ -478,7 +494,7 @@ def batch_entropy(model: TransitionModel, sequences, initial=None, *, share_pref
     finally:
         if threads is not None:
             numba.set_num_threads(prev_threads)
-    return BatchEntropy(hc, hs, drift)
+    return BatchEntropy(hc, hs, drift, method, blocks is not None)
 
 
 def _run_images(model, conservative, init_idx, init_p, m0, seqs, chunk, has, hc, hs, drift, n_threads):

@@ -554,15 +554,12 @@ def test_residual_is_that_of_the_solution_used(monkeypatch):
 def test_iterative_pair_solve_stops_at_the_time_budget(monkeypatch):
     """A fake clock (one second per reading): GMRES, the fallback, checks the budget between its
     iterations and the answer says what stopped it."""
-    import types
-
     conv = _big_pair_solve(monkeypatch)
     monkeypatch.setattr(conv.spla, "bicgstab", lambda A, b, **kw: (np.zeros_like(b), 7))
-    clock = itertools.count()
-    monkeypatch.setattr(conv, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
+    ticks = itertools.count()
     table = [[1, 2, 3, 0], [0, 1, 2, 0]]
     j = _pair_chain_judge(table, [1, 1], range(4))
-    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=3.0)
+    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=3.0, clock=lambda: float(next(ticks)))
     mem = pb["memory_mb"]
     assert pb == {"lower": None, "upper": None, "pairs": j["pairs"], "memory_mb": mem, "iterations": 0,
                   "residual": None,
@@ -618,21 +615,16 @@ def test_monte_carlo_follows_the_letter_weights():
     assert abs(mc["mean"] - 4.0) < 4 * math.sqrt(12.0 / 4000)                   # var = (1 - p) / p^2 = 12
 
 
-def test_monte_carlo_time_budget_on_a_fake_clock(monkeypatch):
+def test_monte_carlo_time_budget_on_a_fake_clock():
     """The time budget censors the runs still going when it passes (a fake clock, one second per
     reading, far from zero like a real monotonic clock): a budget that never passes changes
     nothing, one that has passed after the first chunk censors every unfinished run."""
-    import types
-
-    import kruskal_markov.convergence as conv
-
     aut = SyncAutomaton.from_table([[1, 2, 3, 0], [0, 1, 2, 0]])            # Cerny C_4: at least 9 letters
     free = monte_carlo_sync_length(aut, runs=200, seed=6)
-    clock = itertools.count(10**6)
-    monkeypatch.setattr(conv, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
-    assert monte_carlo_sync_length(aut, runs=200, seed=6, time_budget=10**5) == free
-    clock = itertools.count(10**6)
-    cut = monte_carlo_sync_length(aut, runs=200, seed=6, time_budget=1.5, chunk=4)
+    ticks = itertools.count(10**6)
+    assert monte_carlo_sync_length(aut, runs=200, seed=6, time_budget=10**5, clock=lambda: float(next(ticks))) == free
+    ticks = itertools.count(10**6)
+    cut = monte_carlo_sync_length(aut, runs=200, seed=6, time_budget=1.5, chunk=4, clock=lambda: float(next(ticks)))
     assert cut["censored"] == 200 and cut["mean"] is None and cut["lower"] == 4.0
 
 

@@ -73,7 +73,7 @@ def _same(a, b):
     assert np.array_equal(a.poses, b.poses, equal_nan=True)
     assert np.array_equal(a.status, b.status)
     assert np.array_equal(a.entropy_bits, b.entropy_bits)
-    assert a.to_json()["noise"] == b.to_json()["noise"] == "pose:0.5,1"
+    assert a.to_dict()["noise"] == b.to_dict()["noise"] == "pose:0.5,1"
 
 
 def test_local_executor_same_result(scene, serial_run):

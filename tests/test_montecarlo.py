@@ -148,7 +148,7 @@ def test_bookkeeping_matches_trial_by_trial_loop(scene):
     assert np.all(np.isnan(res.poses[res.status != OK]))
     assert res.tilts == len(SEQ) and res.trials == 400
     assert res.tilts_simulated == int(res.surviving[:-1].sum())
-    js = res.to_json()
+    js = res.to_dict()
     assert len(js["entropy_bits"]) == len(SEQ) + 1
     assert set(js["faults"]) == {"tipped", "escaped", "unsettled", "invalid"}
     assert js["sequence"] == SEQ

@@ -183,7 +183,7 @@ def test_zero_noise_is_bit_identical_to_none(runs):
     a, b = runs["none"], runs["zero"]
     assert np.array_equal(a.poses, b.poses, equal_nan=True)
     assert np.array_equal(a.status, b.status)
-    assert a.to_json()["noise"] == b.to_json()["noise"] == "none"
+    assert a.to_dict()["noise"] == b.to_dict()["noise"] == "none"
 
 
 def test_noise_reproducible_and_independent_of_workers(runs):
@@ -192,7 +192,7 @@ def test_noise_reproducible_and_independent_of_workers(runs):
         assert np.array_equal(a.poses, other.poses, equal_nan=True)
         assert np.array_equal(a.status, other.status)
         assert np.array_equal(a.entropy_bits, other.entropy_bits)
-    assert a.to_json()["noise"] == "pose:0.5,0.5"
+    assert a.to_dict()["noise"] == "pose:0.5,0.5"
     # the starts are the same, the rest poses are not
     np.testing.assert_array_equal(a.poses[:, 0], runs["none"].poses[:, 0])
     assert not np.array_equal(a.poses[:, 1:], runs["none"].poses[:, 1:], equal_nan=True)

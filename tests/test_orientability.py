@@ -29,7 +29,7 @@ def test_part_metrics_of_a_cerny_automaton():
     # the random tilts to entropy <= epsilon and the random synchronizing length estimate one thing
     assert m.random_tilts == pytest.approx(exact, rel=0.25)
     assert 0.0 <= m.converging_share_50 <= 1.0 and m.mean_entropy_50 <= m.mean_entropy_10 <= 2.0
-    assert m.as_dict()["sync_word"] == m.sync_word
+    assert m.to_dict()["sync_word"] == m.sync_word
 
 
 def test_part_metrics_are_the_same_on_any_machine():

@@ -472,15 +472,11 @@ def test_probability_plans_that_need_the_depth_first_passes():
     assert checked >= 3
 
 
-def test_state_plan_passes_its_budgets_and_notes(monkeypatch):
-    import types
-
-    import kruskal_markov.sync.plan as plan_mod
+def test_state_plan_passes_its_budgets_and_notes():
     from kruskal_markov.sync import state_plan
 
-    clock = itertools.count(10 ** 6)
-    monkeypatch.setattr(plan_mod, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
-    r = state_plan(_cerny4(), time_budget=2.5)
+    ticks = itertools.count(10 ** 6)
+    r = state_plan(_cerny4(), time_budget=2.5, clock=lambda: float(next(ticks)))
     assert not r.exact and r.method.startswith("plan-")
     assert r.notes and r.notes[-1].startswith("budget reached in the depth-")
     full = state_plan(_cerny4(), time_budget=None)
@@ -581,19 +577,15 @@ def test_the_beam_searches_up_to_max_length_letters():
     assert shortest_plan(_cerny4(), "state", max_length=9).method == "beam+ida*"
 
 
-def test_a_pass_that_starts_at_the_deadline_exactly_runs(monkeypatch):
+def test_a_pass_that_starts_at_the_deadline_exactly_runs():
     """The time budget is past only after its deadline. On a clock ticking one second per reading
     (no reading between the start and the first pass, beam width 1 finding nothing on Cerny C_4), a
     budget of 1 s runs the first pass (the check before it reads the deadline exactly) and stops
     before the second; a budget of 0.5 s stops before the first: the proven bound is one more."""
-    import types
-
-    import kruskal_markov.sync.plan as plan_mod
 
     def run(budget):
-        clock = itertools.count(10 ** 6)
-        monkeypatch.setattr(plan_mod, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
-        return shortest_plan(_cerny4(), "state", beam_width=1, time_budget=budget)
+        ticks = itertools.count(10 ** 6)
+        return shortest_plan(_cerny4(), "state", beam_width=1, time_budget=budget, clock=lambda: float(next(ticks)))
 
     first, none = run(1.0), run(0.5)
     assert (first.word, first.exact, none.word, none.exact) == (None, False, None, False)

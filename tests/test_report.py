@@ -1,4 +1,4 @@
-"""analysis.report: the formatting rules a reader relies on (the full report is written from a real
+"""analysis.report and analysis.experiments: the formatting rules a reader relies on (the full report is written from a real
 reproduce run in test_reproduce.py, which checks that its numbers agree with the results)."""
 from __future__ import annotations
 
@@ -8,30 +8,31 @@ import math
 import numpy as np
 
 from analysis.commands import strict_json
-from analysis.report import _contact_builds, _expected, _fmt
+from analysis.experiments.contact import contact_builds
+from analysis.experiments.text import expected_text, fmt
 
 
-def test_fmt():
-    assert _fmt(None) == "-" and _fmt(None, none="n/a") == "n/a"
-    assert _fmt(1.23456) == "1.23" and _fmt(3, "d") == "3" and _fmt(0.5, ".0%") == "50%"
+def testfmt():
+    assert fmt(None) == "-" and fmt(None, none="n/a") == "n/a"
+    assert fmt(1.23456) == "1.23" and fmt(3, "d") == "3" and fmt(0.5, ".0%") == "50%"
 
 
 def test_expected_mean_interval_or_censored_lower_bound():
     m = {"random_tilts": 12.345, "random_tilts_ci95": [11.0, 13.7], "random_tilts_lower": 12.345}
-    assert _expected(m, "random_tilts", "random_tilts_ci95", "random_tilts_lower") == \
+    assert expected_text(m, "random_tilts", "random_tilts_ci95", "random_tilts_lower") == \
         "12.3 (95% interval 11.0-13.7)"
     censored = {"random_tilts": None, "random_tilts_ci95": [None, None], "random_tilts_lower": 40.04}
-    text = _expected(censored, "random_tilts", "random_tilts_ci95", "random_tilts_lower")
+    text = expected_text(censored, "random_tilts", "random_tilts_ci95", "random_tilts_lower")
     assert text.startswith("at least 40.0 ") and "no mean" in text
     # older results without the bound: the mean as recorded, the interval as dashes when missing
-    assert _expected({"x": 2.0}, "x", "x_ci", "x_lower") == "2.0 (95% interval ---)"
+    assert expected_text({"x": 2.0}, "x", "x_ci", "x_lower") == "2.0 (95% interval ---)"
 
 
 def test_contact_builds_names_the_settings_only_when_they_differ():
     same = {"key_build": {"tol_mm": 1.0}, "contact_build": None}
-    assert _contact_builds(same).startswith("The same build settings")
-    assert _contact_builds({"key_build": {"a": 1}, "contact_build": {"a": 1}}).startswith("The same build settings")
-    text = _contact_builds({"key_build": {"tol_mm": 1.0}, "contact_build": {"tol_mm": 2.0}})
+    assert contact_builds(same).startswith("The same build settings")
+    assert contact_builds({"key_build": {"a": 1}, "contact_build": {"a": 1}}).startswith("The same build settings")
+    text = contact_builds({"key_build": {"tol_mm": 1.0}, "contact_build": {"tol_mm": 2.0}})
     assert "{'tol_mm': 2.0}" in text and "{'tol_mm': 1.0}" in text
 
 

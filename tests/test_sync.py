@@ -939,14 +939,17 @@ def _det_model(table, **kw):
     return TransitionModel([f"a{i}" for i in range(len(table))], mats, **kw)
 
 
-def test_epsilon_word_answers_whole(monkeypatch):
+def test_epsilon_word_answers_whole():
     """On a fake clock: already within epsilon (the empty word), found (with the entropy reached),
     stopped by the node budget (the lowest-entropy word seen), proven impossible (every reachable
     distribution expanded), and none up to max_length (default 30)."""
-    import kruskal_markov.sync.epsilon as eps_mod
+    from kruskal_markov.sync import epsilon_synchronizing_word as _epsilon_word
 
-    clock = itertools.count(10.0 ** 6)
-    monkeypatch.setattr(eps_mod, "time", __import__("types").SimpleNamespace(perf_counter=lambda: float(next(clock))))
+    ticks = itertools.count(10.0 ** 6)
+
+    def epsilon_synchronizing_word(*args, **kwargs):
+        return _epsilon_word(*args, clock=lambda: float(next(ticks)), **kwargs)
+
     cerny3 = _det_model(cerny(3))
     at_start = epsilon_synchronizing_word(cerny3, math.log2(3))
     assert (at_start.word, at_start.length, at_start.exact, at_start.method) == ([], 0, True, "distribution-bfs")
@@ -957,7 +960,7 @@ def test_epsilon_word_answers_whole(monkeypatch):
     assert found.notes == ("entropy 0 bits",) and found.states_explored > 4 and 0 < found.seconds < 1000
     assert epsilon_synchronizing_word(cerny3, 0.0, max_length=4).length == 4        # max_length is inclusive
     cerny5 = _det_model(cerny(5))
-    stop = epsilon_synchronizing_word(cerny5, 0.0, max_nodes=3)
+    stop = epsilon_synchronizing_word(cerny5, 0.0, node_budget=3)
     assert (stop.word, stop.length, stop.exact, stop.method) == (None, None, False, "distribution-bfs")
     # b sends state 4 to 0: (2/5, 1/5, 1/5, 1/5); the next distinct ones (a b, then depth 3) pass 3 nodes
     h = -(0.4 * math.log2(0.4) + 3 * 0.2 * math.log2(0.2))

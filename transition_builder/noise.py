@@ -115,6 +115,7 @@ def parse_noise(spec) -> NoiseSpec:
     """Parse a noise spec: None or ``"none"`` (no noise), ``"pose:SIGMA_MM,SIGMA_DEG"``, or a NoiseSpec.
 
     Raises a one-line ValueError naming the accepted formats.
+
     Parameters
     ----------
     spec : str, NoiseSpec or None

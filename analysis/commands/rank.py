@@ -47,8 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> dict:
     from analysis.commands.build import scene_for
+    from analysis.experiments.context import direct_summary
     from analysis.orientability import part_metrics, rank_parts
-    from analysis.reproduce import direct_summary
     from analysis.sequences import random_sequences_for
     from kruskal_markov.entropy import entropy_trajectory
     from transition_builder.builder import BuildSettings

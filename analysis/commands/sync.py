@@ -29,21 +29,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--node-budget", type=int, default=None, metavar="N",
                         help="subsets the exact search may generate (default: no limit; the same budget "
                              "gives the same answer on any machine)")
-    parser.add_argument("--memory-budget-mb", type=positive_float, default=2048.0, metavar="MB",
-                        help="memory for the exact search's subset stores (default 2048)")
+    parser.add_argument("--memory-budget-mb", type=positive_float, default=None, metavar="MB",
+                        help="memory of the search's tables (default 2048 for the subset search, 1024 for "
+                             "the plan search)")
     parser.add_argument("--max-length", type=int, default=30,
                         help="--epsilon search: longest word tried (default 30)")
 
 
 def run(args: argparse.Namespace) -> dict:
-    from kruskal_markov.sync import (
-        epsilon_synchronizing_word,
-        shortest_synchronizing_word,
-        start_set,
-        support_automaton,
-    )
+    from kruskal_markov.sync import epsilon_synchronizing_word, shortest_word, start_set, support_automaton
 
-    if args.time_budget <= 0 or args.memory_budget_mb <= 0:
+    if args.time_budget <= 0 or (args.memory_budget_mb is not None and args.memory_budget_mb <= 0):
         raise InputError("--time-budget and --memory-budget-mb must be positive")
     if not 0.0 <= args.threshold <= 1.0:
         raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
@@ -59,24 +55,14 @@ def run(args: argparse.Namespace) -> dict:
         out["epsilon"] = args.epsilon
         out["states"] = model.n_states
         return out
-    aut = support_automaton(model, args.threshold)
-    whole = {"auto": None, "all": True, "initial": False}[args.start]
-    if whole is None:
-        whole = model.is_deterministic()
-    start = start_set(model, whole)
     if args.node_budget is not None and args.node_budget < 1:
         raise InputError("--node-budget must be a positive integer")
-    if model.partition is not None and not aut.deterministic and args.start != "all":
-        # a built tray model: the plan search (IDA* with cell-reachability bounds) proves what the
-        # bidirectional subset search cannot hold in memory (70,776 states: 11 tilts in ~1 minute)
-        from kruskal_markov.sync.plan import DEFAULT_NODE_BUDGET, state_plan
-
-        res = state_plan(model, args.threshold, time_budget=args.time_budget,
-                         node_budget=args.node_budget or DEFAULT_NODE_BUDGET)
-    else:
-        res = shortest_synchronizing_word(aut, start, time_budget=args.time_budget,
-                                          memory_budget_mb=args.memory_budget_mb, node_budget=args.node_budget)
-    out = res.as_dict(model.actions)
+    aut = support_automaton(model, args.threshold)
+    whole = {"auto": None, "all": True, "initial": False}[args.start]
+    start = start_set(model, model.is_deterministic() if whole is None else whole)
+    res = shortest_word(model, "state", start=args.start, threshold=args.threshold, time_budget=args.time_budget,
+                        node_budget=args.node_budget, memory_budget_mb=args.memory_budget_mb)
+    out = res.sync_dict()
     out["target"] = "state"     # kruskal plan --target state asks the same question
     out.update({"states": model.n_states, "start_states": len(start),
                 "deterministic": aut.deterministic, "threshold": args.threshold,

@@ -66,6 +66,7 @@ from kruskal_markov.sync.pairs import (
 )
 from kruskal_markov.sync.plan import PlanResult, random_word_success, shortest_plan, state_plan
 from kruskal_markov.sync.result import SyncResult
+from kruskal_markov.sync.shortest import choose_method, shortest_word
 from kruskal_markov.sync.targets import Target, parse_target
 
 __all__ = [
@@ -74,6 +75,7 @@ __all__ = [
     "SyncResult",
     "Target",
     "as_automaton",
+    "choose_method",
     "epsilon_synchronizing_word",
     "greedy_synchronizing_word",
     "is_synchronizing_word",
@@ -82,6 +84,7 @@ __all__ = [
     "random_word_success",
     "shortest_plan",
     "shortest_synchronizing_word",
+    "shortest_word",
     "start_set",
     "state_plan",
     "support_automaton",

@@ -21,7 +21,8 @@ def _cell_entropy(p, partition, n_cells):
 
 
 def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time_budget: float = 30.0,
-                               max_nodes: int = 2_000_000, decimals: int = 12) -> SyncResult:
+                               node_budget: int = 2_000_000, decimals: int = 12, *, clock=time.perf_counter,
+                               max_nodes: int | None = None) -> SyncResult:
     """Shortest word whose predicted entropy from ``model.initial`` is ``<= epsilon``.
 
     Entropy is taken on the report partition (on the states if the model has none), in bits.
@@ -40,10 +41,15 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
         Longest word tried.
     time_budget : float, default 30.0
         Seconds before the search gives up.
-    max_nodes : int, default 2,000,000
-        Distributions kept before the search gives up.
+    node_budget : int, default 2,000,000
+        Distributions kept before the search gives up (the family's budget name,
+        :mod:`kruskal_markov.sync.shortest`).
     decimals : int, default 12
         Distributions equal after rounding to this many decimals count as one.
+    clock : callable
+        Seconds, for ``time_budget`` (tests pass a fake one).
+    max_nodes : int, optional
+        Deprecated name of ``node_budget``.
 
     Returns
     -------
@@ -51,18 +57,29 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
         ``word`` (letter indices) of the first level with a hit, ``method`` ``distribution-bfs``;
         when a budget ran out, ``word`` None, ``exact`` False and ``best_word`` the lowest-entropy
         word seen.
+
+    See Also
+    --------
+    kruskal_markov.sync.shortest.shortest_word : set targets (one state, one cell, probability:E).
+    kruskal_markov.ensemble.run_ensemble : the entropy of random sequences.
     """
     epsilon = float(epsilon)
     if not epsilon >= 0:
         raise ValueError(f"epsilon must be >= 0, got {epsilon}")
-    t0 = time.perf_counter()
+    if max_nodes is not None:
+        import warnings
+
+        warnings.warn("max_nodes is deprecated; use node_budget", DeprecationWarning, stacklevel=2)
+        node_budget = max_nodes
+    max_nodes = node_budget
+    t0 = clock()
     mats = [sp.csr_matrix(m).T.tocsr() for m in model.matrices]
     part = None if model.partition is None else np.asarray(model.partition, dtype=np.int64)
     ncells = None if part is None else int(model.n_cells if model.n_cells else part.max() + 1)
     p0 = np.asarray(model.initial, dtype=np.float64)
     h0 = _cell_entropy(p0, part, ncells)
     if h0 <= epsilon:
-        return SyncResult([], 0, True, "distribution-bfs", seconds=time.perf_counter() - t0)
+        return SyncResult([], 0, True, "distribution-bfs", seconds=clock() - t0)
     seen = {np.round(p0, decimals).tobytes()}
     frontier = [(p0, [])]
     explored = 1
@@ -82,12 +99,12 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
                     best = (h, w + [a])
                 if h <= epsilon:
                     return SyncResult(w + [a], depth, True, "distribution-bfs", states_explored=explored,
-                                      lower_bound=depth, seconds=time.perf_counter() - t0,
+                                      lower_bound=depth, seconds=clock() - t0,
                                       notes=[f"entropy {h:.6g} bits"])
                 nxt.append((q, w + [a]))
-            if explored > max_nodes or time.perf_counter() - t0 > time_budget:
+            if explored > max_nodes or clock() - t0 > time_budget:
                 return SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
-                                  lower_bound=depth, seconds=time.perf_counter() - t0,
+                                  lower_bound=depth, seconds=clock() - t0,
                                   greedy_length=len(best[1]), best_word=best[1],
                                   notes=[f"budget reached at depth {depth}; lowest entropy seen "
                                          f"{best[0]:.6g} bits by a word of length {len(best[1])}"])
@@ -96,8 +113,8 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
                               witness={"kind": "exhaustive",
                                        "reason": f"all {explored} reachable distributions have entropy "
                                                  f"> {epsilon}"},
-                              seconds=time.perf_counter() - t0)
+                              seconds=clock() - t0)
         frontier = nxt
     return SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
-                      lower_bound=max_length + 1, seconds=time.perf_counter() - t0,
+                      lower_bound=max_length + 1, seconds=clock() - t0,
                       notes=[f"no word of length <= {max_length} reaches entropy <= {epsilon}"])

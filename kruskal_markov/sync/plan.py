@@ -87,6 +87,12 @@ class PlanResult:
         Images computed by the search.
     witness : dict or None
         Why no plan exists, when none does.
+    greedy_length : int or None
+        The greedy word's length when the subset search found one (:meth:`from_sync`).
+
+    See Also
+    --------
+    kruskal_markov.sync.shortest.shortest_word : the entry point that returns it for every search.
     """
 
     word: tuple | None
@@ -102,6 +108,7 @@ class PlanResult:
     seconds: float = 0.0
     witness: dict | None = None
     notes: tuple = field(default=())
+    greedy_length: int | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "notes", tuple(self.notes))
@@ -115,6 +122,22 @@ class PlanResult:
                 "method": self.method, "final_cell": self.final_cell,
                 "success_probability": self.success_probability, "upper_bound": self.upper_bound,
                 "nodes": self.nodes, "witness": self.witness, "notes": list(self.notes)}
+
+    @classmethod
+    def from_sync(cls, res, actions=None, target: str = "state") -> "PlanResult":
+        """The plan of a :class:`~kruskal_markov.sync.result.SyncResult` (letter indices named by
+        ``actions``; ``states_explored`` becomes ``nodes``)."""
+        word = res.word
+        if word is not None and actions is not None:
+            word = [actions[a] for a in word]
+        return cls(word, res.length, res.exact, res.lower_bound, str(target), res.method, nodes=res.states_explored,
+                   seconds=res.seconds, witness=res.witness, notes=res.notes, greedy_length=res.greedy_length)
+
+    def sync_dict(self) -> dict:
+        """The keys of ``kruskal sync`` (:meth:`SyncResult.as_dict <kruskal_markov.sync.result.SyncResult.as_dict>`)."""
+        return {"word": None if self.word is None else list(self.word), "length": self.length, "exact": self.exact,
+                "method": self.method, "witness": self.witness, "lower_bound": self.lower_bound,
+                "greedy_length": self.greedy_length, "states_explored": self.nodes, "notes": list(self.notes)}
 
 
 # ----------------------------------------------------------------------------- the joint problem
@@ -298,7 +321,8 @@ def _success(prob: _Problem, word):
 
 def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_NODE_BUDGET,
                   time_budget: float | None = None, memory_budget_mb: float = 1024.0,
-                  beam_width: int = 64, max_length: int = 64, threshold: float = 0.0) -> PlanResult:
+                  beam_width: int = 64, max_length: int = 64, threshold: float = 0.0,
+                  clock=time.perf_counter) -> PlanResult:
     """The shortest word that meets ``target`` under every model given.
 
     Parameters
@@ -322,10 +346,17 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
         Longest word considered.
     threshold : float
         Set targets: the support automaton keeps entries ``>= threshold``.
+    clock : callable
+        Seconds, for ``time_budget`` and ``seconds`` (tests pass a fake one).
 
     Returns
     -------
     PlanResult
+
+    See Also
+    --------
+    kruskal_markov.sync.shortest.shortest_word : the one entry point (chooses this search or the subset search).
+    kruskal_markov.sync.plan.random_word_success : how often a random word of each length meets the target.
 
     References
     ----------
@@ -340,19 +371,11 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     >>> r.length, r.exact, r.lower_bound, "".join(r.word)
     (9, True, 9, 'baaabaaab')
     """
-    t0 = time.perf_counter()
+    t0 = clock()
     if not isinstance(models, (list, tuple)):
         models = [models]
-    if not models:
-        raise ValueError("at least one model is needed")
     target = parse_target(target)
-    if cells is not None and len(cells) != len(models):
-        raise ValueError(f"{len(cells)} cell maps for {len(models)} models")
-    for name, v in (("node_budget", node_budget), ("beam_width", beam_width), ("max_length", max_length)):
-        if int(v) != v or v < 1:
-            raise ValueError(f"{name} must be a positive integer, got {v!r}")
-    if memory_budget_mb <= 0 or (time_budget is not None and not time_budget > 0):
-        raise ValueError("memory and time budgets must be positive")
+    _check_plan_arguments(models, cells, node_budget, beam_width, max_length, memory_budget_mb, time_budget)
     deadline = None if time_budget is None else t0 + float(time_budget)
     prob = _Problem(list(models), target, cells, threshold)
     name = str(target)
@@ -361,15 +384,8 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
         notes.append(f"support automaton threshold {threshold}: up to {prob.mass_dropped:.3g} of a row's "
                      f"probability ignored")
 
-    def result(word, exact, lower, method, nodes, witness=None, ub=None):
-        fc = sp_ = None
-        if word is not None:
-            cs, ps = _success(prob, word)
-            fc, sp_ = (cs[0], ps[0]) if prob.M == 1 else (cs, ps)
-        return PlanResult(None if word is None else [prob.actions[a] for a in word],
-                          None if word is None else len(word), exact, lower, name, method, fc, sp_,
-                          ub if ub is not None else (None if word is None else len(word)), nodes,
-                          time.perf_counter() - t0, witness, notes)
+    def result(word, exact, lower, method, nodes, witness=None):
+        return _plan_result(prob, name, notes, clock() - t0, word, exact, lower, method, nodes, witness)
 
     if prob.goal(prob.start_idx, prob.start_val):
         return result([], True, 0, "trivial", 0)
@@ -378,13 +394,10 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     R = max_length if ub_word is None else len(ub_word)
     notes += prob.prepare_bounds(R, memory_budget_mb * 2 ** 20 * 0.5)
     # 2. root lower bound
-    lower = 1
-    while lower <= R and not prob.feasible(prob.start_idx, prob.start_val, lower):
-        lower += 1
+    lower = _root_lower_bound(prob, R)
     # no plan at any length: the saturated cell masks (or a pair that never merges) exclude every
     # length, not only those up to R -- a pair merging only in more than R letters excludes just those
-    if lower > R and prob.kind == 0 and 0 <= prob.msat <= prob.masks.shape[0] - 1 and ub_word is None \
-            and not prob.feasible(prob.start_idx, prob.start_val, _ANY_LENGTH):
+    if lower > R and ub_word is None and _never_meets(prob):
         return result(None, True, None, "cell-reachability", nodes, witness={
             "kind": "bound", "reason": "no cell is reachable by every start state under some word "
                                        "(per model), at any length"})
@@ -399,18 +412,7 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     letter_at = np.zeros(Dmax + 2, dtype=np.int64)
     word = np.zeros(Dmax + 2, dtype=np.int64)
     m0 = prob.start_idx.size
-    # transposition table sized from the memory budget
-    tt_bytes = memory_budget_mb * 2 ** 20 * 0.5
-    per_entry = 16 * 2 + 8 + 4 + 4
-    per_elem = 4 + (8 if prob.kind == 1 else 0)
-    entries = max(1024, int(tt_bytes / 2 / per_entry))
-    pool = max(1024, int(tt_bytes / 2 / per_elem))
-    table = np.full(_pow2(2 * entries), -1, dtype=np.int64)
-    e_off = np.zeros(entries, dtype=np.int64)
-    e_len = np.zeros(entries, dtype=np.int32)
-    e_depth = np.zeros(entries, dtype=np.int32)
-    pool_i = np.zeros(pool, dtype=np.int32)
-    pool_v = np.zeros(pool if prob.kind == 1 else 1, dtype=np.int64)
+    entries, pool, table, e_off, e_len, e_depth, pool_i, pool_v = _transposition_table(prob, memory_budget_mb)
     tstate = np.zeros(2, dtype=np.int64)
     full_passes = 0
     D = lower
@@ -424,7 +426,7 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
         st = np.array([0, nodes, 0, prob.stamp], dtype=np.int64)
         while True:
             quota = min(_QUOTA, node_budget - int(st[1]))
-            if quota <= 0 or (deadline is not None and time.perf_counter() > deadline):
+            if quota <= 0 or (deadline is not None and clock() > deadline):
                 notes.append(f"budget reached in the depth-{D} pass: no plan is shorter than {D}")
                 method = "beam" if ub_word is not None else "none"
                 return result(ub_word, False, D, method, int(st[1]))
@@ -438,8 +440,7 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
                 break
         nodes = int(st[1])
         full_passes += 1
-        if tstate[0] >= entries or tstate[1] >= pool - N:
-            notes.append(f"transposition table full in the depth-{D} pass (depth-first without it)")
+        notes += _table_notes(tstate, entries, pool - N, D)
         if status == 1:
             w = [int(x) for x in word[:st[0]]]
             return result(w, True, len(w), "ida*", nodes)
@@ -448,14 +449,8 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
                        "reason": f"every reachable image was expanded ({int(tstate[0])} distinct) and none "
                                  f"meets the target {name}" + (" under every model" if prob.M > 1 else "")}
             if prob.M > 1:
-                alone = [shortest_plan(m, target, None if cells is None else [cells[i]], node_budget,
-                                       None, memory_budget_mb, beam_width, max_length, threshold)
-                         for i, m in enumerate(models)]
-                witness["per_model_lengths"] = [r.length for r in alone]
-                missing = [i for i, r in enumerate(alone) if r.word is None]
-                witness["reason"] += (f"; model(s) {missing} alone have no plan" if missing else
-                                      "; every model alone has a plan "
-                                      f"(lengths {[r.length for r in alone]}), but no one word serves all")
+                _add_per_model_witness(witness, models, target, cells, node_budget, memory_budget_mb, beam_width,
+                                       max_length, threshold)
             return result(None, True, None, "ida*", nodes, witness=witness)
         D += 1
     if ub_word is not None:
@@ -464,8 +459,79 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     return result(None, False, max_length + 1, "ida*", nodes)
 
 
+def _plan_result(prob: _Problem, name, notes, seconds, word, exact, lower, method, nodes, witness=None) -> PlanResult:
+    """The :class:`PlanResult` of ``word`` (letter indices; None: no plan) with its success."""
+    fc = sp_ = None
+    if word is not None:
+        cs, ps = _success(prob, word)
+        fc, sp_ = (cs[0], ps[0]) if prob.M == 1 else (cs, ps)
+    return PlanResult(None if word is None else [prob.actions[a] for a in word],
+                      None if word is None else len(word), exact, lower, name, method, fc, sp_,
+                      None if word is None else len(word), nodes, seconds, witness, notes)
+
+
+def _never_meets(prob: _Problem) -> bool:
+    """A set target no word of any length meets: the saturated cell masks exclude every length."""
+    return (prob.kind == 0 and 0 <= prob.msat <= prob.masks.shape[0] - 1
+            and not prob.feasible(prob.start_idx, prob.start_val, _ANY_LENGTH))
+
+
+def _table_notes(tstate, entries: int, pool_room: int, depth: int) -> list[str]:
+    """A note when the transposition table filled up during the depth-``depth`` pass."""
+    if tstate[0] >= entries or tstate[1] >= pool_room:
+        return [f"transposition table full in the depth-{depth} pass (depth-first without it)"]
+    return []
+
+
+def _root_lower_bound(prob: _Problem, R: int) -> int:
+    """The smallest length up to ``R + 1`` that the bounds do not exclude from the start."""
+    lower = 1
+    while lower <= R and not prob.feasible(prob.start_idx, prob.start_val, lower):
+        lower += 1
+    return lower
+
+
+def _transposition_table(prob: _Problem, memory_budget_mb: float):
+    """The IDA* transposition table sized from half the memory budget: ``entries``, ``pool`` and the
+    kernel's arrays (hash slots, entry offsets, lengths and depths, the pooled images)."""
+    tt_bytes = memory_budget_mb * 2 ** 20 * 0.5
+    per_entry = 16 * 2 + 8 + 4 + 4
+    per_elem = 4 + (8 if prob.kind == 1 else 0)
+    entries = max(1024, int(tt_bytes / 2 / per_entry))
+    pool = max(1024, int(tt_bytes / 2 / per_elem))
+    return (entries, pool, np.full(_pow2(2 * entries), -1, dtype=np.int64), np.zeros(entries, dtype=np.int64),
+            np.zeros(entries, dtype=np.int32), np.zeros(entries, dtype=np.int32), np.zeros(pool, dtype=np.int32),
+            np.zeros(pool if prob.kind == 1 else 1, dtype=np.int64))
+
+
+def _check_plan_arguments(models, cells, node_budget, beam_width, max_length, memory_budget_mb, time_budget):
+    """ValueError naming the first argument of :func:`shortest_plan` that is out of range."""
+    if not models:
+        raise ValueError("at least one model is needed")
+    if cells is not None and len(cells) != len(models):
+        raise ValueError(f"{len(cells)} cell maps for {len(models)} models")
+    for name, v in (("node_budget", node_budget), ("beam_width", beam_width), ("max_length", max_length)):
+        if int(v) != v or v < 1:
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+    if memory_budget_mb <= 0 or (time_budget is not None and not time_budget > 0):
+        raise ValueError("memory and time budgets must be positive")
+
+
+def _add_per_model_witness(witness, models, target, cells, node_budget, memory_budget_mb, beam_width, max_length,
+                           threshold):
+    """No word serves every model: say whether each model alone has a plan, and how long."""
+    alone = [shortest_plan(m, target, None if cells is None else [cells[i]], node_budget,
+                           None, memory_budget_mb, beam_width, max_length, threshold)
+             for i, m in enumerate(models)]
+    witness["per_model_lengths"] = [r.length for r in alone]
+    missing = [i for i, r in enumerate(alone) if r.word is None]
+    witness["reason"] += (f"; model(s) {missing} alone have no plan" if missing else
+                          "; every model alone has a plan "
+                          f"(lengths {[r.length for r in alone]}), but no one word serves all")
+
+
 def state_plan(model, threshold: float = 0.0, time_budget: float | None = 60.0,
-               node_budget: int = DEFAULT_NODE_BUDGET):
+               node_budget: int = DEFAULT_NODE_BUDGET, clock=time.perf_counter):
     """The ``state`` target of a built model as a :class:`~kruskal_markov.sync.result.SyncResult`
     (the fields ``kruskal sync`` and the ranking show), searched by :func:`shortest_plan`.
 
@@ -477,6 +543,8 @@ def state_plan(model, threshold: float = 0.0, time_budget: float | None = 60.0,
         Support automaton threshold.
     time_budget : float or None
     node_budget : int
+    clock : callable
+        Seconds (:func:`shortest_plan`).
 
     Returns
     -------
@@ -489,7 +557,8 @@ def state_plan(model, threshold: float = 0.0, time_budget: float | None = 60.0,
     """
     from kruskal_markov.sync.result import SyncResult
 
-    r = shortest_plan(model, "state", node_budget=node_budget, time_budget=time_budget, threshold=threshold)
+    r = shortest_plan(model, "state", node_budget=node_budget, time_budget=time_budget, threshold=threshold,
+                      clock=clock)
     word = None if r.word is None else [model.actions.index(a) for a in r.word]
     return SyncResult(word, r.length, r.exact, "plan-" + r.method, witness=r.witness, lower_bound=r.lower_bound,
                       states_explored=r.nodes, seconds=r.seconds, notes=r.notes)

@@ -10,6 +10,12 @@ __all__ = ["SyncResult"]
 class SyncResult:
     """Outcome of a synchronizing-word search (immutable).
 
+    .. deprecated::
+        The letter-index view of one search. New code asks
+        :func:`~kruskal_markov.sync.shortest.shortest_word`, which returns a
+        :class:`~kruskal_markov.sync.plan.PlanResult` (action names, ``to_dict``) for every search;
+        :meth:`PlanResult.from_sync <kruskal_markov.sync.plan.PlanResult.from_sync>` converts.
+
     Attributes
     ----------
     word : list of int or None
