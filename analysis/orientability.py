@@ -137,7 +137,7 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     draws : int
         Posterior draws of the answers' model intervals (0: none).
     structural_delta : float, optional
-        Relative structural error of those intervals (None: the calibrated default).
+        Relative structural error of those intervals (None: the model's own, :func:`kruskal_markov.structural.structural_term`).
 
     Returns
     -------
@@ -174,11 +174,10 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=[seed, 6], max_steps=max_tilts)
     h0 = float(entropy_trajectory(model, []).entropy_bits[0])
     from kruskal_markov.answers import answer_intervals
-    from kruskal_markov.structural import STRUCTURAL_DELTA
 
     intervals = answer_intervals(model, seed=seed, count=count, length=50, epsilon=epsilon, runs=runs,
                                  max_steps=max_tilts, draws=draws, draw_count=min(count, 1000),
-                                 structural_delta=STRUCTURAL_DELTA if structural_delta is None else structural_delta,
+                                 structural_delta=structural_delta,
                                  structural_sequences=100, ensemble=ens, entropy_tilts=tilts, threads=threads)
     return PartMetrics(
         states=model.n_states,

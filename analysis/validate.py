@@ -42,13 +42,16 @@ from kruskal_markov.answers import wilson_interval
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model
-from kruskal_markov.structural import STRUCTURAL_DELTA, band_with_structure, conformal_quantile, structural_score
+from kruskal_markov.structural import band_with_structure, conformal_quantile, structural_score, structural_term
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene
 from transition_builder.status import OK
 
 __all__ = ["model_scene", "model_grid", "reference_seed", "validate_model", "random_sequences_for",
-           "wilson_interval", "model_band"]
+           "wilson_interval", "model_band", "coverage_verdict", "COVERAGE_WINDOW"]
+
+#: The coverage a nominal 90% band should show: a band outside it is too narrow or too wide.
+COVERAGE_WINDOW = (0.85, 0.95)
 
 _REFERENCE_STREAM = 2
 _PLUGIN_DRAWS = 200
@@ -110,6 +113,23 @@ def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
     return float(np.mean([histogram_entropy_bits(d) for d in draws]))
 
 
+def coverage_verdict(covered: int, steps: int, window: tuple[float, float] = COVERAGE_WINDOW) -> str:
+    """Judge a band's coverage against ``window``: ``"too narrow"`` when the Wilson 95% interval of
+    ``covered / steps`` lies wholly below it, ``"too wide"`` when wholly above, else ``"consistent"``.
+
+    Examples
+    --------
+    >>> coverage_verdict(90, 100), coverage_verdict(100, 100), coverage_verdict(60, 100)
+    ('consistent', 'too wide', 'too narrow')
+    """
+    lo, hi = wilson_interval(int(covered), int(steps))
+    if hi < window[0]:
+        return "too narrow"
+    if lo > window[1]:
+        return "too wide"
+    return "consistent"
+
+
 def _inside(x, lo, hi) -> np.ndarray:
     return (x >= lo - 1e-12) & (x <= hi + 1e-12)
 
@@ -163,7 +183,7 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
 def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 1000, seed: int = 0,
                    length: int = 50, spread: bool = False, bands: int = 40, workers=None, scheduler=None,
                    progress: bool | None = False, simulate=None, contact: str | None = None,
-                   structural_delta: float = STRUCTURAL_DELTA) -> dict:
+                   structural_delta: float | None = None) -> dict:
     """Compare ``model`` with direct simulation on ``sequences`` random sequences (see module docstring).
 
     ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
@@ -192,9 +212,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         Replaces the direct simulation.
     contact : str, optional
         The reference's floor contact (default the model's).
-    structural_delta : float
+    structural_delta : float, optional
         Relative structural error of the band (:mod:`kruskal_markov.structural`; 0: the
-        Dirichlet band alone).
+        Dirichlet band alone; None: the model's own, :func:`kruskal_markov.structural.structural_term`).
 
     Returns
     -------
@@ -208,9 +228,12 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     for name, val, lo in (("sequences", sequences, 1), ("trials", trials, 2), ("length", length, 1),
                           ("bands", bands, 0)):
         check_int(val, name, lo=lo)
-    if not (isinstance(structural_delta, (int, float)) and not isinstance(structural_delta, bool)
-            and math.isfinite(structural_delta) and structural_delta >= 0):
+    if structural_delta is not None and not (isinstance(structural_delta, (int, float))
+                                             and not isinstance(structural_delta, bool)
+                                             and math.isfinite(structural_delta) and structural_delta >= 0):
         raise ValueError(f"structural_delta must be a non-negative number, got {structural_delta!r}")
+    term = structural_term(model, structural_delta)
+    structural_delta = term.delta
     scene = model_scene(model)
     model_contact = scene.settings.contact
     if contact is not None:
@@ -300,7 +323,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
                                                               len(np.concatenate(covered_dir))))
                                          if covered_dir else None),
         "band_steps": int(sum(len(c) for c in covered)),
-        "structural_delta": float(structural_delta),
+        "band_verdict": (coverage_verdict(int(np.concatenate(covered).sum()), len(np.concatenate(covered)))
+                         if covered else None),
+        **term.to_dict(),
         "structural_delta_q90": (_finite_or_none(conformal_quantile(np.concatenate(scores), 0.9))
                                  if scores else None),
         "band_draws": len(draws),

@@ -5,7 +5,9 @@ random sequences of each seed (``kruskal validate``'s code: M = 2,000 trials, 30
 seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps each run's JSON in
 ``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
 
-``python -m benchmarks.bench_coverage calibrate [--model=PATH] FILE ...`` computes the split-conformal ``delta``
+``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ...`` prints the coverage of kept runs before
+(delta 0.105) and after (the model's own term).
+``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
 the coverage of the Dirichlet band alone (before) and with the default structural term (after),
 each with its Wilson interval. ``main()`` (``make bench``) prints the summary of what is kept.
@@ -55,23 +57,26 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
 
 
 def _steps(res: dict, delta: float, model=None):
-    """Per step 1..N: inside the band at ``delta``, and the score; old JSONs lack the band's parts."""
-    from kruskal_markov.entropy import entropy_trajectory
+    """Per step 1..N: inside the band at ``delta``, and the score.
+
+    The band is recomputed from ``model`` as ``kruskal validate`` computes it (40 posterior draws
+    seeded ``[seed, 4, r]``, the run's per-step reference noise, or its mean noise in JSONs that lack
+    it), so kept runs stay valid references for a rebuilt model.
+    """
+    from analysis.validate import model_band
+    from kruskal_markov.posterior import has_counts, resample_model
     from kruskal_markov.structural import band_with_structure, structural_score
 
-    z90 = 1.6448536269514722
+    draws = ([resample_model(model, np.random.default_rng([res["seed"], 4, r])) for r in range(40)]
+             if has_counts(model) else [])
+    rng = np.random.default_rng([res["seed"], 3])
     inside, scores = [], []
     for s in res["per_sequence"]:
         ref = np.asarray(s["reference"])
-        if "band_centre" in s:
-            centre, width = np.asarray(s["band_centre"]), np.asarray(s["band_width"])
-        else:       # validation JSONs before the structural term: the model's curve +- its mean noise
-            centre = np.asarray(s["model"])
-            width = np.full(len(ref), z90 * s["reference_noise_bits"])
+        sd = np.asarray(s["reference_sd"]) if "reference_sd" in s else np.full(len(ref), s["reference_noise_bits"])
         seq = [model.actions.index(a) for a in s["sequence"]]
-        traj = entropy_trajectory(model, seq, return_distributions=True)
-        cells = np.stack([np.bincount(model.partition, weights=p, minlength=model.n_cells)
-                          for p in traj.distributions])
+        band = model_band(model, seq, draws, np.full(len(ref), res["trials"]), sd, 0.0, rng)
+        cells, centre, width = band["cells"], band["centre"], band["width"]
         lo, hi = band_with_structure(cells, centre, width, delta)
         inside.append(((ref >= lo - 1e-12) & (ref <= hi + 1e-12))[1:])
         scores.append(structural_score(cells, centre, width, ref)[1:])
@@ -80,20 +85,57 @@ def _steps(res: dict, delta: float, model=None):
 
 def _model(res: dict, fallback: str | None = None):
     from kruskal_markov.model import TransitionModel
-    return TransitionModel.load(res.get("model_path") or fallback)
+    return TransitionModel.load(fallback or res.get("model_path"))
 
 
-def calibrate(files: list[str], model_path: str | None = None) -> float:
-    from kruskal_markov.structural import conformal_quantile
-    scores = []
+def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
+    """The split-conformal delta of kept validation runs; ``store``: written into the model file
+    (what ``kruskal validate --calibrate`` stores, for runs already kept)."""
+    from kruskal_markov.structural import conformal_quantile, with_calibration
+    scores, seeds = [], []
     for f in files:
         res = json.load(open(f))
         scores.append(_steps(res, 0.0, _model(res, model_path))[1])
+        seeds.append(res["seed"])
     s = np.concatenate(scores)
     q = conformal_quantile(s, 0.9)
     print(f"{len(s)} calibration steps from {len(files)} runs: conformal 90% delta = {q:.4f} "
           f"(share of steps needing none: {np.mean(s == 0):.3f})")
+    if store:
+        path = model_path or json.load(open(files[0]))["model_path"]
+        model = _model({}, path)
+        with_calibration(model, q, level=0.9, steps=len(s), seeds=seeds,
+                         scores=[round(float(x), 6) if math.isfinite(x) else None for x in s]).save(path)
+        print(f"stored in {path}")
     return q
+
+
+def evaluate(files: list[str], model_path: str) -> None:
+    """Coverage of kept runs on ``model_path``: the Dirichlet band alone, the band at delta 0.105 (before
+    issue 45) and at the model's own term (after), each with its Wilson interval, per run and pooled."""
+    from analysis.validate import wilson_interval
+    from kruskal_markov.structural import structural_term
+
+    model = _model({}, model_path)
+    term = structural_term(model)
+    deltas = (("Dirichlet alone", 0.0), ("before: 0.105", 0.105), (f"after: {term.source} {term.delta:.4g}", term.delta))
+    pooled = {k: [] for k, _ in deltas}
+
+    def cell(x):
+        lo, hi = wilson_interval(int(x.sum()), len(x))
+        return f"{100 * x.mean():.0f}% ({100 * lo:.0f}-{100 * hi:.0f})"
+    print("| run | steps | " + " | ".join(k for k, _ in deltas) + " |")
+    print("|---" * (2 + len(deltas)) + "|")
+    for f in files:
+        res = json.load(open(f))
+        row = []
+        for k, d in deltas:
+            ins = _steps(res, d, model)[0]
+            pooled[k].append(ins)
+            row.append(cell(ins))
+        print(f"| {pathlib.Path(f).stem} | {len(ins)} | " + " | ".join(row) + " |")
+    print(f"| pooled | {sum(len(x) for x in pooled[deltas[0][0]])} | "
+          + " | ".join(cell(np.concatenate(pooled[k])) for k, _ in deltas) + " |")
 
 
 def summary() -> None:
@@ -138,12 +180,16 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "run":
         run(argv[1], argv[2], [int(x) for x in argv[3:]])
+    elif argv and argv[0] == "evaluate":
+        evaluate(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "calibrate":
         model = None
         files = argv[1:]
+        store = "--store" in files
+        files = [f for f in files if f != "--store"]
         if files and files[0].startswith("--model="):
             model, files = files[0].split("=", 1)[1], files[1:]
-        calibrate(files, model)
+        calibrate(files, model, store)
     else:
         summary()
 

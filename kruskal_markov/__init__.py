@@ -73,6 +73,7 @@ _EXPORTS = {
     "pair_chain_bounds": "convergence",
     "monte_carlo_entropy_tilts": "convergence",
     "resample_model": "posterior",
+    "Estimate": "estimate",
     "STRUCTURAL_DELTA": "structural",
     "entropy_range_tv": "structural",
     "structural_share": "structural",

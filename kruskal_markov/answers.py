@@ -27,7 +27,8 @@ import math
 
 import numpy as np
 
-from kruskal_markov.structural import STRUCTURAL_DELTA, _entropy_rows, entropy_range_tv, structural_share
+from kruskal_markov.estimate import Estimate
+from kruskal_markov.structural import _entropy_rows, entropy_range_tv, structural_share, structural_term
 
 __all__ = ["answer_intervals", "plan_success_interval", "wilson_interval"]
 
@@ -65,20 +66,29 @@ def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tup
 
 
 def _cell_curves(model, sequences, delta: float):
-    """Per sequence and step: the entropy and the structural ball's smallest and largest entropy."""
-    from kruskal_markov.entropy import entropy_trajectory
+    """Per sequence and step: the entropy and the structural ball's smallest and largest entropy.
 
+    Without a structural term only the entropies are computed (Numba, :func:`batch_entropy`); with
+    one, each sequence's distributions are summed onto the report cells by one sparse product and
+    the ball's range is taken on all rows at once (:func:`entropy_range_tv`).
+    """
+    import scipy.sparse as sp
+
+    from kruskal_markov.entropy import batch_entropy, entropy_trajectory
+
+    if delta <= 0:
+        h = np.asarray(batch_entropy(model, np.asarray(sequences)).entropy_bits, dtype=np.float64)
+        return h, h, h
     ncells = int(model.n_cells) if model.partition is not None else model.n_states
     part = np.asarray(model.partition) if model.partition is not None else np.arange(model.n_states)
-    cells = []
-    for seq in sequences:
-        tr = entropy_trajectory(model, seq, return_distributions=True)
-        cells.append(np.stack([np.bincount(part, weights=p, minlength=ncells) for p in tr.distributions]))
-    c = np.stack(cells)                                   # (sequences, steps + 1, cells)
+    onto = sp.csr_matrix((np.ones(model.n_states), (np.arange(model.n_states), part)),
+                         shape=(model.n_states, ncells))
+    c = np.stack([np.asarray(onto.T @ np.asarray(entropy_trajectory(model, seq, return_distributions=True)
+                                                 .distributions).T).T for seq in sequences])
     flat = c.reshape(-1, c.shape[-1])
     flat = flat / flat.sum(1, keepdims=True)
     h = _entropy_rows(flat)
-    hmin, hmax = entropy_range_tv(flat, delta * structural_share(flat)) if delta > 0 else (h, h)
+    hmin, hmax = entropy_range_tv(flat, delta * structural_share(flat))
     shape = c.shape[:2]
     return h.reshape(shape), np.minimum(hmin, h).reshape(shape), np.maximum(hmax, h).reshape(shape)
 
@@ -90,21 +100,13 @@ def _first_hit(h: np.ndarray, epsilon: float) -> np.ndarray:
     return first
 
 
-def _combine(value, mc, post, struct) -> dict:
-    lo_p, hi_p = post if post is not None else (value, value)
-    lo_s, hi_s = struct
-    value = float(value)
-    out = {"value": value, "mc_ci95": None if mc is None else [None if x is None else float(x) for x in mc],
-           "posterior_ci90": None if post is None else [float(min(lo_p, value)), float(max(hi_p, value))],
-           "structural_range": [float(min(lo_s, value)), float(max(hi_s, value))]}
-    out["model_ci90"] = [float(min(lo_p, value) - (value - out["structural_range"][0])),
-                         float(max(hi_p, value) + (out["structural_range"][1] - value))]
-    return out
+def _combine(value, mc, post, struct, note=None, **extra) -> dict:
+    return Estimate.combine(value, mc=mc, posterior=post, structural=struct, note=note, **extra).to_dict()
 
 
 def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsilon: float = 1e-3,
-                     runs: int = 0, max_steps: int = 1000, draws: int = 20, draw_count: int = 2000,
-                     structural_delta: float = STRUCTURAL_DELTA, structural_sequences: int = 200,
+                     runs: int = 0, max_steps: int = 1000, draws: int = 20, draw_count: int = 200,
+                     structural_delta: float | None = None, structural_sequences: int = 200,
                      weights=None, ensemble=None, entropy_tilts=None, threads=None) -> dict:
     """The converging share, mean entropies and expected random tilts, each with its intervals.
 
@@ -126,8 +128,10 @@ def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsi
         Posterior draws (0, or a model without counts: no ``posterior_ci90``).
     draw_count : int
         Sequences each draw is run on (and at most 200 Monte Carlo runs).
-    structural_delta : float
-        Relative structural error (0: empty structural ranges).
+    structural_delta : float, optional
+        Relative structural error (0: empty structural ranges); None: the model's own
+        (:func:`kruskal_markov.structural.structural_term` — its calibration, the default for a built
+        model, none for a model that was not sampled).
     structural_sequences : int
         Sequences of the structural subsample (they also give the mean entropies' Monte Carlo sd).
     weights : array_like, optional
@@ -144,7 +148,9 @@ def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsi
     dict
         ``converging_share``, ``mean_entropy_<t>`` for t in 10, 20, 50 up to ``length`` and, with
         ``runs``, ``random_tilts``: each a dict of ``value``, ``mc_ci95``, ``posterior_ci90``,
-        ``structural_range`` and ``model_ci90``; and ``settings``.
+        ``structural_range`` and ``model_ci90`` (:meth:`Estimate.to_dict`; ``note`` when the model has
+        no structural term); and ``settings`` (with ``structural_delta``, ``structural_source`` and
+        ``structural_note``).
     """
     from kruskal_markov.convergence import monte_carlo_entropy_tilts
     from kruskal_markov.ensemble import random_sequences, run_ensemble
@@ -153,8 +159,9 @@ def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsi
     for name, v in (("count", count), ("length", length), ("structural_sequences", structural_sequences)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
-    if not (math.isfinite(structural_delta) and structural_delta >= 0):
-        raise ValueError(f"structural_delta must be a non-negative number, got {structural_delta!r}")
+    term = structural_term(model, structural_delta)
+    structural_delta = term.delta
+    note = term.note if term.source == "none" else None
     tilts = [t for t in _ENTROPY_TILTS if t <= length]
     ens = ensemble if ensemble is not None else run_ensemble(model, count, length, seed=seed, epsilon=epsilon,
                                                               weights=weights, threads=threads)
@@ -201,35 +208,35 @@ def answer_intervals(model, *, seed=0, count: int = 2000, length: int = 50, epsi
     share = point["converging_share"]
     out["converging_share"] = _combine(
         share, list(wilson_interval(ens.converged, count)), post["converging_share"],
-        (max(0.0, share + conv(hmax) - conv(h)), min(1.0, share + conv(hmin) - conv(h))))
+        (max(0.0, share + conv(hmax) - conv(h)), min(1.0, share + conv(hmin) - conv(h))), note)
     for t in tilts:
         k = f"mean_entropy_{t}"
         v = point[k]
         sd = float(h[:, t].std(ddof=1)) if len(h) > 1 else 0.0
         half = 1.96 * sd / math.sqrt(count)
         out[k] = _combine(v, [v - half, v + half], post[k],
-                          (max(0.0, v + float(np.mean(hmin[:, t] - h[:, t]))), v + float(np.mean(hmax[:, t] - h[:, t]))))
+                          (max(0.0, v + float(np.mean(hmin[:, t] - h[:, t]))), v + float(np.mean(hmax[:, t] - h[:, t]))),
+                          note)
     if runs:
         v = point["random_tilts"]
         t0, t_lo, t_hi = _first_hit(h, epsilon), _first_hit(hmin, epsilon), _first_hit(hmax, epsilon)
         fill = lambda a: np.where(np.isnan(a), cap, a)                     # noqa: E731
         mc = et["ci95"] if et["mean"] is not None else [None, None]
         if v is None:
-            out["random_tilts"] = {"value": None, "mc_ci95": mc, "posterior_ci90": None,
-                                   "structural_range": None, "model_ci90": None}
+            out["random_tilts"] = Estimate(None, mc_ci95=mc, note=note).to_dict()
         else:
             out["random_tilts"] = _combine(v, mc, post["random_tilts"],
                                            (max(0.0, v + float(np.mean(fill(t_lo) - fill(t0)))),
-                                            v + float(np.mean(fill(t_hi) - fill(t0)))))
-            out["random_tilts"]["censored"] = int(et["censored"])
+                                            v + float(np.mean(fill(t_hi) - fill(t0)))), note,
+                                           censored=int(et["censored"]))
     out["settings"] = {"count": count, "length": length, "epsilon": epsilon, "runs": runs, "draws":
                        draws if has_counts(model) else 0, "draw_count": min(count, draw_count),
-                       "structural_delta": structural_delta, "structural_sequences": structural_sequences}
+                       **term.to_dict(), "structural_sequences": structural_sequences}
     return out
 
 
 def plan_success_interval(model, word, success: float, draws: int = 20, seed=0,
-                          structural_delta: float = STRUCTURAL_DELTA, final_cell: int | None = None) -> dict:
+                          structural_delta: float | None = None, final_cell: int | None = None) -> dict:
     """A plan's success probability with its posterior and structural intervals.
 
     Parameters
@@ -242,7 +249,8 @@ def plan_success_interval(model, word, success: float, draws: int = 20, seed=0,
     draws : int
         Posterior draws (none without counts).
     seed : int
-    structural_delta : float
+    structural_delta : float, optional
+        None: the model's own (:func:`kruskal_markov.structural.structural_term`).
     final_cell : int, optional
         The target cell (default: the most likely cell after the word).
 
@@ -271,8 +279,8 @@ def plan_success_interval(model, word, success: float, draws: int = 20, seed=0,
                 for i in range(draws)]
         q = np.quantile(np.asarray(vals) - c[cell], [0.05, 0.95])
         post = [max(0.0, success + float(q[0])), min(1.0, success + float(q[1]))]
+    term = structural_term(model, structural_delta)
     share = float(structural_share(c / c.sum())[0])
-    s = structural_delta * share
-    out = _combine(float(success), None, post, (max(0.0, success - s), min(1.0, success + s)))
-    out["model_ci90"] = [max(0.0, out["model_ci90"][0]), min(1.0, out["model_ci90"][1])]
-    return out
+    s = term.delta * share
+    return Estimate.combine(float(success), posterior=post, structural=(max(0.0, success - s), min(1.0, success + s)),
+                            note=term.note if term.source == "none" else None, clip=(0.0, 1.0)).to_dict()

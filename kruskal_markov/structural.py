@@ -28,40 +28,125 @@ and 3, 150 steps; docs/uncertainty.md) and tested on seeds chosen before.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = ["STRUCTURAL_DELTA", "entropy_range_tv", "structural_share", "band_with_structure",
-           "structural_score", "conformal_quantile"]
+           "structural_score", "conformal_quantile", "StructuralTerm", "structural_term", "with_calibration",
+           "is_sampled"]
 
-#: The default relative structural error: the share of the not-yet-gathered probability that the
-#: model may have misplaced (split-conformal 90% quantile on the key's calibration seeds 2031 and 3).
+#: The fallback relative structural error of a *built* model that carries no calibration of its own:
+#: the share of the not-yet-gathered probability that the model may have misplaced (split-conformal
+#: 90% quantile on the key's calibration seeds 2031 and 3). Models calibrated by
+#: ``kruskal validate --calibrate`` use their own value (:func:`structural_term`).
 STRUCTURAL_DELTA = 0.105
 
-_BISECTIONS = 60
+#: What the output says for a model that was not sampled.
+NO_TERM_NOTE = ("no structural term: the model was not sampled from physics (an automaton given exactly, "
+                "or a model without build statistics), so it has no snapping error")
 
+
+@dataclass(frozen=True)
+class StructuralTerm:
+    """A model's relative structural error and where it comes from.
+
+    Attributes
+    ----------
+    delta : float
+        The relative total-variation radius (0: no structural term).
+    source : str
+        ``"calibrated"`` (stored in the model by ``kruskal validate --calibrate``), ``"default"``
+        (a built model without a calibration: :data:`STRUCTURAL_DELTA`), ``"none"`` (a model that
+        was not sampled) or ``"given"`` (set by the caller, e.g. ``--structural-delta``).
+    note : str
+        One line for the output.
+    """
+
+    delta: float
+    source: str
+    note: str
+
+    def to_dict(self) -> dict:
+        """``structural_delta``, ``structural_source`` and ``structural_note`` (JSON keys)."""
+        return {"structural_delta": self.delta, "structural_source": self.source, "structural_note": self.note}
+
+
+def is_sampled(model) -> bool:
+    """True for a model sampled from physics by ``kruskal build``: its metadata records the build
+    statistics and it carries the sample counts of every action (an automaton given as JSON cannot)."""
+    from kruskal_markov.posterior import has_counts
+
+    md = getattr(model, "metadata", None) or {}
+    return md.get("kind") == "kruskal.built_model" and isinstance(md.get("stats"), dict) and has_counts(model)
+
+
+def structural_term(model, delta: float | None = None) -> StructuralTerm:
+    """The structural term of ``model``: ``delta`` if given, else the model's own.
+
+    Parameters
+    ----------
+    model : TransitionModel
+    delta : float, optional
+        An explicit relative error (the caller's ``--structural-delta``); None: the model's own —
+        its stored calibration (``metadata["structural"]["delta"]``), else :data:`STRUCTURAL_DELTA`
+        for a built model, else 0 for a model that was not sampled (:func:`is_sampled`).
+
+    Returns
+    -------
+    StructuralTerm
+    """
+    if delta is not None:
+        d = float(delta)
+        if not (math.isfinite(d) and d >= 0):
+            raise ValueError(f"structural delta must be a non-negative number, got {delta!r}")
+        return StructuralTerm(d, "given", f"structural delta {d:g} given by the caller")
+    if not is_sampled(model):
+        return StructuralTerm(0.0, "none", NO_TERM_NOTE)
+    rec = model.metadata.get("structural")
+    if isinstance(rec, dict) and isinstance(rec.get("delta"), (int, float)) and math.isfinite(rec["delta"]) \
+            and rec["delta"] >= 0:
+        return StructuralTerm(float(rec["delta"]), "calibrated",
+                              f"structural delta {rec['delta']:.4g} calibrated on this model "
+                              f"({rec.get('steps', '?')} steps of `kruskal validate --calibrate`, seeds "
+                              f"{', '.join(map(str, rec.get('seeds', []))) or '?'})")
+    return StructuralTerm(STRUCTURAL_DELTA, "default",
+                          f"structural delta {STRUCTURAL_DELTA:g}: the allen key's calibration, this model has "
+                          "none of its own (`kruskal validate --calibrate` stores one)")
+
+
+def with_calibration(model, delta: float, **record):
+    """A copy of ``model`` whose metadata stores the calibrated structural ``delta`` (and ``record``).
+
+    Parameters
+    ----------
+    model : TransitionModel
+        A built model (:func:`is_sampled`; ValueError otherwise).
+    delta : float
+        The calibrated relative structural error (finite, >= 0).
+    **record
+        JSON-serialisable facts of the calibration (seed, steps, level, ...).
+
+    Returns
+    -------
+    TransitionModel
+    """
+    from kruskal_markov.model import TransitionModel
+
+    if not is_sampled(model):
+        raise ValueError("only a built model has a structural term to calibrate")
+    d = float(delta)
+    if not (math.isfinite(d) and d >= 0):
+        raise ValueError(f"calibrated delta must be a finite non-negative number, got {delta!r}")
+    md = dict(model.metadata)
+    md["structural"] = {"delta": d, **record}
+    return TransitionModel(model.actions, model.matrices, initial=model.initial, partition=model.partition,
+                           n_cells=model.n_cells, metadata=md, tol=model.tol, extras=model.extras)
 
 def _entropy_rows(q: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(q > 0, -q * np.log2(np.where(q > 0, q, 1.0)), 0.0)
     return np.maximum(t.sum(axis=-1), 0.0)
-
-
-def _level(p: np.ndarray, delta: np.ndarray, above: bool) -> np.ndarray:
-    """Per row, the level ``u`` with ``sum (p - u)+ = delta`` (above) or ``sum (u - p)+ = delta``."""
-    lo = np.zeros(len(p))
-    hi = np.ones(len(p))
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        moved = np.clip(p - mid[:, None], 0.0, None).sum(1) if above else np.clip(mid[:, None] - p, 0.0, None).sum(1)
-        too_much = moved > delta
-        if above:
-            lo = np.where(too_much, mid, lo)
-            hi = np.where(too_much, hi, mid)
-        else:
-            hi = np.where(too_much, mid, hi)
-            lo = np.where(too_much, lo, mid)
-    return hi if above else lo
 
 
 def entropy_range_tv(p, delta) -> tuple[np.ndarray, np.ndarray]:
@@ -84,7 +169,8 @@ def entropy_range_tv(p, delta) -> tuple[np.ndarray, np.ndarray]:
     Largest: clip ``p`` to ``[l, u]`` with ``sum (p - u)+ = sum (l - p)+ = delta`` (uniform once
     ``delta`` reaches ``p``'s distance to it). Smallest: take ``delta`` from the smallest cells,
     emptying them in turn, and add it to the largest. Both are the extremes of Ho and Yeung (2010),
-    since entropy is Schur-concave.
+    since entropy is Schur-concave. Both levels are found exactly on each sorted row, in parallel
+    over rows (Numba, :mod:`kruskal_markov._structural_kernels`).
 
     References
     ----------
@@ -97,6 +183,8 @@ def entropy_range_tv(p, delta) -> tuple[np.ndarray, np.ndarray]:
     >>> float(lo), float(hi)
     (0.0, 1.0)
     """
+    from kruskal_markov._structural_kernels import entropy_range_rows
+
     p = np.asarray(p, dtype=np.float64)
     one = p.ndim == 1
     p = np.atleast_2d(p)
@@ -105,31 +193,14 @@ def entropy_range_tv(p, delta) -> tuple[np.ndarray, np.ndarray]:
     s = p.sum(1, keepdims=True)
     if np.any(s <= 0):
         raise ValueError("every distribution needs positive mass")
-    p = p / s
+    p = np.ascontiguousarray(p / s)
     d = np.broadcast_to(np.asarray(delta, dtype=np.float64), (len(p),)).copy()
     if not np.all(np.isfinite(d)) or np.any(d < 0):
         raise ValueError(f"delta must be finite and non-negative, got {delta!r}")
-    n = p.shape[1]
     d = np.minimum(d, 1.0)
-    # largest entropy: water-filling from both ends, or the uniform distribution
-    to_uniform = 0.5 * np.abs(p - 1.0 / n).sum(1)
-    u = _level(p, d, above=True)
-    low = _level(p, d, above=False)
-    q = np.clip(p, low[:, None], u[:, None])
-    q /= q.sum(1, keepdims=True)
-    hmax = np.where(d >= to_uniform, math.log2(n), _entropy_rows(q))
-    hmax = np.where(d > 0, hmax, _entropy_rows(p))
-    # smallest entropy: the smallest cells' mass onto the largest
-    order = np.argsort(p, axis=1)
-    ps = np.take_along_axis(p, order, 1)                  # ascending
-    room = np.minimum(d, 1.0 - ps[:, -1])
-    before = np.cumsum(ps, axis=1) - ps                    # mass of the smaller cells
-    take = np.clip(room[:, None] - before, 0.0, None)
-    take[:, -1] = 0.0
-    qs = ps - np.minimum(ps, take)
-    qs[:, -1] += room
-    hmin = np.minimum(_entropy_rows(qs), _entropy_rows(p))
-    hmax = np.maximum(hmax, _entropy_rows(p))
+    hmin = np.empty(len(p))
+    hmax = np.empty(len(p))
+    entropy_range_rows(p, d, hmin, hmax)
     return (hmin[0], hmax[0]) if one else (hmin, hmax)
 
 

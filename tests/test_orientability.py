@@ -75,3 +75,41 @@ def test_random_tilts_text():
     assert random_tilts_text({"random_tilts": None, "random_tilts_lower": 7.0}) == ">= 7.0"
     assert random_tilts_text({"random_tilts": None, "random_tilts_lower": None}) == "-"
     assert not math.isnan(_metrics().random_tilts)
+
+
+def test_part_metrics_by_value_against_their_definitions():
+    """Each metric recomputed from its definition with the documented random streams (ensemble:
+    seed; random tilts: [seed, 5]; random synchronizing length: [seed, 6]) on a stochastic model."""
+    import numpy as np
+
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts, monte_carlo_sync_length
+    from kruskal_markov.ensemble import run_ensemble
+    from kruskal_markov.sync import start_set, support_automaton
+    from tests.test_answers import _counted_model
+
+    model = _counted_model(seed=5)
+    seed, count, runs, eps, cap = 3, 120, 50, 1e-3, 300
+    m = part_metrics(model, seed=seed, count=count, runs=runs, epsilon=eps, max_tilts=cap, draws=0,
+                     sync_node_budget=2000)
+    ens = run_ensemble(model, count, 50, seed=seed, epsilon=eps)
+    assert m.mean_entropy_10 == pytest.approx(ens.mean[10]) and m.mean_entropy_50 == pytest.approx(ens.mean[50])
+    assert m.converging_share_50 == ens.converged / count
+    t = monte_carlo_entropy_tilts(model, eps, runs=runs, seed=[seed, 5], max_steps=cap)
+    assert (m.random_tilts, m.random_tilts_censored, m.random_tilts_lower) == (
+        None if t["mean"] is None else pytest.approx(t["mean"]), t["censored"], pytest.approx(t["lower"]))
+    aut = support_automaton(model, 0.0)
+    r = monte_carlo_sync_length(aut, start_set(model, False), runs=runs, seed=[seed, 6], max_steps=cap)
+    assert m.random_sync_censored == r["censored"] and m.random_sync_lower == pytest.approx(r["lower"])
+    assert m.initial_entropy == pytest.approx(2.0)            # 12 states uniform on 4 cells of 3
+    assert m.epsilon == eps and m.states == 12
+    iv = m.intervals
+    assert iv["converging_share"]["value"] == m.converging_share_50
+    assert iv["mean_entropy_10"]["value"] == pytest.approx(m.mean_entropy_10)
+    assert iv["settings"]["draws"] == 0 and iv["settings"]["structural_source"] == "none"
+    assert iv["settings"]["structural_sequences"] == 100 and iv["settings"]["runs"] == runs
+    assert iv["settings"]["epsilon"] == eps and iv["settings"]["count"] == count
+    assert np.isfinite(m.seconds)
+    # defaults: the convergence threshold 1e-3 bits, posterior draws on at most 1,000 sequences
+    big = part_metrics(model, seed=seed, count=1200, runs=20, max_tilts=cap, draws=2, sync_node_budget=2000)
+    assert big.epsilon == 1e-3 and big.intervals["settings"]["epsilon"] == 1e-3
+    assert big.intervals["settings"]["draw_count"] == 1000 and big.intervals["settings"]["draws"] == 2

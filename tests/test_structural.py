@@ -138,9 +138,11 @@ def test_dirichlet_band_covers_simulated_references_at_its_nominal_rate():
     """Known rows, counts drawn from them, references drawn from the truth: the 90% band (structural
     term 0) holds the reference's plug-in entropy at 84-96% of steps over 120 repetitions (1,200 steps;
     the binomial sd at 90% is 0.9 points, and 58% is 30 sd away)."""
+    from analysis.validate import coverage_verdict
+
     rng = np.random.default_rng(2024)
     n, steps, counts_per_row, trials = 6, 10, 40, 400
-    inside = []
+    inside, wide, narrow = [], [], []
     for rep in range(120):
         truth = _toy_truth(rng, n)
         init = np.full(n, 1.0 / n)
@@ -164,6 +166,15 @@ def test_dirichlet_band_covers_simulated_references_at_its_nominal_rate():
         draws = [resample_model(model, rng) for _ in range(40)]
         band = model_band(model, seq, draws, np.full(steps + 1, trials), sd, 0.0, rng)
         inside.append(((href >= band["lo"] - 1e-12) & (href <= band["hi"] + 1e-12))[1:])
+        c, w = band["centre"], band["width"]
+        wide.append((np.abs(href - c) <= 3 * w + 1e-12)[1:])
+        narrow.append((np.abs(href - c) <= 0.3 * w + 1e-12)[1:])
     cover = np.concatenate(inside).mean()
     print(f"coverage {cover:.3f}")
     assert 0.84 <= cover <= 0.96, cover
+    assert coverage_verdict(int(np.concatenate(inside).sum()), len(cover_steps := np.concatenate(inside))) \
+        == "consistent", len(cover_steps)
+    # the same judge fails a band three times as wide (too wide) and one at 0.3 times (too narrow)
+    wide, narrow = np.concatenate(wide), np.concatenate(narrow)
+    assert wide.mean() > 0.96 and coverage_verdict(int(wide.sum()), len(wide)) == "too wide", wide.mean()
+    assert narrow.mean() < 0.84 and coverage_verdict(int(narrow.sum()), len(narrow)) == "too narrow"

@@ -10,6 +10,8 @@ mutant reuses the compiled kernels.
     python tools/mutate.py ensemble grid   # the named ones
     python tools/mutate.py --list
     python tools/mutate.py --recheck ensemble   # the last run's survivors against the current tests
+    python tools/mutate.py --ops answers        # the operators of tools/mutate_ops.py (aggregation
+                                                # swaps, constant and threshold perturbations)
 
 Prints per module: mutants, killed, survived, timeouts, score; writes the survivors' diffs to
 ``build/mutate/<module>/survivors.txt``. The modules with slow tests run a deterministic sample by
@@ -68,6 +70,11 @@ MODULES = {
     "sim": ("transition_builder/sim.py", _FAULT_TESTS,
             ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
              "transition_builder.sim.x_valid_start__mutmut_*"]),
+    # the figures the product reports: intervals, the structural term, validation and the part metrics
+    "structural": ("kruskal_markov/structural.py", ["tests/test_structural_term.py", "tests/test_structural.py"], None),
+    "answers": ("kruskal_markov/answers.py", ["tests/test_structural_term.py", "tests/test_answers.py"], None),
+    "validate": ("analysis/validate.py", ["tests/test_validate.py", "tests/test_structural.py"], None),
+    "orientability": ("analysis/orientability.py", ["tests/test_orientability.py"], None),
 }
 
 #: the default sample (every k-th mutant in name order) of the modules whose tests are slow (the
@@ -204,6 +211,17 @@ def recheck_survivors(name: str) -> dict:
 
 
 def main(argv: list[str]) -> int:
+    if argv[:1] == ["--ops"]:
+        sys.path.insert(0, str(ROOT / "tools"))
+        from mutate_ops import run_ops
+
+        for name in argv[1:] or ["structural", "answers", "validate", "orientability"]:
+            file, tests, _ = MODULES[name]
+            r = run_ops(ROOT, WORK, name, file, tests, sample=int(os.environ.get("MUTATE_SAMPLE", 1)))
+            c = r["counts"]
+            print(f"{name:14s} ops mutants {r['mutants']:3d}  killed {c['killed']:3d}  timeout {c['timeout']:2d}  "
+                  f"survived {c['survived']:3d}  score {r['score']:.1%}", flush=True)
+        return 0
     if argv[:1] == ["--recheck"]:
         for name in argv[1:]:
             r = recheck_survivors(name)

@@ -273,19 +273,18 @@ def add_interval_options(parser) -> None:
     parser.add_argument("--draws", type=int, default=20,
                         help="posterior draws of the model's rows for the answers' model intervals (default 20; 0: none)")
     parser.add_argument("--structural-delta", type=float, default=None, metavar="D",
-                        help="relative structural error of the model intervals (default: the calibrated "
-                             "kruskal_markov.structural.STRUCTURAL_DELTA; 0: posterior only)")
+                        help="relative structural error of the model intervals (default: the model's own -- "
+                             "its `validate --calibrate` value, else 0.105 for a built model, none for an "
+                             "automaton; 0: posterior only)")
 
 
 def interval_settings(args) -> dict:
     """The checked ``draws`` and ``structural_delta`` of :func:`add_interval_options` (InputError when bad)."""
     import math
 
-    from kruskal_markov.structural import STRUCTURAL_DELTA
-
     if isinstance(args.draws, bool) or args.draws < 0:
         raise InputError(f"--draws must be a non-negative integer, got {args.draws}")
-    d = STRUCTURAL_DELTA if args.structural_delta is None else args.structural_delta
-    if not (math.isfinite(d) and d >= 0):
+    d = args.structural_delta
+    if d is not None and not (math.isfinite(d) and d >= 0):
         raise InputError(f"--structural-delta must be a non-negative number, got {args.structural_delta}")
     return {"draws": args.draws, "structural_delta": d}

@@ -86,6 +86,9 @@ def format_intervals(intervals: dict) -> list[str]:
         if k == "settings" or v.get("value") is None:
             continue
         out.append(f"{k:20s}  {v['value']:8.4g}  {rng(v['mc_ci95']):20s}  {rng(v['model_ci90'])}")
+    note = intervals.get("settings", {}).get("structural_note")
+    if note:
+        out.append(f"structural term: {note}")
     return out
 
 

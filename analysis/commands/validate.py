@@ -28,6 +28,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="relative structural error of the band: the share of the probability outside "
                              "the most likely cell the model may have misplaced (default: the calibrated "
                              "kruskal_markov.structural.STRUCTURAL_DELTA; 0: the Dirichlet band alone)")
+    parser.add_argument("--calibrate", action="store_true",
+                        help="store this run's structural calibration in the model file: the split-conformal 90%% "
+                             "quantile of every step's structural_needed, pooled with the steps of earlier "
+                             "--calibrate runs on the model; later commands use it as the model's structural delta")
     parser.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask distributed scheduler")
     parser.add_argument("--progress", action="store_true", help="progress bar on standard error")
@@ -42,15 +46,46 @@ def run(args: argparse.Namespace) -> dict:
     if args.trials < 2:
         raise InputError("--trials must be at least 2 (the reference's noise is a bootstrap)")
     contact = parse_contact_arg(args.contact)     # checked before any work
-    from kruskal_markov.structural import STRUCTURAL_DELTA
-    delta = STRUCTURAL_DELTA if args.structural_delta is None else args.structural_delta
-    if not (math.isfinite(delta) and delta >= 0):
+    delta = args.structural_delta
+    if delta is not None and not (math.isfinite(delta) and delta >= 0):
         raise InputError(f"--structural-delta must be a non-negative number, got {args.structural_delta}")
+    if args.calibrate and args.bands < 1:
+        raise InputError("--calibrate needs the model's band (--bands of at least 1)")
     model = TransitionModel.load(args.model)
-    return validate_model(model, args.sequences, args.trials, args.seed, args.length, spread=args.spread,
-                          bands=args.bands, workers=args.workers, scheduler=args.scheduler,
-                          progress=True if args.progress else None, contact=contact,
-                          structural_delta=delta)
+    from kruskal_markov.structural import is_sampled
+    if args.calibrate and not is_sampled(model):
+        raise InputError("--calibrate needs a model built by `kruskal build` (an automaton has no structural term)")
+    result = validate_model(model, args.sequences, args.trials, args.seed, args.length, spread=args.spread,
+                            bands=args.bands, workers=args.workers, scheduler=args.scheduler,
+                            progress=True if args.progress else None, contact=contact,
+                            structural_delta=delta)
+    if args.calibrate:
+        result["calibration"] = calibrate_model(model, result, args.model)
+    return result
+
+
+def calibrate_model(model, result: dict, path: str) -> dict:
+    """Store the run's split-conformal ``delta`` (pooled with earlier calibrations' steps) in the model file.
+
+    Returns the ``calibration`` JSON key: ``delta``, ``steps``, ``seeds`` and ``model`` (the path written).
+    """
+    import math
+
+    from kruskal_markov.structural import conformal_quantile, with_calibration
+
+    if result.get("contact") != result.get("model_contact"):
+        raise InputError("--calibrate compares the model with its own physics: drop --contact")
+    old = model.metadata.get("structural") if isinstance(model.metadata.get("structural"), dict) else {}
+    new = [math.inf if x is None else float(x) for s in result["per_sequence"] for x in s["structural_needed"][1:]]
+    scores = [math.inf if x is None else float(x) for x in old.get("scores", [])] + new
+    seeds = [*old.get("seeds", []), result["seed"]]
+    delta = conformal_quantile(scores, 0.9)
+    if not math.isfinite(delta):
+        raise InputError(f"--calibrate: {len(scores)} steps do not give a finite 90% structural delta "
+                         "(too few steps, or a reference no band reaches): run more --sequences")
+    finite = [round(x, 6) if math.isfinite(x) else None for x in scores]
+    with_calibration(model, delta, level=0.9, steps=len(scores), seeds=seeds, scores=finite).save(path)
+    return {"delta": delta, "steps": len(scores), "seeds": seeds, "model": path}
 
 
 def format_text(result: dict) -> str:
@@ -77,6 +112,11 @@ def format_text(result: dict) -> str:
                      f"{100 * hi:.0f}%); Dirichlet band alone {100 * result['band_coverage_dirichlet']:.0f}% "
                      f"({100 * dlo:.0f}-{100 * dhi:.0f}%); this run would calibrate delta = "
                      + ("inf" if q is None else f"{q:.3f}"))
+        lines.append(f"structural term: {result['structural_note']}")
+    if "calibration" in result:
+        c = result["calibration"]
+        lines.append(f"calibrated: structural delta {c['delta']:.4g} from {c['steps']} steps (seeds "
+                     f"{', '.join(map(str, c['seeds']))}), stored in {c['model']}")
     if "simulation_spread_bits" in result:
         sp = result["simulation_spread_bits"]
         lines.append(f"simulator half-time-step spread: mean {sp['mean']:.3f}  max {sp['max']:.3f}")
