@@ -132,7 +132,7 @@ def run_ours(only: tuple = (), max_budget: float | None = None) -> dict:
                            "subsets": r.states_explored}
         swl = "-" if sw is None else f"{sw.get('length')} {'exact' if sw.get('exact') else ''} {sw.get('seconds')} s"
         target = sw is not None and sw.get("exact") and sw["seconds"] <= SW_LIMIT
-        met = (r.exact and r.length == sw["length"] and sec <= 3 * max(sw["seconds"], 10 / 3)) if target else None
+        met = (r.exact and r.length == sw["length"] and sec <= 3 * sw["seconds"]) if target else None
         rows[key(inst)]["target_met"] = met
         print(f"{key(inst):24s} ours {r.length} exact={r.exact} lb={r.lower_bound} {sec:7.2f} s {r.method:24s}"
               f" | synchrowords {swl} | target met: {met}", flush=True)
