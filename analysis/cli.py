@@ -33,7 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_OneLineParser)
     sub.required = True
     for name, (module_name, help_text) in COMMANDS.items():
-        cmd = sub.add_parser(name, help=help_text, description=help_text)
+        # argparse %-formats help strings: a literal '%' ("a 90% interval") must be doubled
+        cmd = sub.add_parser(name, help=help_text.replace("%", "%%"), description=help_text)
         cmd.add_argument("--json", action="store_true",
                          help="print exactly one JSON object on standard output (logs go to stderr)")
         module = importlib.import_module(module_name)
