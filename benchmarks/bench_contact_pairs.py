@@ -45,37 +45,8 @@ def _tilts(pairs: str, starts):
 def _judges(pairs: str, mu: float = 0.3, refine: int = 16) -> dict:
     """The judges of :func:`transition_builder.judges.judges_table` for the coulomb contact with
     ``contact_pairs=pairs`` (the same slides and laws)."""
-    from transition_builder._bullet_world import friction_radius_mm
-    from transition_builder.judges import (
-        TABLE_SLIDES,
-        disk_shape_spec,
-        engine_free_slide,
-        isotropy_error,
-        reference_free_slide,
-    )
-    from transition_builder.shapes import parse_shape
-    disk = disk_shape_spec()
-    spec = {"disk": disk, "allen-key": "allen-key"}
-    refs = [reference_free_slide(spec[s], p, tw, mu=mu) for s, p, tw in TABLE_SLIDES]
-    dshape = parse_shape(disk)
-    w0, v0 = 10.0, 300.0
-    spin_law = dshape.inertia_kg_m2 / dshape.mass_kg * w0 / (mu * 9.81 * friction_radius_mm(dshape) / 1000.0)
-    slide_law = v0 / 1000.0 / (mu * 9.81)
-    kw = {"contact": "coulomb", "mu": mu, "refine": refine, "contact_pairs": pairs}
-    runs = [engine_free_slide(spec[s], p, tw, **kw) for s, p, tw in TABLE_SLIDES]
-    d_mm = [float(np.hypot(*(e.final[:2] - r.final[:2]))) for e, r in zip(runs, refs)]
-    d_deg = [abs(math.degrees(e.final[2] - r.final[2])) for e, r in zip(runs, refs)]
-    slide = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.6 * v0, 0.8 * v0, 0.0), **kw)
-    spin = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.0, 0.0, w0), **kw)
-    iso = isotropy_error("allen-key", *TABLE_SLIDES[2][1:], contact="coulomb", refine=refine, mu=mu,
-                         contact_pairs=pairs)
-    disk_run = runs[0]
-    return {"slide_mm": max(d_mm), "slide_deg": max(d_deg),
-            "disk_stop_gap": abs(disk_run.t_slide - disk_run.t_spin) / disk_run.t_slide,
-            "disk_ratio_error": abs(disk_run.ratio_late / refs[0].ratio_late - 1.0),
-            "pure_slide_error": abs(slide.t_slide / slide_law - 1.0),
-            "pure_spin_error": abs(spin.t_spin / spin_law - 1.0),
-            "isotropy_slide": iso[0], "isotropy_turn": iso[1]}
+    from transition_builder.judges import judges_table
+    return judges_table(("coulomb",), mu=mu, refine=refine, contact_pairs=pairs)["coulomb"]
 
 
 def _small_builds(rounds: int = 2) -> None:

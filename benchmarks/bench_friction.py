@@ -33,18 +33,9 @@ REFINE = (1, 2, 16)
 
 
 def _runner(friction):
-    from transition_builder.scene import scene_from_options
-    from transition_builder.sim import TraySimulator
-    sim = TraySimulator(scene_from_options("allen-key", friction))
-    sim.prepare()
-
-    def run(poses, actions):
-        status = np.empty(len(poses), dtype=np.int8)
-        for a in range(8):
-            m = actions == a
-            _, status[m] = sim.tilt(poses[m], a)
-        return status
-    return run
+    """The simulator at floor friction ``friction``: ``run(poses, actions) -> status`` (bench_sim's)."""
+    from benchmarks.bench_sim import _ours
+    return _ours(friction_spec=friction)
 
 
 def cost() -> dict:

@@ -179,8 +179,10 @@ TABLE_SLIDES = (("disk", (100.0, 100.0, 0.0), (200.0, 100.0, 8.0)),
                 ("allen-key", (100.0, 100.0, 4.0), (50.0, -300.0, 10.0)))
 
 
-def judges_table(contacts=("coulomb", "sphere", "legs:4", "legs:25"), mu: float = 0.3, refine: int = 16) -> dict:
-    """Every judge for every contact model: ``{contact: {judge: value}}``.
+def judges_table(contacts=("coulomb", "sphere", "legs:4", "legs:25"), mu: float = 0.3, refine: int = 16,
+                 **settings) -> dict:
+    """Every judge for every contact model: ``{contact: {judge: value}}``; ``settings`` (simulator
+    settings such as ``contact_pairs``) apply to every engine run.
 
     Judges (targets of the default contact in brackets): ``slide_mm`` / ``slide_deg``, the largest
     distance and angle between the engine's and the integration's final poses over
@@ -201,14 +203,14 @@ def judges_table(contacts=("coulomb", "sphere", "legs:4", "legs:25"), mu: float 
     slide_law = v0 / 1000.0 / (mu * 9.81)
     out = {}
     for contact in contacts:
-        runs = [engine_free_slide(spec[s], p, tw, contact=contact, mu=mu, refine=refine) for s, p, tw in TABLE_SLIDES]
+        kw = {"contact": contact, "mu": mu, "refine": refine, **settings}
+        runs = [engine_free_slide(spec[s], p, tw, **kw) for s, p, tw in TABLE_SLIDES]
         d_mm = [float(np.hypot(*(e.final[:2] - r.final[:2]))) for e, r in zip(runs, refs)]
         d_deg = [abs(math.degrees(e.final[2] - r.final[2])) for e, r in zip(runs, refs)]
         disk_run = runs[0]
-        slide = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.6 * v0, 0.8 * v0, 0.0), contact=contact, mu=mu,
-                                  refine=refine)
-        spin = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.0, 0.0, w0), contact=contact, mu=mu, refine=refine)
-        iso = isotropy_error("allen-key", *TABLE_SLIDES[2][1:], contact=contact, refine=refine, mu=mu)
+        slide = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.6 * v0, 0.8 * v0, 0.0), **kw)
+        spin = engine_free_slide(disk, (100.0, 100.0, 0.0), (0.0, 0.0, w0), **kw)
+        iso = isotropy_error("allen-key", *TABLE_SLIDES[2][1:], **kw)
         out[contact] = {
             "slide_mm": max(d_mm), "slide_deg": max(d_deg),
             "disk_stop_gap": abs(disk_run.t_slide - disk_run.t_spin) / disk_run.t_slide,
