@@ -147,8 +147,10 @@ class ReproduceSettings:
 
     @classmethod
     def full(cls, seed: int = 0) -> "ReproduceSettings":
-        """The committed report's settings (about an hour on 2 cores with the key's model cached)."""
-        return cls(seed=seed, tray_log=True, friction_study=True)
+        """The committed report's settings: every section but the friction study, which is its own
+        command (``python -m analysis.friction_study``, about 40 minutes of direct simulation; its
+        measured parts are committed beside the report in ``reports/full/friction_study/``)."""
+        return cls(seed=seed, tray_log=True)
 
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":
