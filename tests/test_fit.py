@@ -208,7 +208,7 @@ def test_bad_log_is_one_line_and_exit_2(expected, tmp_path, capsys):
 def test_bad_options_exit_2(tmp_path, capsys, scene):
     path = tmp_path / "log.csv"
     synthetic_log(scene, path, 0.3, trials=5, tilts=3, seed=1)
-    for extra, words in ((["--range", "0.5..0.2"], "low end"), (["--fit", "mu_s,mu_k"], "friction issue"),
+    for extra, words in ((["--range", "0.5..0.2"], "low end"), (["--range", "0.3/0.2..0.5/0.4"], "--fit mu_s,mu_k"),
                          (["--fit", "speed"], "bad --fit"), (["--camera-noise", "0,1"], "camera-noise")):
         assert main(["fit", "--poses", str(path), "--shape", SHAPE, *extra]) == 2
         err = capsys.readouterr().err.strip()
@@ -221,6 +221,100 @@ def test_sequence_must_agree_with_action_column(tmp_path, scene, capsys):
     other = ",".join(scene.actions[(a + 1) % 8] for a in seq)
     assert main(["fit", "--poses", str(path), "--shape", SHAPE, "--sequence", other]) == 2
     assert "--sequence has" in capsys.readouterr().err
+
+
+# --- the static/kinetic pair (--fit mu_s,mu_k) ------------------------------------------------------
+# The synthetic family with a pair: a tilt goes to the second successor with probability mu_k, to the
+# third with mu_s - mu_k and to the first with 1 - mu_s, so both coefficients are identifiable.
+
+def _pair_build(sc, st):
+    return synthetic_model(sc, sc.friction.mu, sc.friction.static_mu - sc.friction.mu), "synthetic"
+
+
+def _pair_fit(scene, path, seed=0, lo=0.1, hi=0.5, points=6):
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+    settings = FitSettings(params=("mu_s", "mu_k"), ranges={"mu_s": (lo, hi), "mu_k": (lo, hi)},
+                           points={"mu_s": points, "mu_k": points}, camera=(0.5, 0.5), seed=seed, bootstrap=200)
+    return fit_log(scene, log, settings, build=_pair_build)
+
+
+def test_pair_recovered_within_the_grid_spacing(scene, tmp_path):
+    """A log at (mu_s, mu_k) = (0.36, 0.22): the grid 0.1..0.5 has spacing 0.08, refined twice to 0.02;
+    both coefficients within half the grid's spacing, the gap between them seen."""
+    path = tmp_path / "pair.csv"
+    synthetic_log(scene, path, 0.22, trials=300, tilts=15, seed=11, noise=0.36 - 0.22)
+    r = _pair_fit(scene, path)
+    assert abs(r.estimate["mu_s"] - 0.36) <= 0.04 and abs(r.estimate["mu_k"] - 0.22) <= 0.04
+    assert not r.at_edge and set(r.interval_90) == {"mu_s", "mu_k"}
+    assert all(c["mu_s"] >= c["mu_k"] for c in r.criterion) and len(r.criterion) > 21   # triangle + refinement
+    pair = r.to_dict()["pair"]
+    assert not pair["on_diagonal"] and pair["difference_interval_90"][0] > 0.05
+    assert pair["criterion_gain_over_single"] > 0
+    assert set(r.trials_needed["per_parameter"]) == {"mu_s", "mu_k"}
+
+
+def test_single_coefficient_log_fitted_with_the_pair(scene, tmp_path):
+    """A log with one coefficient (mu_s = mu_k = 0.27): the pair lands on (or beside) the diagonal."""
+    path = tmp_path / "single.csv"
+    synthetic_log(scene, path, 0.27, trials=300, tilts=15, seed=12)
+    r = _pair_fit(scene, path)
+    assert abs(r.estimate["mu_s"] - r.estimate["mu_k"]) <= 0.02          # the finest spacing
+    assert abs(r.estimate["mu_k"] - 0.27) <= 0.04 and abs(r.estimate["mu_s"] - 0.27) <= 0.04
+    assert r.to_dict()["pair"]["difference_interval_90"][0] <= 0.02
+
+
+def test_pair_same_log_and_seed_same_fit(scene, tmp_path):
+    path = tmp_path / "pair.csv"
+    synthetic_log(scene, path, 0.2, trials=80, tilts=10, seed=13, noise=0.1)
+    a, b = _pair_fit(scene, path, seed=4, points=4), _pair_fit(scene, path, seed=4, points=4)
+    assert a.to_dict() == b.to_dict()
+    assert _pair_fit(scene, path, seed=5, points=4).interval_90 != a.interval_90     # the seed is used
+
+
+def test_pair_from_the_command_line(monkeypatch, scene, tmp_path, capsys):
+    """``kruskal fit --fit mu_s,mu_k`` with a paired range: each coefficient its own axis, the JSON
+    keys of the single fit plus ``pair``, and the heat-map figure (builds stood in by the family)."""
+    import json
+    from types import SimpleNamespace
+
+    import transition_builder.cache as cache
+
+    def cached_build(sc, st, **kw):
+        model, path = _pair_build(sc, st)
+        return SimpleNamespace(model=model), f"{sc.friction}", None
+
+    monkeypatch.setattr(cache, "cached_build", cached_build)
+    path = tmp_path / "pair.csv"
+    synthetic_log(scene, path, 0.2, trials=100, tilts=10, seed=14, noise=0.12)
+    png = tmp_path / "pair.png"
+    assert main(["fit", "--poses", str(path), "--shape", SHAPE, "--fit", "mu_s,mu_k", "--range", "0.2/0.1..0.5/0.4",
+                 "--pair-points", "5", "--refine", "1", "--camera-noise", "0.5,0.5", "--bootstrap", "50",
+                 "--figure", str(png), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["fit"] == ["mu_s", "mu_k"] and set(out["estimate"]) == {"mu_s", "mu_k"}
+    assert {"interval_90", "interval_90_profile", "at_edge", "criterion", "trials", "tilts", "seconds",
+            "trials_needed", "goodness_of_fit", "models", "pair"} <= set(out)
+    assert all(0.2 - 1e-9 <= c["mu_s"] <= 0.5 + 1e-9 and 0.1 - 1e-9 <= c["mu_k"] <= 0.4 + 1e-9
+               and c["mu_s"] >= c["mu_k"] for c in out["criterion"])
+    assert "0.35/0.175" in out["models"].values()          # a pair's model: the spec S/K it was built at
+    assert png.stat().st_size > 1000
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--range", "0.3..0.3"], "positive width"),
+    (["--range", "0..0.5"], "must be positive"),
+    (["--range", "0.2/0.3..0.5/0.4"], "at least the kinetic"),
+    (["--range", "0.3/0.2..0.5"], "both ends"),
+    (["--range", "0.5/0.4..0.3/0.2"], "low end"),
+    (["--pair-points", "1"], "--pair-points"),
+    (["--contact", "sphere"], "coulomb contact"),
+])
+def test_bad_pair_options_exit_2(extra, words, tmp_path, capsys, scene):
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.3, trials=5, tilts=3, seed=1)
+    assert main(["fit", "--poses", str(path), "--shape", SHAPE, "--fit", "mu_s,mu_k", *extra]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and words in err
 
 
 # --- friction ranges -----------------------------------------------------------------------------------

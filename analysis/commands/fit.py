@@ -1,7 +1,7 @@
 """``kruskal fit``: the tray's physics from a pose log (e.g. an overhead camera's).
 
 The floor's friction coefficient (``--fit mu``, the default), optionally with the process noise
-(``--fit mu,noise``), that explains a ``--poses`` log best: models at a grid of values across
+(``--fit mu,noise``), or the static/kinetic pair (``--fit mu_s,mu_k``, the coulomb contact), that explains a ``--poses`` log best: models at a grid of values across
 ``--range`` (cached builds), every trial's likelihood under each (the model as a hidden Markov model
 of the camera's view), the estimate, a 90% interval, the criterion over the range, the goodness of
 fit and the trials a log needs for a given precision. Method and measurements: docs/fit.md.
@@ -22,8 +22,7 @@ from analysis.commands._common import (
     sequence_rng,
 )
 
-_PAIR_NOTE = ("--fit mu_s,mu_k needs the static/kinetic friction pair in the simulator "
-              "(the friction issue); fit mu or mu,noise")
+_PAIR_RANGE_NOTE = "a paired --range LO_S/LO_K..HI_S/HI_K needs --fit mu_s,mu_k"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,16 +32,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sequence", default=None,
                         help="the tilts of every trial (NE,S,... or random:N from --seed); "
                              "default: the log's action column")
-    parser.add_argument("--fit", default="mu", help="what to fit: mu (default) or mu,noise")
+    parser.add_argument("--fit", default="mu",
+                        help="what to fit: mu (default), mu,noise or mu_s,mu_k (the static/kinetic pair)")
     parser.add_argument("--range", default="0.1..0.55", metavar="LO..HI",
-                        help="friction range searched (default 0.1..0.55; below tan(tilt) for sliding)")
+                        help="friction range searched (default 0.1..0.55; below tan(tilt) for sliding); with "
+                             "--fit mu_s,mu_k the range of both coefficients, or LO_S/LO_K..HI_S/HI_K each its own")
     parser.add_argument("--noise-range", default="0..0.5", metavar="LO..HI",
                         help="with --fit mu,noise: process noise range, mm = deg (default 0..0.5)")
     parser.add_argument("--points", type=int, default=10,
                         help="models across the friction range before refinement (default 10)")
     parser.add_argument("--noise-points", type=int, default=3, help="with --fit mu,noise: noise levels (default 3)")
-    parser.add_argument("--refine", type=int, default=1,
-                        help="refinement rounds: midpoints beside the best model (default 1)")
+    parser.add_argument("--pair-points", type=int, default=6,
+                        help="with --fit mu_s,mu_k: grid points per coefficient (default 6: 21 models on the "
+                             "triangle mu_s >= mu_k of a common range)")
+    parser.add_argument("--refine", type=int, default=None,
+                        help="refinement rounds: midpoints beside the best model (default 1; 2 with "
+                             "--fit mu_s,mu_k)")
     parser.add_argument("--camera-noise", default=None, metavar="MM,DEG",
                         help="camera noise (standard deviation); default: estimated from the log")
     parser.add_argument("--criterion", choices=("likelihood", "histogram"), default="likelihood",
@@ -76,32 +81,49 @@ def _float_range(text: str, option: str) -> tuple[float, float]:
 
 def _settings(args):
     from analysis.fit import FitSettings
+    from analysis.fit.core import FITS
     from analysis.friction_range import parse_friction_range
 
     params = tuple(p.strip().lower() for p in args.fit.split(","))
-    if params == ("mu_s", "mu_k"):
-        raise InputError(_PAIR_NOTE)
-    if params not in (("mu",), ("mu", "noise")):
-        raise InputError(f"bad --fit {args.fit!r}: expected mu or mu,noise")
+    if params not in FITS:
+        raise InputError(f"bad --fit {args.fit!r}: expected mu, mu,noise or mu_s,mu_k")
     try:
         fr = parse_friction_range(args.range)
     except ValueError as exc:
         raise InputError(f"--range: {exc}") from None
-    if fr.paired:
-        raise InputError(_PAIR_NOTE)
+    pair = params == ("mu_s", "mu_k")
+    if fr.paired and not pair:
+        raise InputError(_PAIR_RANGE_NOTE)
     check_positive(args.points, "--points")
     check_positive(args.noise_points, "--noise-points")
-    if args.refine < 0 or args.bootstrap < 0:
+    if (args.refine is not None and args.refine < 0) or args.bootstrap < 0:
         raise InputError("--refine and --bootstrap must be >= 0")
     camera = None
     if args.camera_noise is not None:
         camera = parse_resolution(args.camera_noise)
         if min(camera) <= 0:
             raise InputError(f"--camera-noise must be positive, got {args.camera_noise!r}")
-    return FitSettings(params=params, ranges={"mu": (fr.lo[0], fr.hi[0]),
-                                              "noise": _float_range(args.noise_range, "--noise-range")},
-                       points={"mu": args.points, "noise": args.noise_points}, refine=args.refine,
-                       camera=camera, criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed)
+    ranges = {"mu": (fr.lo[0], fr.hi[0]), "noise": _float_range(args.noise_range, "--noise-range"),
+              "mu_s": (fr.lo[0], fr.hi[0]), "mu_k": (fr.lo[1], fr.hi[1])}
+    points = {"mu": args.points, "noise": args.noise_points, "mu_s": args.pair_points, "mu_k": args.pair_points}
+    if pair:
+        _check_pair(args, fr)
+    try:
+        return FitSettings(params=params, ranges=ranges, points=points, refine=args.refine, camera=camera,
+                           criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed)
+    except ValueError as exc:
+        raise InputError(f"--fit {args.fit}: {exc}") from None
+
+
+def _check_pair(args, fr) -> None:
+    """A pair fit's range and grid: one line naming what is wrong."""
+    if args.pair_points < 2:
+        raise InputError(f"--pair-points must be at least 2, got {args.pair_points}")
+    if fr.lo == fr.hi:
+        raise InputError(f"--range {args.range!r}: --fit mu_s,mu_k needs a range of positive width")
+    if fr.lo[1] <= 0:
+        raise InputError(f"--range {args.range!r}: the kinetic coefficient of a pair must be positive "
+                         "(LO > 0)")
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -114,6 +136,9 @@ def run(args: argparse.Namespace) -> dict:
         check_positive(args.workers, "--workers")
     check_positive(args.start_samples, "--start-samples")
     scene = scene_from_args(argparse.Namespace(**{**vars(args), "friction": None}))
+    if settings.params == ("mu_s", "mu_k") and scene.settings.contact != "coulomb":
+        raise InputError(f"--fit mu_s,mu_k needs the coulomb contact: the {scene.settings.contact} contact has "
+                         "one Bullet coefficient, static and kinetic alike")
     sequence = None
     if args.sequence is not None:
         sequence = parse_sequence(args.sequence, scene.actions, sequence_rng(args.seed))
@@ -143,6 +168,13 @@ def format_text(result: dict) -> str:
         tail = "best at the edge of the range: no interval" if result["at_edge"] else (
             f"90% interval {iv[0]:.4g} .. {iv[1]:.4g}" if iv else "no interval")
         lines.append(f"{name} = {value:.4g}   {tail}")
+    pair = result.get("pair")
+    if pair and pair["difference_interval_90"]:
+        d = pair["difference_interval_90"]
+        single = ("" if pair["best_single_mu"] is None else
+                  f"; best single coefficient {pair['best_single_mu']:.4g} "
+                  f"({pair['criterion_gain_over_single']:.1f} below the pair)")
+        lines.append(f"mu_s - mu_k: 90% interval {d[0]:.4g} .. {d[1]:.4g}{single}")
     cam = result["camera_noise"]
     lines.append(f"camera noise {cam['mm']:g} mm / {cam['deg']:g} deg ({'estimated' if cam['estimated'] else 'given'});"
                  f" {result['trials']} trials, {result['tilts']} tilts, {result['observations']} observations")

@@ -15,8 +15,9 @@ The likelihood-free baseline, the report-cell histogram distance (:mod:`analysis
 is computed at every grid point too (``criterion="histogram"`` fits on it).
 
 Parameters are named (``mu``; ``noise``, the process noise ``pose:S,S`` of the build): a second one
-makes the grid a product and the estimate its best point, so further parameters (the friction
-pair) slot in as one more entry of :data:`PARAMETERS`.
+makes the grid a product and the estimate its best point. The static/kinetic pair (``mu_s``,
+``mu_k``; :mod:`analysis.fit.pair`) is fitted on the triangle ``mu_s >= mu_k`` of its 2-D grid,
+refined around the best point, with a quadratic surface's constrained maximum as the estimate.
 """
 from __future__ import annotations
 
@@ -27,8 +28,9 @@ import numpy as np
 
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
 from analysis.fit.hmm import EmissionSettings, trial_loglik
+from analysis.fit.pair import PAIR, pair_axes, pair_grid, pair_refinement, pair_summary
 
-__all__ = ["FitSettings", "FitResult", "PARAMETERS", "fit_log", "CAMERA_CANDIDATES"]
+__all__ = ["FitSettings", "FitResult", "PARAMETERS", "FITS", "fit_log", "CAMERA_CANDIDATES"]
 
 #: camera noise candidates (mm = deg) tried when the camera noise is estimated from the data.
 CAMERA_CANDIDATES = (0.1, 0.25, 0.5, 1.0, 2.0)
@@ -47,8 +49,16 @@ def _set_noise(scene, settings, value):
     return scene, replace(settings, noise=spec)
 
 
-#: parameter name -> function (scene, build settings, value) -> (scene, build settings).
+def _set_pair(scene, mu_s, mu_k):
+    from transition_builder.friction import parse_friction
+    return replace(scene, friction=parse_friction(f"{mu_s:.10g}/{mu_k:.10g}"))
+
+
+#: parameter name -> function (scene, build settings, value) -> (scene, build settings); the pair
+#: ``mu_s``, ``mu_k`` (:data:`analysis.fit.pair.PAIR`) is set together (``parse_friction("S/K")``).
 PARAMETERS = {"mu": _set_mu, "noise": _set_noise}
+#: the parameter sets ``kruskal fit --fit`` takes.
+FITS = (("mu",), ("mu", "noise"), PAIR)
 
 
 @dataclass(frozen=True)
@@ -58,13 +68,15 @@ class FitSettings:
     Attributes
     ----------
     params : tuple of str
-        Parameter names (keys of :data:`PARAMETERS`), e.g. ``("mu",)`` or ``("mu", "noise")``.
+        One of :data:`FITS`: ``("mu",)``, ``("mu", "noise")`` or ``("mu_s", "mu_k")``.
     ranges : dict
         Parameter name -> (lo, hi).
     points : dict
-        Parameter name -> number of grid points across its range.
-    refine : int
-        Refinement rounds (1-D fits): each adds the midpoints beside the best point.
+        Parameter name -> number of grid points across its range (the pair: per axis, >= 2).
+    refine : int, optional
+        Refinement rounds (``mu`` and the pair): each halves the spacing around the best point.
+        Default 1, and 2 for the pair (its estimate's error is about a third of its finest spacing
+        on the synthetic family, docs/fit.md).
     camera : tuple or None
         Camera noise (mm, deg); None estimates it from the data (:data:`CAMERA_CANDIDATES`).
     criterion : str
@@ -78,9 +90,10 @@ class FitSettings:
     """
 
     params: tuple = ("mu",)
-    ranges: dict = field(default_factory=lambda: {"mu": (0.1, 0.55), "noise": (0.0, 0.5)})
-    points: dict = field(default_factory=lambda: {"mu": 10, "noise": 3})
-    refine: int = 1
+    ranges: dict = field(default_factory=lambda: {"mu": (0.1, 0.55), "noise": (0.0, 0.5),
+                                                  "mu_s": (0.1, 0.55), "mu_k": (0.1, 0.55)})
+    points: dict = field(default_factory=lambda: {"mu": 10, "noise": 3, "mu_s": 6, "mu_k": 6})
+    refine: int | None = None
     camera: tuple | None = None
     criterion: str = "likelihood"
     bootstrap: int = 400
@@ -88,12 +101,22 @@ class FitSettings:
     outlier: float = 1e-3
 
     def __post_init__(self):
+        if tuple(self.params) not in FITS:
+            raise ValueError(f"unknown fit {','.join(self.params)!r}; known: "
+                             + "; ".join(",".join(f) for f in FITS))
         for p in self.params:
-            if p not in PARAMETERS:
-                raise ValueError(f"unknown fit parameter {p!r}; known: {', '.join(PARAMETERS)}")
             lo, hi = self.ranges[p]
             if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
                 raise ValueError(f"bad range {lo}..{hi} of {p}")
+        if self.refine is None:
+            object.__setattr__(self, "refine", 2 if tuple(self.params) == PAIR else 1)
+        if tuple(self.params) == PAIR:
+            (slo, shi), (klo, khi) = self.ranges["mu_s"], self.ranges["mu_k"]
+            if klo <= 0 or shi < khi or slo < klo or (slo == shi and klo == khi):
+                raise ValueError(f"bad pair range {slo:g}/{klo:g}..{shi:g}/{khi:g}: need 0 < LO_K, "
+                                 "LO_K <= LO_S, HI_K <= HI_S and a range of positive width")
+            if min(self.points["mu_s"], self.points["mu_k"]) < 2:
+                raise ValueError("a pair fit needs at least 2 grid points per axis")
         if self.criterion not in ("likelihood", "histogram"):
             raise ValueError(f"unknown criterion {self.criterion!r}: likelihood or histogram")
 
@@ -115,6 +138,7 @@ class FitResult:
     trials_needed: dict
     goodness: dict
     models: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {"estimate": self.estimate, "interval_90": self.interval_90,
@@ -122,7 +146,7 @@ class FitResult:
                 "criterion": self.criterion, "criterion_name": self.criterion_name,
                 "camera_noise": self.camera_noise, "trials": self.trials, "tilts": self.tilts,
                 "observations": self.observations, "trials_needed": self.trials_needed,
-                "goodness_of_fit": self.goodness, "models": self.models}
+                "goodness_of_fit": self.goodness, "models": self.models, **self.extra}
 
 
 class _Grid:
@@ -236,6 +260,8 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
 
     def build_point(point):
         sc, st = scene, bs
+        if tuple(s.params) == PAIR:
+            return build(_set_pair(sc, *point), st)
         for name, v in zip(s.params, point):
             sc, st = PARAMETERS[name](sc, st, v)
         return build(sc, st)
@@ -243,15 +269,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     cams = ([EmissionSettings(*s.camera, outlier=s.outlier)] if s.camera is not None
             else [EmissionSettings(c, c, outlier=s.outlier) for c in CAMERA_CANDIDATES])
     g = _Grid(build_point, log, rgrid, cams)
-    axes = [np.linspace(*s.ranges[p], s.points[p]) if s.points[p] > 1 else np.array([np.mean(s.ranges[p])])
-            for p in s.params]
-    for point in np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T:
-        g.add(tuple(point))
-    if len(s.params) == 1:
-        _refine(g, s, axes[0])
-    cam = _best_camera(g) if s.criterion == "likelihood" else 0
-    pts = g.sorted_points()
-    out = (_summary_1d if len(s.params) == 1 else _summary_nd)(g, s, pts, cam, axes)
+    out, pts, cam = (_fit_pair if tuple(s.params) == PAIR else _fit_grid)(g, s)
     best_point = min(pts, key=lambda p: sum((a - b) ** 2 for a, b in zip(p, out["estimate_tuple"])))
     model, _ = build_point(best_point)
     pred = predicted_histograms(model, log)
@@ -263,6 +281,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         row["histogram_distance"] = g.dist[p]
         crit.append(row)
     cam_used = cams[cam]
+    extra = {"pair": out["pair"]} if "pair" in out else {}
     return FitResult(
         estimate=out["estimate"], interval_90=out["interval"], interval_90_profile=out["profile"],
         at_edge=out["at_edge"], criterion=crit, criterion_name=s.criterion,
@@ -272,7 +291,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         trials_needed=out["trials_needed"],
         goodness={"model_point": dict(zip(s.params, best_point)), "entropy": band,
                   "log_histograms": g.counts.tolist(), "model_histograms": pred.tolist()},
-        models={",".join(f"{v:g}" for v in p): g.paths[p] for p in pts})
+        models={",".join(f"{v:g}" for v in p): g.paths[p] for p in pts}, extra=extra)
 
 
 def _refine(g: _Grid, s: FitSettings, axis: np.ndarray) -> None:
@@ -289,6 +308,47 @@ def _refine(g: _Grid, s: FitSettings, axis: np.ndarray) -> None:
         for v in (pts[j][0] - step, pts[j][0] + step):
             if s.ranges[s.params[0]][0] - 1e-12 <= v <= s.ranges[s.params[0]][1] + 1e-12:
                 g.add((v,))
+
+
+def _fit_grid(g: _Grid, s: FitSettings):
+    """``mu`` (refined) or the product grid of ``mu,noise``: (summary, points, camera index)."""
+    axes = [np.linspace(*s.ranges[p], s.points[p]) if s.points[p] > 1 else np.array([np.mean(s.ranges[p])])
+            for p in s.params]
+    for point in np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T:
+        g.add(tuple(point))
+    if len(s.params) == 1:
+        _refine(g, s, axes[0])
+    cam = _best_camera(g) if s.criterion == "likelihood" else 0
+    pts = g.sorted_points()
+    return (_summary_1d if len(s.params) == 1 else _summary_nd)(g, s, pts, cam, axes), pts, cam
+
+
+def _fit_pair(g: _Grid, s: FitSettings):
+    """The static/kinetic pair on its triangle, refined (:mod:`analysis.fit.pair`)."""
+    for point in pair_grid(*pair_axes(s.ranges, s.points)):
+        g.add(point)
+    steps = _refine_pair(g, s, pair_axes(s.ranges, s.points))
+    cam = _best_camera(g) if s.criterion == "likelihood" else 0
+    pts = g.sorted_points()
+    y = _criterion_values(g, pts, cam, s.criterion)
+    L = np.stack([g.ll[p][cam] for p in pts], axis=1) if s.criterion == "likelihood" else None
+    out = pair_summary(np.array(pts), y, L, s.ranges, steps, s.bootstrap,
+                       np.random.default_rng([s.seed, _SALT]))
+    return out, pts, cam
+
+
+def _refine_pair(g: _Grid, s: FitSettings, axes) -> np.ndarray:
+    """Refinement rounds of the pair: halve the spacing, add the best point's eight neighbours.
+    Returns the finest spacing per axis."""
+    steps = np.array([ax[1] - ax[0] for ax in axes], dtype=float)
+    for _ in range(s.refine):
+        cam = _best_camera(g) if s.criterion == "likelihood" else 0
+        pts = g.sorted_points()
+        best = pts[int(np.argmax(_criterion_values(g, pts, cam, s.criterion)))]
+        steps = steps / 2
+        for point in pair_refinement(best, tuple(steps), s.ranges):
+            g.add(point)
+    return steps
 
 
 def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
