@@ -75,8 +75,8 @@ class FitSettings:
         Parameter name -> number of grid points across its range (the pair: per axis, >= 2).
     refine : int, optional
         Refinement rounds (``mu`` and the pair): each halves the spacing around the best point.
-        Default 1, and 2 for the pair (its estimate's error is about a third of its finest spacing
-        on the synthetic family, docs/fit.md).
+        Default 1, and 2 for the pair (one round fewer doubles its estimate's error on the
+        synthetic family, docs/fit.md).
     camera : tuple or None
         Camera noise (mm, deg); None estimates it from the data (:data:`CAMERA_CANDIDATES`).
     criterion : str
