@@ -271,6 +271,16 @@ def test_pair_same_log_and_seed_same_fit(scene, tmp_path):
     assert _pair_fit(scene, path, seed=5, points=4).interval_90 != a.interval_90     # the seed is used
 
 
+def test_pair_best_at_the_edge_says_so(scene, tmp_path):
+    """mu_k = 0.05 below the range 0.1..0.5 (4 points: spacing 0.1333, whose halves put refined points
+    a round-off away from the diagonal): at the edge, no interval."""
+    path = tmp_path / "edge.csv"
+    synthetic_log(scene, path, 0.05, trials=100, tilts=10, seed=3, noise=0.1)
+    r = _pair_fit(scene, path, points=4)
+    assert r.at_edge and r.interval_90 is None and r.estimate["mu_k"] == pytest.approx(0.1)
+    assert all(c["mu_s"] >= c["mu_k"] for c in r.criterion)
+
+
 def test_pair_from_the_command_line(monkeypatch, scene, tmp_path, capsys):
     """``kruskal fit --fit mu_s,mu_k`` with a paired range: each coefficient its own axis, the JSON
     keys of the single fit plus ``pair``, and the heat-map figure (builds stood in by the family)."""
@@ -423,3 +433,4 @@ def test_physics_log_recovered_end_to_end(tmp_path, monkeypatch, capsys):
                  "--workers", "2", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert abs(out["estimate"]["mu"] - 0.33) < 0.05
+

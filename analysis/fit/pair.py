@@ -45,7 +45,14 @@ def pair_axes(ranges: dict, points: dict) -> tuple[np.ndarray, np.ndarray]:
 
 def pair_grid(s_axis: np.ndarray, k_axis: np.ndarray) -> list[tuple]:
     """Grid points ``(mu_s, mu_k)`` of the product of the axes with ``mu_s >= mu_k``."""
-    return [(float(s), float(k)) for s in s_axis for k in k_axis if s >= k - _EPS]
+    return [_point(s, k) for s in s_axis for k in k_axis if s >= k - _EPS]
+
+
+def _point(s: float, k: float) -> tuple:
+    """A grid point rounded to 10 decimals (the grid's key), ``mu_s`` lifted to ``mu_k`` when round-off
+    put it below (a point on the diagonal is the single coefficient)."""
+    s, k = round(float(s), 10), round(float(k), 10)
+    return (max(s, k), k)
 
 
 def pair_refinement(best: tuple, steps: tuple, ranges: dict) -> list[tuple]:
@@ -58,7 +65,7 @@ def pair_refinement(best: tuple, steps: tuple, ranges: dict) -> list[tuple]:
                 continue
             s, k = best[0] + ds * steps[0], best[1] + dk * steps[1]
             if slo - _EPS <= s <= shi + _EPS and klo - _EPS <= k <= khi + _EPS and s >= k - _EPS:
-                out.append((min(max(s, slo), shi), min(max(k, klo), khi)))
+                out.append(_point(min(max(s, slo), shi), min(max(k, klo), khi)))
     return out
 
 
