@@ -338,16 +338,26 @@ def _fit_pair(g: _Grid, s: FitSettings):
 
 
 def _refine_pair(g: _Grid, s: FitSettings, axes) -> np.ndarray:
-    """Refinement rounds of the pair: halve the spacing, add the best point's eight neighbours.
+    """Refinement rounds of the pair: halve the spacing, add the best point's eight neighbours; then,
+    when the best point moved to the edge of the refined patch, complete its neighbourhood at the
+    finest spacing (up to 3 times), so that the estimate's surface is fitted on both sides of it.
     Returns the finest spacing per axis."""
-    steps = np.array([ax[1] - ax[0] for ax in axes], dtype=float)
-    for _ in range(s.refine):
+    def best():
         cam = _best_camera(g) if s.criterion == "likelihood" else 0
         pts = g.sorted_points()
-        best = pts[int(np.argmax(_criterion_values(g, pts, cam, s.criterion)))]
+        return pts[int(np.argmax(_criterion_values(g, pts, cam, s.criterion)))]
+
+    steps = np.array([ax[1] - ax[0] for ax in axes], dtype=float)
+    for _ in range(s.refine):
         steps = steps / 2
-        for point in pair_refinement(best, tuple(steps), s.ranges):
+        for point in pair_refinement(best(), tuple(steps), s.ranges):
             g.add(point)
+    for _ in range(3 if s.refine else 0):   # the final best point gets its whole finest neighbourhood
+        b = best()
+        for point in pair_refinement(b, tuple(steps), s.ranges):
+            g.add(point)
+        if best() == b:
+            break
     return steps
 
 
