@@ -271,6 +271,31 @@ def test_pair_same_log_and_seed_same_fit(scene, tmp_path):
     assert _pair_fit(scene, path, seed=5, points=4).interval_90 != a.interval_90     # the seed is used
 
 
+def test_pair_estimate_of_an_exact_quadratic():
+    """On a quadratic criterion the surface is exact: its vertex, its profile interval (1.645 sigma
+    each side for a Gaussian log-likelihood), and below the diagonal the constrained maximum on it."""
+    from analysis.fit.pair import pair_axes, pair_estimate, pair_grid, pair_summary
+
+    ranges = {"mu_s": (0.1, 0.5), "mu_k": (0.1, 0.5)}
+    P = np.array(pair_grid(*pair_axes(ranges, {"mu_s": 9, "mu_k": 9})))
+    half = np.array([0.05, 0.05])
+
+    def gauss(a, b, sa, sb):
+        return -0.5 * ((P[:, 0] - a) / sa) ** 2 - 0.5 * ((P[:, 1] - b) / sb) ** 2
+
+    est, info = pair_estimate(P, gauss(0.33, 0.21, 0.01, 0.02), half)
+    assert est == pytest.approx([0.33, 0.21]) and info["vertex_feasible"]
+    out = pair_summary(P, gauss(0.33, 0.21, 0.01, 0.02), None, ranges, half, 0, np.random.default_rng(0))
+    assert out["profile"] is None                      # no likelihood per trial: no profile, no bootstrap
+    L = np.tile(gauss(0.33, 0.21, 0.01, 0.02) / 4, (4, 1))
+    out = pair_summary(P, L.sum(axis=0), L, ranges, half, 10, np.random.default_rng(0))
+    assert out["profile"]["mu_s"] == pytest.approx([0.33 - 0.01645, 0.33 + 0.01645], abs=1e-4)
+    assert out["profile"]["mu_k"] == pytest.approx([0.21 - 0.0329, 0.21 + 0.0329], abs=1e-4)
+    est, info = pair_estimate(P, gauss(0.26, 0.30, 0.02, 0.04), half)   # vertex below the diagonal
+    m = (0.26 / 0.02 ** 2 + 0.30 / 0.04 ** 2) / (1 / 0.02 ** 2 + 1 / 0.04 ** 2)
+    assert est == pytest.approx([m, m]) and not info["vertex_feasible"]
+
+
 def test_pair_best_at_the_edge_says_so(scene, tmp_path):
     """mu_k = 0.05 below the range 0.1..0.5 (4 points: spacing 0.1333, whose halves put refined points
     a round-off away from the diagonal): at the edge, no interval."""
