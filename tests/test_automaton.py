@@ -1,4 +1,4 @@
-"""Tests of kruskal_markov.automaton: the docs/commands.md automaton JSON format."""
+"""Tests of kruskal_markov.automaton_json: the docs/commands.md automaton JSON format."""
 from __future__ import annotations
 
 import json
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from kruskal_markov.automaton import automaton_from_model, model_from_automaton
+from kruskal_markov.automaton_json import automaton_from_model, model_from_automaton
 from kruskal_markov.model import ModelError, TransitionModel
 
 
@@ -251,7 +251,7 @@ def test_files_are_read_as_utf8_whatever_the_locale(tmp_path, monkeypatch):
     ``open`` is replaced by one whose default is Latin-1, as on such a machine."""
     import builtins
 
-    import kruskal_markov.automaton as automaton
+    import kruskal_markov.automaton_json as automaton
 
     def latin_default_open(file, mode="r", buffering=-1, encoding=None, **kw):
         if "b" not in mode and encoding is None:
@@ -271,7 +271,7 @@ def test_probabilities_beyond_int64_are_a_row_sum_error():
 
 
 def test_an_empty_integer_list_is_an_empty_int64_array():
-    from kruskal_markov.automaton import _int_list
+    from kruskal_markov.automaton_json import _int_list
 
     for values in ([], [3]):
         out = _int_list(values, "'rows'", "automaton")

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from transition_builder.builder.assembly import STATE_REST, STATE_START, STATE_UNEXPLORED, _aligned, _assemble
+from transition_builder.builder.build_settings import BuildSettings
 from transition_builder.builder.driver import _context
 from transition_builder.builder.representatives import _with_rotations
-from transition_builder.builder.settings import BuildSettings
 from transition_builder.builder.state import NOT_DRAWN, _Exploration
 from transition_builder.scene import scene_from_options
 from transition_builder.status import ESCAPED, INVALID, OK, STATUS_NAMES, TIPPED, UNSETTLED
@@ -215,7 +215,7 @@ def _check(case, model, stats, j):
     assert md["build_settings"] == settings.to_dict() and md["grid"] == case.c.grid.to_dict()
     assert md["noise"] == settings.noise and md["symmetry_order"] == G
     assert md["stats"] == {k: v for k, v in want.items() if k != "faults_per_action"}
-    from transition_builder.builder.settings import BUILDER_VERSION
+    from transition_builder.builder.build_settings import BUILDER_VERSION
     assert md["builder_version"] == BUILDER_VERSION
 
 

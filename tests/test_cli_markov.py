@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 from analysis.cli import main
-from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.automaton_json import model_from_automaton
 from kruskal_markov.entropy import entropy_trajectory
 from kruskal_markov.model import TransitionModel
 

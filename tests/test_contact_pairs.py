@@ -10,8 +10,8 @@ import pytest
 
 from transition_builder.sampling import sample_start_poses
 from transition_builder.scene import scene_from_options
-from transition_builder.settings import SimSettings
 from transition_builder.sim import TraySimulator
+from transition_builder.sim_settings import SimSettings
 
 
 def test_needed_pairs_land_where_all_pairs_land():

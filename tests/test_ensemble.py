@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.automaton_json import model_from_automaton
 from kruskal_markov.ensemble import (
     best_sequence_index,
     convergence_steps,

@@ -196,7 +196,7 @@ def test_an_unwritable_output_is_refused_before_any_work_naming_the_option(argv,
 
 @pytest.mark.parametrize("command", ["ensemble", "validate"])
 def test_length_zero_is_refused_alike(command, capsys, tmp_path):
-    from kruskal_markov.automaton import model_from_automaton
+    from kruskal_markov.automaton_json import model_from_automaton
 
     path = tmp_path / "c4.json"
     path.write_text(json.dumps({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [1, 1, 2, 3]}}))

@@ -224,7 +224,7 @@ def test_build_keys_differ_for_pairs_and_tilt_times_and_match_for_one_number():
     """The model cache's key (scene hash and build settings): a pair or a tilt time never meets
     another scene's model; ``0.3/0.3`` and a zero tilt time meet today's."""
     from transition_builder.builder import BuildSettings
-    from transition_builder.builder.settings import build_key
+    from transition_builder.builder.build_settings import build_key
 
     b = BuildSettings()
     keys = [build_key(scene_from_options("allen-key", f, tilt_time_s=t), b)

@@ -8,7 +8,7 @@ import pytest
 
 from transition_builder.friction import parse_friction
 from transition_builder.scene import ACTIONS, Scene, scene_from_options
-from transition_builder.settings import SimSettings
+from transition_builder.sim_settings import SimSettings
 
 
 def test_defaults():
@@ -109,7 +109,7 @@ def test_action_index():
 def test_contact_model_parsed_recorded_and_old_scene_files_read():
     """``contact`` has one canonical spelling, is refused in one line when unknown, and a scene file
     written before simulator version 4 (``support_points``) reads as the contact it meant."""
-    from transition_builder.settings import parse_contact
+    from transition_builder.sim_settings import parse_contact
 
     assert SimSettings().contact == "coulomb"
     assert SimSettings(contact=" LEGS:9 ").contact == "legs:9"

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.automaton_json import model_from_automaton
 from kruskal_markov.generators import random_model
 from kruskal_markov.sync import (
     PlanResult,

@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from analysis.commands import InputError
 from analysis.commands.validate import calibrate_model
 from kruskal_markov.answers import answer_intervals, plan_success_interval
-from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.automaton_json import model_from_automaton
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.structural import (
     NO_TERM_NOTE,

@@ -1,14 +1,14 @@
-"""Tests of kruskal_markov.structure: closed classes and what they imply for the entropy."""
+"""Tests of kruskal_markov.closed_classes: closed classes and what they imply for the entropy."""
 from __future__ import annotations
 
 import networkx as nx
 import numpy as np
 import pytest
 
-from kruskal_markov.automaton import model_from_automaton
+from kruskal_markov.automaton_json import model_from_automaton
+from kruskal_markov.closed_classes import analyze_structure, closed_classes, support_graph
 from kruskal_markov.ensemble import run_ensemble
 from kruskal_markov.generators import random_model
-from kruskal_markov.structure import analyze_structure, closed_classes, support_graph
 
 
 def random_sparse_model(rng, n, k, density):
@@ -90,7 +90,7 @@ def test_analyze_with_initial_override():
 
 # ----------------------------------------------------------------------------- the report's text and summary
 def test_describe_and_to_dict():
-    from kruskal_markov.structure import _describe
+    from kruskal_markov.closed_classes import _describe
 
     assert _describe(np.array([3])) == "{3} (1 state)"
     assert _describe(np.array([1, 2])) == "{1, 2} (2 states)"

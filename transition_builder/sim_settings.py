@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields
 
-from kruskal_markov._checks import check_fields
+from kruskal_markov.validation import check_fields
 
 __all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES"]
 

@@ -11,8 +11,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from kruskal_markov._checks import check_fields, check_int, check_number
 from kruskal_markov.model import TransitionModel
+from kruskal_markov.validation import check_fields, check_int, check_number
 from transition_builder.builder.options import BUILD_OPTIONS
 from transition_builder.grid import parse_grid
 from transition_builder.noise import NoiseSpec, parse_noise

@@ -23,8 +23,8 @@ import os
 import numpy as np
 import scipy.sparse as sp
 
-from kruskal_markov._checks import check_int
 from kruskal_markov.model import ModelError, TransitionModel
+from kruskal_markov.validation import check_int
 
 __all__ = ["model_from_automaton", "automaton_from_model", "load_automaton_dict"]
 
