@@ -78,3 +78,21 @@ def test_friction_section_is_off_by_default():
     assert EXPERIMENTS["friction"] == "analysis.experiments.friction"
     r = run(Context(ReproduceSettings()))
     assert r.to_dict() == {} and markdown(r) == ""
+
+
+def test_a_resumed_c_reading_equals_an_uninterrupted_one():
+    """The study's readings are long; an interrupted one resumes from its saved maps and gives the
+    same per-map results as a run that never stopped (each map is seeded on its own)."""
+    from analysis.friction_study import c_reading
+
+    s = FrictionStudySettings(mean_maps=2, trials=3, sequence="E,S", workers=1)
+    whole = c_reading(s, "mean", progress=lambda line: None)
+    first = next(iter(whole))
+    told = []
+    resumed = c_reading(s, "mean", progress=told.append, done={first: whole[first]})
+    assert resumed == whole
+    assert len(told) == 1 and first not in told[0]
+    stale = dict(whole[first], trials=2)
+    told.clear()
+    c_reading(s, "mean", progress=told.append, done={first: stale})
+    assert len(told) == 2
