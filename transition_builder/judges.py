@@ -12,7 +12,7 @@ Bartels, Unger and Wolf, PRL 90, 2003; Weidman and Malhotra, PRL 95, 2005).
 The engine runs with the tray almost level (tilt 1e-6 degrees) and the part started from the
 given pose and twist, at a time step ``refine`` times finer than the scene's default (same
 rest-test interval), so that the engine's own integrator error (about ``v0 dt / 2``) stays below
-the judges' tolerance. Used by ``tests/test_sim_mechanics.py`` and ``python -m benchmarks contact``.
+the judges' tolerance. Used by ``tests/transition_builder/test_sim_mechanics.py`` and ``python -m benchmarks contact``.
 """
 from __future__ import annotations
 

@@ -3,12 +3,13 @@ from __future__ import annotations
 
 import doctest
 import importlib
-import pathlib
 import pkgutil
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+import tests
+
+ROOT = tests.ROOT
 PACKAGES = ("kruskal_markov", "transition_builder", "analysis")
 
 

@@ -137,10 +137,10 @@ def test_calibrate_refuses_what_it_cannot_calibrate(tmp_path):
 
 
 def test_the_numba_range_equals_an_independent_bisection_on_random_rows():
-    """The exact per-row kernel against plain bisection on the clipping levels (tests/test_answers.py),
+    """The exact per-row kernel against plain bisection on the clipping levels (tests/kruskal_markov/test_answers.py),
     on rows of 2-64 cells with zeros, radii from 0 past the distance to uniform."""
     from kruskal_markov.structural import entropy_range_tv
-    from tests.test_answers import _range_by_bisection
+    from tests.kruskal_markov.test_answers import _range_by_bisection
 
     rng = np.random.default_rng(45)
     for n in (2, 3, 7, 64):

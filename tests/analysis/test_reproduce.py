@@ -15,7 +15,9 @@ import sys
 import numpy as np
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+import tests
+
+ROOT = tests.ROOT
 SMALL = {"start_samples": 400}
 #: the compared contact model of the small scene (the sphere): coarse, to keep the suite short
 CONTACT = {"start_samples": 100, "tol_mm": 1.0, "tol_deg": 1.0}

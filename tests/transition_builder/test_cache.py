@@ -1,5 +1,5 @@
 """transition_builder.cache: the content-addressed model store, with the build replaced by a stub
-(the real builds and their cache hits are exercised in test_builder.py and test_reproduce.py)."""
+(the real builds and their cache hits are exercised in test_build_model.py and test_reproduce.py)."""
 from __future__ import annotations
 
 import os

@@ -4,17 +4,17 @@ and bad input on the command line."""
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
+import tests
 from transition_builder.friction import friction_map, parse_friction
 from transition_builder.scene import Scene, scene_from_options
 
-GOLDEN = os.path.join(os.path.dirname(__file__), "data", "single_coefficient_golden.json")
+GOLDEN = str(tests.DATA / "single_coefficient_golden.json")
 
 
 def _golden():

@@ -85,7 +85,7 @@ def test_part_metrics_by_value_against_their_definitions():
     from kruskal_markov.convergence import monte_carlo_entropy_tilts, monte_carlo_sync_length
     from kruskal_markov.ensemble import run_ensemble
     from kruskal_markov.sync import start_set, support_automaton
-    from tests.test_answers import _counted_model
+    from tests.kruskal_markov.test_answers import _counted_model
 
     model = _counted_model(seed=5)
     seed, count, runs, eps, cap = 3, 120, 50, 1e-3, 300

@@ -9,10 +9,11 @@ import os
 
 import pytest
 
+import tests
 from analysis.cli import build_parser
 from transition_builder.builder import BUILD_OPTIONS, BuildSettings, options_markdown
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = str(tests.ROOT)
 
 
 def test_every_option_is_a_settings_field_and_a_flag():

@@ -4,14 +4,14 @@ and ``reports/full/pareto.md`` (both written by code), so the text cannot drift 
 from __future__ import annotations
 
 import json
-import pathlib
 import re
 
 import pytest
 
+import tests
 from analysis.experiments.curves import settled_steps
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = tests.ROOT
 README = (ROOT / "README.md").read_text()
 PARETO = (ROOT / "reports" / "full" / "pareto.md").read_text()
 

@@ -8,15 +8,14 @@ only remove overhead must leave every array and the cache key as they were.
 """
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
+import tests
 from transition_builder.builder import BuildSettings, build_model
 from transition_builder.executors import SerialExecutor
 from transition_builder.scene import scene_from_options
 
-DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "build_allen_key_8mm.npz")
+DATA = str(tests.DATA / "build_allen_key_8mm.npz")
 
 
 def test_small_build_is_bit_identical_to_the_committed_arrays():

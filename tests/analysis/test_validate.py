@@ -1,5 +1,5 @@
 """analysis.validate: the pieces of the model-versus-simulation comparison that need no physics
-(the end-to-end ``kruskal validate`` on a built model runs in test_builder.py)."""
+(the end-to-end ``kruskal validate`` on a built model runs in test_build_model.py)."""
 from __future__ import annotations
 
 import numpy as np

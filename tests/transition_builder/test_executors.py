@@ -16,6 +16,7 @@ import time
 import numpy as np
 import pytest
 
+import tests
 from analysis.montecarlo import run_direct
 from transition_builder.executors import (
     DaskExecutor,
@@ -28,7 +29,7 @@ from transition_builder.executors import (
 )
 from transition_builder.scene import scene_from_options
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = str(tests.ROOT)
 
 
 @contextlib.contextmanager

@@ -14,13 +14,14 @@ import time
 import numpy as np
 import pytest
 
+import tests
 from kruskal_markov.model import TransitionModel
 from transition_builder.builder import STATE_REST, STATE_START, BuildSettings, build_key, build_model
 from transition_builder.executors import SerialExecutor, make_executor
 from transition_builder.scene import scene_from_options
 from transition_builder.sim import TraySimulator
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = str(tests.ROOT)
 ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 # action -> (x, y) components of its downhill direction
 COMPONENTS = {"N": (0, 1), "NE": (1, 1), "E": (1, 0), "SE": (1, -1), "S": (0, -1), "SW": (-1, -1),

@@ -4,7 +4,6 @@ there -- not from the source tree -- and its `kruskal` entry point answers."""
 from __future__ import annotations
 
 import os
-import pathlib
 import shutil
 import subprocess
 import sys
@@ -12,7 +11,9 @@ import zipfile
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+import tests
+
+ROOT = tests.ROOT
 
 
 @pytest.fixture(scope="module")
