@@ -196,7 +196,9 @@ class DirectResult:
         """Deprecated alias of :meth:`to_dict` (every result serialises with ``to_dict``)."""
         import warnings
 
-        warnings.warn("DirectResult.to_json is deprecated; use to_dict", DeprecationWarning, stacklevel=2)
+        from kruskal_markov.errors import KruskalDeprecationWarning
+
+        warnings.warn("DirectResult.to_json is deprecated; use to_dict", KruskalDeprecationWarning, stacklevel=2)
         return self.to_dict()
 
     def to_dict(self) -> dict:
