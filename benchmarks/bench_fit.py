@@ -21,7 +21,7 @@ import os
 import pathlib
 import sys
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -32,30 +32,51 @@ SEED0 = 4100
 TRIALS, TILTS, CAMERA = 500, 50, (0.5, 0.5)
 
 
-def _key(mu=0.3):
+@dataclass(frozen=True)
+class Protocol:
+    """A recovery protocol: the part, the logs (hidden truths, trials x tilts, camera noise, seeds)
+    and the fit's grid. The default is the paper's (docs/fit.md); the slow test runs a small one."""
+
+    shape: str = "allen-key"
+    truths: tuple = TRUTHS
+    seed0: int = SEED0
+    trials: int = TRIALS
+    tilts: int = TILTS
+    camera: tuple = CAMERA
+    range: str = "0.15..0.5"
+    points: int = 8
+    build_options: tuple = ()          # extra ``kruskal fit`` options (resolution, start samples, ...)
+    out: pathlib.Path = OUT
+    workers: int = 2
+
+
+PAPER = Protocol()
+
+
+def _key(mu=0.3, shape="allen-key"):
     from transition_builder.scene import scene_from_options
-    return scene_from_options("allen-key", friction_spec=mu)
+    return scene_from_options(shape, friction_spec=mu)
 
 
-def make_log(i: int) -> tuple[str, list]:
+def make_log(i: int, proto: Protocol = PAPER) -> tuple[str, list]:
     """Log ``i`` of the protocol (made once, kept): its path and its sequence's action names."""
     from analysis.commands._common import parse_sequence, sequence_rng
     from analysis.montecarlo import run_direct, write_poses_csv
 
-    path = OUT / f"log{i}.csv"
-    scene = _key(TRUTHS[i])
-    seq = parse_sequence("random:50", scene.actions, sequence_rng(SEED0 + i))
+    path = pathlib.Path(proto.out) / f"log{i}.csv"
+    scene = _key(proto.truths[i], proto.shape)
+    seq = parse_sequence(f"random:{proto.tilts}", scene.actions, sequence_rng(proto.seed0 + i))
     names = [scene.actions[a] for a in seq]
     if not path.exists():
         t = time.perf_counter()
-        res = run_direct(scene, names, TRIALS, seed=SEED0 + i, workers=2)
-        rng = np.random.default_rng([SEED0 + i, 0xCA])
+        res = run_direct(scene, names, proto.trials, seed=proto.seed0 + i, workers=proto.workers)
+        rng = np.random.default_rng([proto.seed0 + i, 0xCA])
         noisy = res.poses.copy()
-        noisy[..., :2] += rng.normal(0.0, CAMERA[0], noisy[..., :2].shape)
-        noisy[..., 2] = np.mod(noisy[..., 2] + rng.normal(0.0, np.radians(CAMERA[1]), noisy[..., 2].shape),
+        noisy[..., :2] += rng.normal(0.0, proto.camera[0], noisy[..., :2].shape)
+        noisy[..., 2] = np.mod(noisy[..., 2] + rng.normal(0.0, np.radians(proto.camera[1]), noisy[..., 2].shape),
                                2 * np.pi)
         write_poses_csv(path, replace(res, poses=noisy))
-        print(f"log {i}: mu {TRUTHS[i]}, simulated in {time.perf_counter() - t:.0f} s, faults {res.faults}",
+        print(f"log {i}: mu {proto.truths[i]}, simulated in {time.perf_counter() - t:.0f} s, faults {res.faults}",
               flush=True)
     return str(path), names
 
@@ -67,16 +88,16 @@ def _build_seconds(paths) -> float:
                      for p in paths))
 
 
-def fit(i: int, seed: int | None = None, name: str | None = None) -> dict:
+def fit(i: int, seed: int | None = None, name: str | None = None, proto: Protocol = PAPER) -> dict:
     """``kruskal fit`` of log ``i`` with the wall time and the models' recorded build seconds."""
     from analysis.cli import main as cli
 
-    path, names = make_log(i)
-    out = OUT / (name or f"fit{i}.json")
+    path, names = make_log(i, proto)
+    out = pathlib.Path(proto.out) / (name or f"fit{i}.json")
     t = time.perf_counter()
-    argv = ["fit", "--poses", path, "--shape", "allen-key", "--sequence", ",".join(names),
-            "--seed", str(i if seed is None else seed), "--json", "--workers", "2", "--range", "0.15..0.5",
-            "--points", "8"]
+    argv = ["fit", "--poses", path, "--shape", proto.shape, "--sequence", ",".join(names),
+            "--seed", str(i if seed is None else seed), "--json", "--workers", str(proto.workers),
+            "--range", proto.range, "--points", str(proto.points), *proto.build_options]
     import contextlib
     import io
 
@@ -87,24 +108,28 @@ def fit(i: int, seed: int | None = None, name: str | None = None) -> dict:
         raise RuntimeError(f"kruskal fit failed on log {i}")
     result = json.loads(buf.getvalue())
     result["wall_seconds"] = time.perf_counter() - t
-    result["truth"] = TRUTHS[i]
+    result["truth"] = proto.truths[i]
     result["build_seconds"] = _build_seconds(result["models"].values())
     result["command"] = "kruskal " + " ".join(argv)
-    out.write_text(json.dumps(result))
+    tmp = out.with_suffix(".tmp")
+    tmp.write_text(json.dumps(result))
+    os.replace(tmp, out)
     return result
 
 
-def recovery(budget_s: float) -> list:
+def recovery(budget_s: float, proto: Protocol = PAPER) -> list:
+    """Logs i = 0.. of the protocol in order, each fitted once (kept): one row per log; no new log
+    is started after ``budget_s`` seconds."""
     start = time.perf_counter()
     rows = []
-    for i in range(len(TRUTHS)):
-        done = OUT / f"fit{i}.json"
+    for i in range(len(proto.truths)):
+        done = pathlib.Path(proto.out) / f"fit{i}.json"
         if done.exists():
             r = json.loads(done.read_text())
         elif time.perf_counter() - start > budget_s:
             break
         else:
-            r = fit(i)
+            r = fit(i, proto=proto)
         est = r["estimate"]["mu"]
         iv = (r["interval_90"] or {}).get("mu")
         pv = (r.get("interval_90_profile") or {}).get("mu")
@@ -153,6 +178,16 @@ def plan(trials: int = 100) -> dict:
     return rows
 
 
+def summarise(rows: list) -> dict:
+    """Error, interval width and coverage over the fitted logs."""
+    err = np.array([r["error"] for r in rows])
+    widths = [r["interval_90"][1] - r["interval_90"][0] for r in rows if r["interval_90"]]
+    return {"logs": len(rows), "mean_abs_error": float(np.abs(err).mean()), "max_abs_error": float(np.abs(err).max()),
+            "within_0_02": int(np.sum(np.abs(err) <= 0.02)), "covered": sum(r["covered"] for r in rows),
+            "profile_covered": sum(r["profile_covered"] for r in rows),
+            "mean_interval_width": float(np.mean(widths)) if widths else None}
+
+
 def main(parts=None) -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     parts = parts or ["recovery", "timing", "plan"]
@@ -160,10 +195,7 @@ def main(parts=None) -> None:
     if "recovery" in parts:
         rows = recovery(budget)
         if rows:
-            err = np.array([r["error"] for r in rows])
-            print(f"logs {len(rows)}: |error| mean {np.abs(err).mean():.4f} max {np.abs(err).max():.4f}; "
-                  f"within 0.02: {int(np.sum(np.abs(err) <= 0.02))}; covered {sum(r['covered'] for r in rows)}"
-                  f" (profile {sum(r['profile_covered'] for r in rows)})", flush=True)
+            print(json.dumps(summarise(rows)), flush=True)
     if "timing" in parts:
         timing()
     if "plan" in parts:
