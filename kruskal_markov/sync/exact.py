@@ -17,6 +17,7 @@ import numpy as np
 
 from kruskal_markov import _sync_kernels as _k
 from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov.sync import _trie
 from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 from kruskal_markov.sync.greedy import greedy_synchronizing_word
@@ -39,12 +40,27 @@ _MEET_GROUPS = 32
 _DFS_CHUNK = 4096
 #: automata up to this many states get the pair-distance pruning (the pair table has n^2 / 2 entries)
 _PRUNE_MAX_N = 2048
-#: drop backward sets contained in larger sets of the same level (subset dominance, Kisielewicz,
-#: Kowalski and Szykula 2015). Off: it halves the subsets on random 8-letter automata but its
-#: check (``_sync_kernels.dominated_in_store``) costs more than it saves (docs/plans.md, issue 43)
+#: subset dominance (Kisielewicz, Kowalski and Szykula 2015; synchrowords' reductions): a new
+#: forward set containing another forward set, or a new backward set inside another backward set,
+#: of its level or an earlier one, is dropped (it cannot lie on a shortest word that the other does
+#: not shorten or equal). Checked with the implicit subset trie of :mod:`kruskal_markov.sync._trie`.
+#: Off: on the tuning instances (random 2 x 200 and 8 x 100, seed 0) it keeps 10-35% fewer subsets
+#: but the check costs more time than it saves (docs/plans.md, issue 43).
+_FORWARD_DOMINANCE = False
 _BACKWARD_DOMINANCE = False
-#: earlier backward levels a new one is checked against (0: the level itself)
-_DOMINANCE_LEVELS = 0
+#: check new sets against the earlier levels of their direction too (not only their own level),
+#: forward / backward
+_DOMINANCE_VISITED = True
+_BACKWARD_VISITED = True
+#: meet test by the implicit subset trie (forward level stored, backward level queried) instead of
+#: the rarest-member index (``_sync_kernels.RarestMeetIndex``): random 2 x 200 seed 1, meet tests
+#: 4.6 s -> 1.9 s (docs/plans.md)
+_TRIE_MEET = True
+#: backward roots: only the singletons a letter merges two states into (:func:`_backward_roots`)
+_RESTRICT_ROOTS = True
+#: a dominance check runs only while the sets it is checked against number at most this many (its
+#: cost grows like queries x stored^0.5..0.8; docs/plans.md, issue 43)
+_DOMINANCE_MAX_ROWS = 50_000
 #: run the inverse beam search for a short first word (tests of the depth-first phase switch it off)
 _USE_BEAM = True
 #: share of the memory budget the beam's level store may use
@@ -86,6 +102,62 @@ def _choose_forward(fwd, bwd, k):
     return (fhi - flo) <= (bhi - blo)
 
 
+def _dominance(aut, store, forward):
+    """Drop the newest level's sets that a stored set dominates (forward: a proper subset is stored;
+    backward: a proper superset), within the level and, with ``_DOMINANCE_VISITED``, the earlier
+    levels. Returns how many were dropped."""
+    lo, hi = store.levels[-1]
+    visited = _DOMINANCE_VISITED if forward else _BACKWARD_VISITED
+    ylo = 0 if visited and hi <= _DOMINANCE_MAX_ROWS else lo
+    if hi - ylo < 2 or hi - ylo > _DOMINANCE_MAX_ROWS:
+        return 0
+    stored, query = store.rows[ylo:hi], store.rows[lo:hi]
+    if forward:
+        dominated = _trie.superset_mask(stored, query, proper=True)
+    else:
+        dominated = _trie.subset_mask(stored, query, aut.n, proper=True)
+    return store.keep_last(~dominated)
+
+
+def _backward_roots(aut, start):
+    """The states a shortest word can end in: with a start set of two states or more, the last
+    letter ``a`` merges at least two states into the final state ``q``, so ``a^-1({q})`` holds
+    two states or more for some letter (synchrowords' initial inverse list, Szykula and Zyzik
+    2022). Every state for a start set of one state (the empty word), or when ``_RESTRICT_ROOTS``
+    is off."""
+    if not _RESTRICT_ROOTS or len(start) < 2:
+        return range(aut.n)
+    keep = np.zeros(aut.n, dtype=bool)
+    for a in range(aut.k):
+        deg = np.diff(aut.indptr[a])
+        single = np.flatnonzero(deg == 1)
+        pre = np.bincount(aut.indices[aut.indptr[a, single]], minlength=aut.n)
+        pre += int(np.count_nonzero(deg == 0))      # an empty support lies in every set
+        keep |= pre >= 2
+    return np.flatnonzero(keep)
+
+
+def _meet_levels(aut, fwd, bwd, total, deadline):
+    """The meet test of the newest levels: ``(f, b)`` (store rows, forward set inside backward set),
+    ``(-1, -1)`` when none meets, ``(-2, -2)`` when the deadline passed."""
+    (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
+    if _TRIE_MEET:
+        if total and deadline is not None and time.perf_counter() > deadline:
+            return -2, -2
+        s, q = _trie.first_superset_pair(fwd.rows[flo:fhi], bwd.rows[blo:bhi])
+        return (flo + s, blo + q) if s >= 0 else (-1, -1)
+    index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # built once per level pair
+    grouped = index.groups(fwd.rows, flo, fhi)
+    ng = grouped[2].shape[0]
+    for g in range(0, max(ng, 1), _MEET_GROUPS):
+        if total and deadline is not None and time.perf_counter() > deadline:
+            return -2, -2
+        f, b = index.query_groups(fwd.rows, grouped, g, min(ng, g + _MEET_GROUPS))
+        if f >= 0:
+            return f, b
+    return -1, -1
+
+
 def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node_budget=None, upper=None):
     """Bidirectional BFS, then (when memory runs out) a depth-first phase.
 
@@ -106,7 +178,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
     bwd = SubsetStore(W, max(1024, aut.n), max_rows)
     fwd.add_roots([aut.bits(start)])
     singletons = []
-    for q in range(aut.n):
+    for q in _backward_roots(aut, start):
         b = np.zeros(W, dtype=np.uint64)
         b[q >> 6] = np.uint64(1) << np.uint64(q & 63)
         singletons.append(b)
@@ -126,16 +198,9 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         if tested < total:
             tm = time.perf_counter()
             # the meet test in slices of the forward level, so that the budget is checked between them
-            f = b = -1
-            index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # built once per level pair
-            grouped = index.groups(fwd.rows, flo, fhi)
-            ng = grouped[2].shape[0]
-            for g in range(0, max(ng, 1), _MEET_GROUPS):
-                if total and deadline is not None and time.perf_counter() > deadline:
-                    return None, "budget", fwd.count + bwd.count, total
-                f, b = index.query_groups(fwd.rows, grouped, g, min(ng, g + _MEET_GROUPS))
-                if f >= 0:
-                    break
+            f, b = _meet_levels(aut, fwd, bwd, total, deadline)
+            if f == -2:
+                return None, "budget", fwd.count + bwd.count, total
             pairs = (fhi - flo) * (bhi - blo)
             if pairs > 10_000_000:
                 rate_pair = (time.perf_counter() - tm) / pairs
@@ -182,10 +247,8 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
                 return None, "upper", fwd.count + bwd.count, upper
             return None, "none", fwd.count + bwd.count, total
         total += 1
-        if not forward and _BACKWARD_DOMINANCE:
-            lo, hi = bwd.levels[-1]
-            ylo = bwd.levels[max(0, len(bwd.levels) - 1 - _DOMINANCE_LEVELS)][0]
-            pruned += bwd.keep_last(~_k.dominated_in_store(bwd.rows, ylo, bwd.count, lo, hi, aut.n))
+        if _FORWARD_DOMINANCE if forward else _BACKWARD_DOMINANCE:
+            pruned += _dominance(aut, store, forward)
         if forward and dist is not None and upper - 1 - (len(fwd.levels) - 1) < dmax:
             # a forward set at depth i whose largest pair-merging distance exceeds upper - 1 - i
             # cannot start a word shorter than ``upper``: dropped (admissible)
