@@ -141,3 +141,38 @@ def test_dominance_prunes_and_keeps_the_answer_on_a_larger_automaton(monkeypatch
     assert got[True].length == got[False].length and got[True].exact and got[False].exact
     assert is_synchronizing_word(aut, got[True].word)
     assert got[True].states_explored < got[False].states_explored
+
+
+@pytest.mark.parametrize("switch_rows", [4, 40])
+def test_inverse_depth_first_phase_keeps_every_shortest_length(monkeypatch, switch_rows):
+    """The depth-first phase from the backward side (entered early: once a breadth-first level
+    would exceed ``switch_rows`` sets), its chunks (the module's constant patched to 3 sets) and
+    the trie's meet test: on 60 small random automata and Cerny C_5..C_8, with the greedy word as
+    the bound (beam off, so the search has words to find below it), the answer is the brute-force
+    length, exact, with a word that synchronizes; some answers come from the inverse phase."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
+    monkeypatch.setattr(exact_mod, "_DFS_SWITCH_ROWS", switch_rows)
+    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", 3)
+    inverse_found = []
+    real = exact_mod._inverse_depth_first_phase
+
+    def spy(*args, **kw):
+        out = real(*args, **kw)
+        inverse_found.append(out[1] == "found-dfs")
+        return out
+    monkeypatch.setattr(exact_mod, "_inverse_depth_first_phase", spy)
+    rng = np.random.default_rng(4364)
+    tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
+    tables += [generators.cerny_table(n) for n in range(5, 9)]
+    methods = set()
+    for table in tables:
+        aut = SyncAutomaton.from_table(table)
+        r = shortest_synchronizing_word(aut, time_budget=None)
+        want = brute(table)
+        assert r.length == want and r.exact
+        if want is not None:
+            assert is_synchronizing_word(aut, r.word)
+        methods.add(r.method)
+    assert "bidirectional-bfs+dfs" in methods and any(inverse_found)

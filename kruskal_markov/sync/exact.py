@@ -61,6 +61,12 @@ _RESTRICT_ROOTS = True
 #: a dominance check runs only while the sets it is checked against number at most this many (its
 #: cost grows like queries x stored^0.5..0.8; docs/plans.md, issue 43)
 _DOMINANCE_MAX_ROWS = 50_000
+#: the depth-first phase from the backward side when the newest forward level is the larger
+#: (:func:`_inverse_depth_first_phase`)
+_INVERSE_DFS = True
+#: enter the depth-first phase once the next breadth-first level would hold more sets than this
+#: (None: only when memory or time run out)
+_DFS_SWITCH_ROWS = None
 #: run the inverse beam search for a short first word (tests of the depth-first phase switch it off)
 _USE_BEAM = True
 #: share of the memory budget the beam's level store may use
@@ -228,6 +234,9 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         new_rows = (hi - lo) * min(growth, aut.k)
         other = (bhi - blo) if forward else (fhi - flo)
         predicted = new_rows * rate_row + new_rows * other * rate_pair
+        if _DFS_SWITCH_ROWS is not None and upper is not None and new_rows > _DFS_SWITCH_ROWS:
+            return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
+                                      block)
         if deadline is not None and time.perf_counter() + predicted > deadline:
             if upper is None and not aut.deterministic:     # no bound on the streaming phase's length
                 return None, "budget", fwd.count + bwd.count, total + 1
@@ -269,6 +278,8 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     W = aut.n_words
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
+    if _INVERSE_DFS and upper is not None and fhi - flo >= bhi - blo:
+        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb)
     i_b = len(bwd.levels) - 1
     row_bytes = 8 * W + 8 + 4 + 32
     cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
@@ -335,6 +346,80 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
         for lo in range(flo, fhi, _DFS_CHUNK):
             hi = min(fhi, lo + _DFS_CHUNK)
             res = rec(fwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
+            if res is not None:
+                break
+        if res == "budget":
+            return None, "budget", used[0], t
+        if res is not None:
+            f, extra, b = res
+            u, _ = fwd.path(f)
+            v, _ = bwd.path(b)
+            return u[::-1] + extra + v, "found-dfs", used[0], t
+        t += 1
+    return None, "upper", used[0], upper
+
+
+def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb):
+    """The depth-first phase from the backward side (synchrowords' inverse DFS, Szykula and Zyzik
+    2022): words of length ``t = total + 1, ..., upper - 1`` are tested by expanding the newest
+    backward level ``t - total`` more levels by preimages, chunk by chunk (memory bounded), and
+    asking the implicit subset trie of the newest forward level (sorted once) whether a generated
+    set contains a forward set -- the trie's cheap direction (the forward sets are stored, the
+    generated sets queried). Used when the forward level is the larger one. Returns like
+    :func:`_exact_search`."""
+    W = aut.n_words
+    flo, fhi = fwd.levels[-1]
+    blo, bhi = bwd.levels[-1]
+    fsorted = fwd.rows[flo:fhi][_trie.lex_order(fwd.rows[flo:fhi])]
+    row_bytes = 8 * W + 8 + 4 + 32
+    cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
+    used = [fwd.count + bwd.count]
+
+    def over_budget():
+        return (node_budget is not None and used[0] >= node_budget) or \
+            (deadline is not None and time.perf_counter() > deadline)
+
+    def rec(rows, rid, words, x):
+        """Backward sets ``x`` levels above the newest backward level, the rows they grew from and
+        the letters of their preimage steps in the order taken (reversed, they are the word from
+        the set to that row)."""
+        if over_budget():
+            return "budget"
+        if x == 0:
+            hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True))
+            if hit.size == 0:
+                return None
+            q = int(hit[0])
+            inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)
+            return flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q])
+        m = rows.shape[0]
+        if m * aut.k > cap and m > 1:
+            for part in (slice(0, m // 2), slice(m // 2, m)):
+                r = rec(rows[part], rid[part], words[part], x)
+                if r is not None:
+                    return r
+            return None
+        st = SubsetStore(W, m * aut.k + m, m * aut.k + m)
+        st.add_roots(list(rows))
+        grown = st.expand(aut, False)
+        lo2, hi2 = st.levels[-1]
+        used[0] += hi2 - lo2
+        par = st.parent[lo2:hi2]
+        nrows = st.rows[lo2:hi2].copy()
+        nwords = np.concatenate([words[par], st.letter[lo2:hi2, None].astype(np.int16)], axis=1)
+        nrid = rid[par]
+        del st
+        if not grown:
+            return None
+        return rec(nrows, nrid, nwords, x - 1)
+
+    t = total + 1
+    while t < upper:
+        x = t - total
+        res = None
+        for lo in range(blo, bhi, _DFS_CHUNK):
+            hi = min(bhi, lo + _DFS_CHUNK)
+            res = rec(bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
             if res is not None:
                 break
         if res == "budget":
