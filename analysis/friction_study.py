@@ -123,9 +123,11 @@ def mean_maps(s: FrictionStudySettings) -> list[tuple[str, float]]:
     return [(f"map:low:{k + 1}:{m:g}", float(m)) for k, m in enumerate(means)]
 
 
-def c_reading(s: FrictionStudySettings, which: str, progress=print, on_item=None) -> dict:
+def c_reading(s: FrictionStudySettings, which: str, progress=print, on_item=None, done=None) -> dict:
     """One reading of C (``"amplitude"`` or ``"mean"``): every map's entropy curve along the sequence.
-    ``on_item(results_so_far)`` is called after every map (to save partial results)."""
+    ``on_item(results_so_far)`` is called after every map (to save partial results); ``done`` holds the
+    maps of an earlier, interrupted run of the same reading, kept where their trials and seed match
+    (each map's run is seeded on its own, so a resumed reading equals an uninterrupted one)."""
     if which == "amplitude":
         maps = [(f"map:{lv}:{k}", 0.3, lv) for lv, n in s.amplitude_maps for k in range(1, n + 1)]
     elif which == "mean":
@@ -140,8 +142,12 @@ def c_reading(s: FrictionStudySettings, which: str, progress=print, on_item=None
         raise ValueError(f"unknown reading {which!r}: amplitude or mean")
     out = {}
     for spec, mean, group in maps:
+        old = (done or {}).get(spec)
+        if old is not None and old.get("trials") == s.trials and old.get("seed", s.seed) == s.seed:
+            out[spec] = old
+            continue
         progress(f"C ({which}): {spec}, {s.trials} trials")
-        out[spec] = dict(_direct(spec, s.sequence, s.trials, s.seed, s.workers), mean=mean, group=group)
+        out[spec] = dict(_direct(spec, s.sequence, s.trials, s.seed, s.workers), mean=mean, group=group, seed=s.seed)
         if on_item:
             on_item(out)
     return out
@@ -319,7 +325,12 @@ def main(argv=None) -> int:
 
         def save(data, path=path):
             atomic_write_text(path, json.dumps(data, indent=1))
-        save(c_reading(s, part[2:], on_item=save) if part.startswith("c_") else physics_search(s, on_item=save))
+        done = None
+        if part.startswith("c_") and os.path.exists(path):
+            with open(path) as f:
+                done = json.load(f)
+        save(c_reading(s, part[2:], on_item=save, done=done) if part.startswith("c_")
+             else physics_search(s, on_item=save))
     return 0
 
 

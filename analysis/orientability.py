@@ -103,7 +103,9 @@ class PartMetrics:
         """Deprecated alias of :meth:`to_dict` (every result serialises with ``to_dict``)."""
         import warnings
 
-        warnings.warn("PartMetrics.as_dict is deprecated; use to_dict", DeprecationWarning, stacklevel=2)
+        from kruskal_markov.errors import KruskalDeprecationWarning
+
+        warnings.warn("PartMetrics.as_dict is deprecated; use to_dict", KruskalDeprecationWarning, stacklevel=2)
         return self.to_dict()
 
 

@@ -37,12 +37,12 @@ import numpy as np
 
 from analysis.montecarlo import run_direct
 from analysis.sequences import random_sequences_for
-from kruskal_markov._checks import check_int
 from kruskal_markov.answers import wilson_interval
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model
 from kruskal_markov.structural import band_with_structure, conformal_quantile, structural_score, structural_term
+from kruskal_markov.validation import check_int
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene
 from transition_builder.status import OK
@@ -188,7 +188,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
 
     ``simulate(scene, sequence, trials, seed, noise)``, if given, replaces
     :func:`analysis.montecarlo.run_direct` (e.g. a benchmark that caches references shared by
-    several models). ``contact`` (a :func:`transition_builder.settings.parse_contact` spec) simulates
+    several models). ``contact`` (a :func:`transition_builder.sim_settings.parse_contact` spec) simulates
     the reference under another floor contact than the model's own. Returns the ``kruskal validate``
     JSON keys (without ``seconds``); ``contact`` is the reference's, ``model_contact`` the model's.
 

@@ -38,7 +38,7 @@ import time
 
 import numpy as np
 
-from transition_builder.settings import SimSettings
+from transition_builder.sim_settings import SimSettings
 
 HERE = pathlib.Path(__file__).parent
 RESULTS = HERE / "results"
@@ -190,7 +190,7 @@ def run_variant(name: str, trials: int = TRIALS, workers=None, spread: bool = Fa
     from analysis.validate import model_grid, validate_model
     from transition_builder.builder import BuildSettings, build_model
     from transition_builder.scene import scene_from_options
-    from transition_builder.settings import SIMULATOR_VERSION
+    from transition_builder.sim_settings import SIMULATOR_VERSION
 
     changes, description = VARIANTS[name]
     changes = dict(changes)

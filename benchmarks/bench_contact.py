@@ -44,8 +44,8 @@ def landings(refine: int, starts, **settings):
     """Rest poses and statuses of every start under each action, and the CPU seconds they took,
     with the time step divided by ``refine`` (same rest-test interval)."""
     from transition_builder.scene import scene_from_options
-    from transition_builder.settings import SimSettings
     from transition_builder.sim import TraySimulator
+    from transition_builder.sim_settings import SimSettings
     base = SimSettings(**settings)
     settings = dict(settings, **base.finer_step(refine))
     sc = scene_from_options("allen-key", **settings)

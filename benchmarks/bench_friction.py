@@ -69,9 +69,9 @@ def steps() -> dict:
     from benchmarks.bench_contact import agreement
     from transition_builder.sampling import sample_start_poses
     from transition_builder.scene import scene_from_options
-    from transition_builder.settings import SimSettings
     from transition_builder.shapes import parse_shape
     from transition_builder.sim import TraySimulator
+    from transition_builder.sim_settings import SimSettings
     starts = sample_start_poses(parse_shape("allen-key"), 200.0, 200.0, N_STARTS, np.random.default_rng(SEED))
     out = {"starts": N_STARTS, "seed": SEED, "actions": ["E", "NE"]}
     for f in STEP_FRICTIONS:

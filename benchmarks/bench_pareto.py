@@ -261,7 +261,7 @@ def _finer_judge_lines(designs: dict) -> list[str]:
 def _time_step_lines(held: dict, trials: int) -> list[str]:
     """The model built at half the time step beside the same design at the default, both judged by
     default-time-step references of the same simulator version."""
-    from transition_builder.settings import SIMULATOR_VERSION
+    from transition_builder.sim_settings import SIMULATOR_VERSION
 
     half = held.get(f"det-1mm-half-step@{SIMULATOR_VERSION}@{trials}")
     same = held.get(f"det-1mm@{SIMULATOR_VERSION}@{trials}")

@@ -88,7 +88,7 @@ def main() -> None:
 
 
 def _cerny4_model():
-    from kruskal_markov.automaton import model_from_automaton
+    from kruskal_markov.automaton_json import model_from_automaton
 
     return model_from_automaton({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 1, 2, 0]}})
 

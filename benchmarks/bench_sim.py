@@ -135,7 +135,7 @@ def main():
           f"{(new[1] / new[3]) / (base[1] / base[3]):.2f}x CPU, {(new[0] / new[3]) / (base[0] / base[3]):.2f}x wall")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"load average {load:.2f} at end (other processes share the machine). Fault rates of 1e-4 "
-          f"need >= 20,000 tilts: tests/test_sim_faults.py::test_fault_rate_20000_random_tilts")
+          f"need >= 20,000 tilts: tests/transition_builder/test_sim_faults.py::test_fault_rate_20000_random_tilts")
 
 
 if __name__ == "__main__":

@@ -112,7 +112,7 @@ def cerny_model(n: int):
     TransitionModel
         Actions ``a`` and ``b`` (:func:`cerny_table`), uniform initial distribution, no partition.
     """
-    from kruskal_markov.automaton import model_from_automaton
+    from kruskal_markov.automaton_json import model_from_automaton
 
     t = cerny_table(n)
     return model_from_automaton({"states": int(n), "actions": {"a": t[0].tolist(), "b": t[1].tolist()}})

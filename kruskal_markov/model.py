@@ -20,9 +20,8 @@ import zipfile
 import numpy as np
 import scipy.sparse as sp
 
-from kruskal_markov._checks import check_number
 from kruskal_markov.errors import ModelError
-from kruskal_markov.validation import action_position, beyond, distribution
+from kruskal_markov.validation import action_position, beyond, check_number, distribution
 
 __all__ = ["ModelError", "TransitionModel", "FORMAT_NAME", "FORMAT_VERSION", "atomic_savez", "atomic_write_text"]
 

@@ -35,7 +35,7 @@ WORK = ROOT / "build" / "mutate"
 
 #: the simulator's fault tests without its long censuses (2,000 tilts; 16 shapes x 100 tilts), which
 #: check that no fault occurs and would cost a minute per mutant
-_FAULT_TESTS = [f"tests/test_sim_faults.py::{t}" for t in (
+_FAULT_TESTS = [f"tests/transition_builder/test_sim_faults.py::{t}" for t in (
     "test_same_input_same_output_across_processes", "test_invalid_and_faulted_trials_are_never_poses",
     "test_escape_is_detected_without_walls_in_the_way", "test_unsettled_when_time_runs_out",
     "test_unknown_action_is_a_clear_value_error", "test_subset_action_set_indexing", "test_bad_pose_shape",
@@ -46,35 +46,35 @@ _FAULT_TESTS = [f"tests/test_sim_faults.py::{t}" for t in (
     "test_rest_needs_the_dwell_in_consecutive_still_intervals", "test_escape_and_tip_thresholds_by_construction",
     "test_an_invalid_start_does_not_stop_the_batch")]
 
-_SYNC_TESTS = ["tests/test_sync.py", "tests/test_plan.py"]
+_SYNC_TESTS = ["tests/kruskal_markov/sync/test_searches.py", "tests/kruskal_markov/sync/test_plan.py"]
 
 #: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
 MODULES = {
-    "entropy": ("kruskal_markov/entropy.py", ["tests/test_entropy.py"], None),
-    "ensemble": ("kruskal_markov/ensemble.py", ["tests/test_ensemble.py"], None),
-    "convergence": ("kruskal_markov/convergence.py", ["tests/test_convergence.py"], None),
-    "model": ("kruskal_markov/model.py", ["tests/test_model.py"], None),
-    "structure": ("kruskal_markov/structure.py", ["tests/test_structure.py"], None),
-    "automaton": ("kruskal_markov/automaton.py", ["tests/test_automaton.py"], None),
-    "symmetry": ("transition_builder/symmetry.py", ["tests/test_snapping_symmetry.py"], None),
-    "grid": ("transition_builder/grid.py", ["tests/test_grid.py"], None),
+    "entropy": ("kruskal_markov/entropy.py", ["tests/kruskal_markov/test_entropy.py"], None),
+    "ensemble": ("kruskal_markov/ensemble.py", ["tests/kruskal_markov/test_ensemble.py"], None),
+    "convergence": ("kruskal_markov/convergence.py", ["tests/kruskal_markov/test_convergence.py"], None),
+    "model": ("kruskal_markov/model.py", ["tests/kruskal_markov/test_model.py"], None),
+    "closed_classes": ("kruskal_markov/closed_classes.py", ["tests/kruskal_markov/test_closed_classes.py"], None),
+    "automaton_json": ("kruskal_markov/automaton_json.py", ["tests/kruskal_markov/test_automaton_json.py"], None),
+    "symmetry": ("transition_builder/symmetry.py", ["tests/transition_builder/test_snapping_symmetry.py"], None),
+    "grid": ("transition_builder/grid.py", ["tests/transition_builder/test_grid.py"], None),
     "status": ("transition_builder/status.py", _FAULT_TESTS, None),
-    "posterior": ("kruskal_markov/posterior.py", ["tests/test_posterior.py"], None),
+    "posterior": ("kruskal_markov/posterior.py", ["tests/kruskal_markov/test_posterior.py"], None),
     # the synchronizing-word search, one module per method, against the sync and plan tests
     **{f"sync_{m}": (f"kruskal_markov/sync/{m}.py", _SYNC_TESTS, None)
        for m in ("automaton", "pairs", "exact", "greedy", "epsilon", "targets", "plan", "result")},
     # the builder's assembly (counts -> model), against its unit tests on hand-made explorations
-    # (test_builder.py's physics builds read the assembled model too, but a build per mutant does not fit)
-    "assembly": ("transition_builder/builder/assembly.py", ["tests/test_builder_assembly.py"], None),
+    # (test_build_model.py's physics builds read the assembled model too, but a build per mutant does not fit)
+    "assembly": ("transition_builder/builder/assembly.py", ["tests/transition_builder/builder/test_assembly.py"], None),
     # the simulator: its fault classification only (the trial loop and the batch's landing check)
     "sim": ("transition_builder/sim.py", _FAULT_TESTS,
             ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
              "transition_builder.sim.x_valid_start__mutmut_*"]),
     # the figures the product reports: intervals, the structural term, validation and the part metrics
-    "structural": ("kruskal_markov/structural.py", ["tests/test_structural_term.py", "tests/test_structural.py"], None),
-    "answers": ("kruskal_markov/answers.py", ["tests/test_structural_term.py", "tests/test_answers.py"], None),
-    "validate": ("analysis/validate.py", ["tests/test_validate.py", "tests/test_structural.py"], None),
-    "orientability": ("analysis/orientability.py", ["tests/test_orientability.py"], None),
+    "structural": ("kruskal_markov/structural.py", ["tests/kruskal_markov/test_structural_term.py", "tests/kruskal_markov/test_structural.py"], None),
+    "answers": ("kruskal_markov/answers.py", ["tests/kruskal_markov/test_structural_term.py", "tests/kruskal_markov/test_answers.py"], None),
+    "validate": ("analysis/validate.py", ["tests/analysis/test_validate.py", "tests/kruskal_markov/test_structural.py"], None),
+    "orientability": ("analysis/orientability.py", ["tests/analysis/test_orientability.py"], None),
 }
 
 #: the default sample (every k-th mutant in name order) of the modules whose tests are slow (the

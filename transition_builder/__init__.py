@@ -30,7 +30,7 @@ _EXPORTS = {
     "random_triangle": "shapes",
     "rectangle": "shapes",
     "make_shape": "shapes",
-    "SimSettings": "settings",
+    "SimSettings": "sim_settings",
     "TraySimulator": "sim",
     "simulate": "sim",
     "ReportGrid": "grid",

@@ -25,7 +25,7 @@ with quiet_stderr():    # PyBullet prints its build banner on the C-level stderr
 
 from transition_builder._coulomb import _contact_update, footprint_points
 from transition_builder.friction import friction_map, parse_friction
-from transition_builder.settings import parse_contact
+from transition_builder.sim_settings import parse_contact
 
 G = 9.81
 #: PyBullet's collision margin of a convex hull made from vertices, in world units.

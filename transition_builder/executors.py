@@ -36,7 +36,7 @@ from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
-from kruskal_markov._checks import check_int
+from kruskal_markov.validation import check_int
 
 __all__ = [
     "DaskExecutor",

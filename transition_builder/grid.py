@@ -26,7 +26,7 @@ import re
 
 import numpy as np
 
-from kruskal_markov._checks import check_int
+from kruskal_markov.validation import check_int
 
 __all__ = ["DEFAULT_GRID", "ReportGrid", "parse_grid"]
 

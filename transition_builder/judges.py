@@ -12,7 +12,7 @@ Bartels, Unger and Wolf, PRL 90, 2003; Weidman and Malhotra, PRL 95, 2005).
 The engine runs with the tray almost level (tilt 1e-6 degrees) and the part started from the
 given pose and twist, at a time step ``refine`` times finer than the scene's default (same
 rest-test interval), so that the engine's own integrator error (about ``v0 dt / 2``) stays below
-the judges' tolerance. Used by ``tests/test_sim_mechanics.py`` and ``python -m benchmarks contact``.
+the judges' tolerance. Used by ``tests/transition_builder/test_sim_mechanics.py`` and ``python -m benchmarks contact``.
 """
 from __future__ import annotations
 
@@ -89,8 +89,8 @@ def engine_free_slide(shape_spec: str, pose, twist, contact: str = "coulomb", re
         rest-test interval.
     """
     from transition_builder.scene import scene_from_options
-    from transition_builder.settings import SimSettings
     from transition_builder.sim import TraySimulator
+    from transition_builder.sim_settings import SimSettings
     base = SimSettings(contact=contact, **settings)
     # the trajectory is recorded every ``substeps`` steps: as few as the contact allows, for a fine record
     settings = dict(settings, time_step_s=base.time_step_s / refine, substeps=base.friction_substeps)
@@ -274,8 +274,8 @@ def engine_incline(shape_spec: str, friction, tilt_deg: float, duration_s: float
     pair) tilted by ``tilt_deg`` (reached over ``tilt_time_s``), run for ``duration_s`` at
     ``1/refine`` of the default step (same rest-test interval)."""
     from transition_builder.scene import scene_from_options
-    from transition_builder.settings import SimSettings
     from transition_builder.sim import TraySimulator
+    from transition_builder.sim_settings import SimSettings
     sc = scene_from_options(shape_spec, friction, tilt_deg=tilt_deg, tray_mm=tray_mm, tilt_time_s=tilt_time_s,
                             actions="E", **SimSettings().finer_step(refine))
     sim = TraySimulator(sc)

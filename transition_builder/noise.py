@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kruskal_markov._checks import check_number, is_int
+from kruskal_markov.validation import check_number, is_int
 
 __all__ = [
     "CONTACT_TOLERANCE_MM",

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from kruskal_markov._checks import check_int
+from kruskal_markov.validation import check_int
 from transition_builder.shapes import Shape, check_fits
 
 __all__ = ["is_collision_free", "sample_start_poses"]

@@ -22,8 +22,8 @@ import numpy as np
 
 from kruskal_markov.validation import action_position
 from transition_builder.friction import DEFAULT_MU, FrictionSpec, parse_friction
-from transition_builder.settings import SIMULATOR_VERSION, SimSettings
 from transition_builder.shapes import Shape, check_fits, make_shape, parse_shape
+from transition_builder.sim_settings import SIMULATOR_VERSION, SimSettings
 
 __all__ = ["Scene", "scene_from_options", "check_tilt_time", "ACTIONS", "ACTION_ANGLES_DEG", "DEFAULT_TILT_DEG"]
 

@@ -47,7 +47,7 @@ from transition_builder._bullet_world import BulletWorld
 from transition_builder.friction import parse_friction
 from transition_builder.sampling import is_collision_free
 from transition_builder.scene import Scene
-from transition_builder.settings import SIMULATOR_VERSION
+from transition_builder.sim_settings import SIMULATOR_VERSION
 
 __all__ = ["TraySimulator", "simulate", "SIMULATOR_VERSION", "valid_start"]
 

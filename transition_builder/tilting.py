@@ -36,10 +36,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kruskal_markov._checks import check_int, is_int
 from kruskal_markov.entropy import histogram_entropy_bits
 from kruskal_markov.limits import check_memory
-from kruskal_markov.validation import action_position
+from kruskal_markov.validation import action_position, check_int, is_int
 from transition_builder.executors import Executor, SerialExecutor, make_executor, simulator_for
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import (
@@ -197,7 +196,9 @@ class DirectResult:
         """Deprecated alias of :meth:`to_dict` (every result serialises with ``to_dict``)."""
         import warnings
 
-        warnings.warn("DirectResult.to_json is deprecated; use to_dict", DeprecationWarning, stacklevel=2)
+        from kruskal_markov.errors import KruskalDeprecationWarning
+
+        warnings.warn("DirectResult.to_json is deprecated; use to_dict", KruskalDeprecationWarning, stacklevel=2)
         return self.to_dict()
 
     def to_dict(self) -> dict:

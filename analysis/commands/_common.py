@@ -56,7 +56,7 @@ def add_model_source(parser: argparse.ArgumentParser) -> None:
 
 def load_model_source(args: argparse.Namespace, required: bool = True):
     """Load the :class:`~kruskal_markov.model.TransitionModel` named by ``--model`` or ``--automaton``."""
-    from kruskal_markov.automaton import model_from_automaton
+    from kruskal_markov.automaton_json import model_from_automaton
     from kruskal_markov.model import TransitionModel
 
     if getattr(args, "model", None):
@@ -190,7 +190,7 @@ def parse_contact_arg(text: str | None):
     """The canonical spelling of a ``--contact`` value (None stays None); one-line InputError."""
     if text is None:
         return None
-    from transition_builder.settings import parse_contact
+    from transition_builder.sim_settings import parse_contact
     try:
         return str(parse_contact(text))
     except ValueError as exc:

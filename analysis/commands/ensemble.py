@@ -52,7 +52,7 @@ def run(args: argparse.Namespace) -> dict:
     from kruskal_markov.answers import answer_intervals
     intervals = answer_intervals(model, seed=args.seed, count=args.count, length=args.length, epsilon=args.epsilon,
                                  weights=weights, ensemble=res, threads=args.threads, **interval_settings(args))
-    from kruskal_markov.structure import analyze_structure
+    from kruskal_markov.closed_classes import analyze_structure
 
     structure = analyze_structure(model)
     return {

@@ -66,7 +66,7 @@ def grid_cells(model, spec: str) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> dict:
-    from kruskal_markov.automaton import model_from_automaton
+    from kruskal_markov.automaton_json import model_from_automaton
     from kruskal_markov.model import TransitionModel
     from kruskal_markov.sync.plan import shortest_plan
     from kruskal_markov.sync.targets import parse_target

@@ -69,7 +69,9 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
     if max_nodes is not None:
         import warnings
 
-        warnings.warn("max_nodes is deprecated; use node_budget", DeprecationWarning, stacklevel=2)
+        from kruskal_markov.errors import KruskalDeprecationWarning
+
+        warnings.warn("max_nodes is deprecated; use node_budget", KruskalDeprecationWarning, stacklevel=2)
         node_budget = max_nodes
     max_nodes = node_budget
     t0 = clock()

@@ -365,7 +365,7 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
 
     Examples
     --------
-    >>> from kruskal_markov.automaton import model_from_automaton
+    >>> from kruskal_markov.automaton_json import model_from_automaton
     >>> cerny4 = model_from_automaton({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 1, 2, 0]}})
     >>> r = shortest_plan(cerny4, "state")
     >>> r.length, r.exact, r.lower_bound, "".join(r.word)

@@ -56,7 +56,7 @@ def choose_method(source, target: str = "state", start: str = "auto", threshold:
 
     Examples
     --------
-    >>> from kruskal_markov.automaton import model_from_automaton
+    >>> from kruskal_markov.automaton_json import model_from_automaton
     >>> cerny4 = model_from_automaton({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 1, 2, 0]}})
     >>> choose_method(cerny4), choose_method(cerny4, "cell")
     ('subsets', 'plan')
@@ -120,7 +120,7 @@ def shortest_word(source, target: str = "state", *, method: str = "auto", start:
 
     Examples
     --------
-    >>> from kruskal_markov.automaton import model_from_automaton
+    >>> from kruskal_markov.automaton_json import model_from_automaton
     >>> cerny4 = model_from_automaton({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 1, 2, 0]}})
     >>> r = shortest_word(cerny4)
     >>> r.length, r.exact, "".join(r.word), r.method

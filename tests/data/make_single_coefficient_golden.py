@@ -1,6 +1,6 @@
 """Write tests/data/single_coefficient_golden.json: landings and cache keys computed by the code
 before static/kinetic friction existed (commit 5c4b492 of main), the oracle of
-tests/test_friction_pair.py ("one coefficient gives today's landings exactly, same keys").
+tests/transition_builder/test_friction_pair.py ("one coefficient gives today's landings exactly, same keys").
 
 Run from the repository root with the code to record: ``python tests/data/make_single_coefficient_golden.py``.
 """

@@ -12,8 +12,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from kruskal_markov.model import TransitionModel
+from transition_builder.builder.build_settings import BUILDER_VERSION
 from transition_builder.builder.representatives import _snap_spread, _with_rotations, compensated_noise
-from transition_builder.builder.settings import BUILDER_VERSION
 from transition_builder.builder.state import NOT_DRAWN
 from transition_builder.status import OK, STATUS_NAMES
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from transition_builder.builder.build_settings import BuildSettings
 from transition_builder.builder.representatives import _snap_spread, compensated_noise
-from transition_builder.builder.settings import BuildSettings
 from transition_builder.builder.state import _Exploration
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene

@@ -15,11 +15,11 @@ import numpy as np
 from transition_builder.builder import exploration as _explore
 from transition_builder.builder import refinement as _refine
 from transition_builder.builder.assembly import _assemble, _noise_stats
+from transition_builder.builder.build_settings import BuildResult, BuildSettings, build_key
 from transition_builder.builder.context import _BuildContext
 from transition_builder.builder.exploration import _MAX_WEIGHT_ROUNDS, _START_STREAM, _TOPUP_ROUNDS  # noqa: F401
 from transition_builder.builder.refinement import _PROBE_STREAM  # noqa: F401
 from transition_builder.builder.representatives import _with_rotations
-from transition_builder.builder.settings import BuildResult, BuildSettings, build_key
 from transition_builder.builder.state import CheckpointError, _Exploration
 from transition_builder.executors import SchedulerLost
 from transition_builder.grid import ReportGrid, parse_grid

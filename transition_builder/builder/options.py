@@ -1,6 +1,6 @@
 """The build settings, defined once: one :class:`BuildOption` row per setting in :data:`BUILD_OPTIONS`
 drives the fields, defaults, checks and docstring of
-:class:`~transition_builder.builder.settings.BuildSettings`, the flags of ``kruskal build`` and the
+:class:`~transition_builder.builder.build_settings.BuildSettings`, the flags of ``kruskal build`` and the
 options table of ``docs/builder.md`` (:func:`options_markdown`). A new setting is one new row.
 
 This module imports nothing heavy, so ``kruskal --help`` stays fast.

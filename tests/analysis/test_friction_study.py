@@ -1,0 +1,98 @@
+"""The friction study (analysis/friction_study.py): the paper's grouping by mean, the criterion,
+and the section it writes (no simulation here: fabricated per-map results)."""
+from __future__ import annotations
+
+import pytest
+
+from analysis.friction_study import (
+    PAPER,
+    FrictionStudyResult,
+    FrictionStudySettings,
+    criterion,
+    mean_maps,
+)
+from analysis.reproduce import ReproduceSettings
+from transition_builder.friction import parse_friction
+
+
+def test_mean_maps_are_seeded_valid_specs_with_their_means():
+    s = FrictionStudySettings()
+    maps = mean_maps(s)
+    assert maps == mean_maps(s) and len(maps) == 20
+    for spec, m in maps:
+        f = parse_friction(spec)
+        assert f.kind == "map" and f.mu == pytest.approx(m) and s.mean_range[0] <= m <= s.mean_range[1]
+    assert maps != mean_maps(FrictionStudySettings(mean_seed=1))
+
+
+def test_criterion_is_zero_at_the_paper_and_grows_away_from_it():
+    share = PAPER["A_converged"] / PAPER["A_sequences"]
+    assert criterion(share, 0.0, 4.9) == 0.0
+    assert criterion(share + 0.1, 0.0, 4.9) == pytest.approx(0.1)
+    assert criterion(share, 0.49, 4.9) == pytest.approx(0.1)
+
+
+def _map(mean, group, ends):
+    h = [4.9] + [0.0 if ends else 1.0] * 50
+    return {"mean": mean, "group": group, "ends_zero": ends, "reaches_zero": ends, "entropy_bits": h}
+
+
+def test_markdown_groups_maps_by_mean_as_the_paper_did(tmp_path):
+    c_mean = {f"map:low:{k}:{m}": _map(m, g, e) for k, (m, g, e) in enumerate(
+        [(0.25, "low", True), (0.3, "low", False), (0.45, "medium", False), (0.49, "high", False)])}
+    search = {"today": {"friction": "0.3", "tilt_time_s": 0.0, "share_reaching_zero": 0.5, "mean_entropy_20": 1.0,
+                        "mean_entropy_50": 0.5, "D": 0.4}}
+    res = FrictionStudyResult(settings=dict(trials=200, seed=0, search_sequences=8, search_trials=100),
+                              c_mean=c_mean, search=search)
+    text = res.markdown()
+    assert "| 1 of 2 (reached 1); mean mu 0.25-0.30 | 0 of 1 (reached 0); mean mu 0.45-0.45 |" in text
+    assert "| today | `0.3` | 0 | 0.50 | 1.00 | 0.50 | 0.40 |" in text
+    d = res.to_dict()
+    assert d["c_groups"]["mean"]["low"]["ends_zero"] == 1 and d["paper"]["C"]["medium"] == (0, 3)
+    assert res.figures(str(tmp_path)) == [str(tmp_path / "fig_friction_c.png")]
+
+
+def test_sensitivity_physics_variants():
+    """The sensitivity study's static/kinetic and tilt-time variants: the key's scene with the pair
+    or tilt time set, the key's own friction when the spec is None, pairs skipped off coulomb."""
+    from analysis.experiments.sensitivity import Settings, _physics_variants
+    from analysis.reproduce import SENSITIVITY_PHYSICS, ReproduceSettings
+    from transition_builder.scene import scene_from_options
+
+    st = Settings.from_settings(ReproduceSettings(sensitivity_physics=SENSITIVITY_PHYSICS))
+    key = scene_from_options("allen-key", 0.25)
+    got = {label: sc for label, sc, _ in _physics_variants(key, st)}
+    assert str(got["friction 0.5/0.3 (Simscape's defaults)"].friction) == "0.5/0.3"
+    assert got["tilt time 0.5 s"].tilt_time_s == 0.5 and str(got["tilt time 0.5 s"].friction) == "0.25"
+    assert got["0.5/0.3, tilt time 0.5 s"].content_hash() != key.content_hash()
+    sphere = {label for label, _, _ in _physics_variants(scene_from_options("allen-key", contact="sphere"), st)}
+    assert sphere == {"tilt time 0.5 s"}
+    assert Settings.from_settings(ReproduceSettings()).physics == ()
+
+
+def test_friction_section_is_off_by_default():
+    from analysis.experiments import EXPERIMENTS
+    from analysis.experiments.context import Context
+    from analysis.experiments.friction import markdown, run
+
+    assert EXPERIMENTS["friction"] == "analysis.experiments.friction"
+    r = run(Context(ReproduceSettings()))
+    assert r.to_dict() == {} and markdown(r) == ""
+
+
+def test_a_resumed_c_reading_equals_an_uninterrupted_one():
+    """The study's readings are long; an interrupted one resumes from its saved maps and gives the
+    same per-map results as a run that never stopped (each map is seeded on its own)."""
+    from analysis.friction_study import c_reading
+
+    s = FrictionStudySettings(mean_maps=2, trials=3, sequence="E,S", workers=1)
+    whole = c_reading(s, "mean", progress=lambda line: None)
+    first = next(iter(whole))
+    told = []
+    resumed = c_reading(s, "mean", progress=told.append, done={first: whole[first]})
+    assert resumed == whole
+    assert len(told) == 1 and first not in told[0]
+    stale = dict(whole[first], trials=2)
+    told.clear()
+    c_reading(s, "mean", progress=told.append, done={first: stale})
+    assert len(told) == 2

@@ -1,0 +1,115 @@
+"""analysis.orientability: the metrics of one part (on models whose answers are known) and the
+ranking's order rules."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from analysis.orientability import PartMetrics, part_metrics, random_tilts_text, rank_parts
+from kruskal_markov.convergence import exact_expected_length
+from kruskal_markov.generators import cerny_automaton, cerny_model
+
+
+def test_part_metrics_of_a_cerny_automaton():
+    """Černý C_4 from the uniform distribution: shortest word (n - 1)^2 = 9, proven; initial
+    entropy log2 4 = 2 bits; the Monte Carlo mean random length is within its 95% interval... of
+    the exact expected length (chain solve) up to a few standard errors."""
+    model = cerny_model(4)
+    m = part_metrics(model, seed=1, count=300, runs=400, sync_node_budget=10_000)
+    assert m.states == 4 and m.sync_length == 9 and m.sync_exact and m.sync_lower_bound == 9
+    assert len(m.sync_word) == 9 and set(m.sync_word) <= {"a", "b"}
+    assert m.initial_entropy == pytest.approx(2.0, abs=1e-12)
+    exact, _ = exact_expected_length(cerny_automaton(4))
+    lo, hi = m.random_sync_ci95
+    half = (hi - lo) / 2
+    assert m.random_sync_censored == 0 and abs(m.random_sync_length - exact) < 2.5 * half
+    # on a deterministic automaton from a uniform start the entropy is 0 exactly when synchronized:
+    # the random tilts to entropy <= epsilon and the random synchronizing length estimate one thing
+    assert m.random_tilts == pytest.approx(exact, rel=0.25)
+    assert 0.0 <= m.converging_share_50 <= 1.0 and m.mean_entropy_50 <= m.mean_entropy_10 <= 2.0
+    assert m.to_dict()["sync_word"] == m.sync_word
+
+
+def test_part_metrics_are_the_same_on_any_machine():
+    """With a node budget the shortest-word search, and so every metric but the time, repeats."""
+    a = part_metrics(cerny_model(6), seed=2, count=50, runs=20, sync_node_budget=12)
+    b = part_metrics(cerny_model(6), seed=2, count=50, runs=20, sync_node_budget=12)
+    assert dataclasses.replace(a, seconds=0.0) == dataclasses.replace(b, seconds=0.0)
+    assert a.sync_exact is False and a.sync_lower_bound <= 25 < a.sync_length   # stopped by its budget
+
+
+def _metrics(**kw):
+    base = PartMetrics(10, ["N"], 1, True, 1, "exact", 3.0, (2.0, 4.0), 0, 3.0, (2.0, 4.0), 0,
+                       3.0, 3.0, 0.1, 0.0, 1.0, 4.0, 1e-3, 0.0)
+    return dataclasses.replace(base, **kw)
+
+
+def test_rank_order_rules():
+    parts = {
+        "no-word": _metrics(sync_word=None, sync_length=None, random_tilts=1.0),
+        "censored": _metrics(random_tilts=None, random_tilts_lower=2.0, random_tilts_censored=3),
+        "slow": _metrics(random_tilts=5.0),
+        "fast": _metrics(random_tilts=2.0),
+        "fast-longer-word": _metrics(random_tilts=2.0, sync_length=3, sync_word=["N", "E", "S"]),
+    }
+    rows = rank_parts(parts)
+    assert [r["shape"] for r in rows] == ["fast", "fast-longer-word", "slow", "censored", "no-word"]
+    assert [r["rank"] for r in rows] == [1, 2, 3, 4, 5]
+    assert [r["decided_by"] for r in rows] == ["sync_length", "random_tilts", "random_tilts", "synchronizable",
+                                               None]
+
+
+def test_ties_fall_through_to_share_then_entropies_then_name():
+    parts = {"b": _metrics(), "a": _metrics(), "share": _metrics(converging_share_50=0.5),
+             "h50": _metrics(mean_entropy_50=0.2)}
+    rows = rank_parts(parts)
+    assert [r["shape"] for r in rows] == ["a", "b", "h50", "share"]
+    assert rows[0]["decided_by"] == "name"               # a and b tie on every metric: the name orders them
+    assert rows[1]["decided_by"] == "mean_entropy_50"
+
+
+def test_random_tilts_text():
+    assert random_tilts_text({"random_tilts": 3.14159}) == "3.1"
+    assert random_tilts_text({"random_tilts": None, "random_tilts_lower": 7.0}) == ">= 7.0"
+    assert random_tilts_text({"random_tilts": None, "random_tilts_lower": None}) == "-"
+    assert not math.isnan(_metrics().random_tilts)
+
+
+def test_part_metrics_by_value_against_their_definitions():
+    """Each metric recomputed from its definition with the documented random streams (ensemble:
+    seed; random tilts: [seed, 5]; random synchronizing length: [seed, 6]) on a stochastic model."""
+    import numpy as np
+
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts, monte_carlo_sync_length
+    from kruskal_markov.ensemble import run_ensemble
+    from kruskal_markov.sync import start_set, support_automaton
+    from tests.kruskal_markov.test_answers import _counted_model
+
+    model = _counted_model(seed=5)
+    seed, count, runs, eps, cap = 3, 120, 50, 1e-3, 300
+    m = part_metrics(model, seed=seed, count=count, runs=runs, epsilon=eps, max_tilts=cap, draws=0,
+                     sync_node_budget=2000)
+    ens = run_ensemble(model, count, 50, seed=seed, epsilon=eps)
+    assert m.mean_entropy_10 == pytest.approx(ens.mean[10]) and m.mean_entropy_50 == pytest.approx(ens.mean[50])
+    assert m.converging_share_50 == ens.converged / count
+    t = monte_carlo_entropy_tilts(model, eps, runs=runs, seed=[seed, 5], max_steps=cap)
+    assert (m.random_tilts, m.random_tilts_censored, m.random_tilts_lower) == (
+        None if t["mean"] is None else pytest.approx(t["mean"]), t["censored"], pytest.approx(t["lower"]))
+    aut = support_automaton(model, 0.0)
+    r = monte_carlo_sync_length(aut, start_set(model, False), runs=runs, seed=[seed, 6], max_steps=cap)
+    assert m.random_sync_censored == r["censored"] and m.random_sync_lower == pytest.approx(r["lower"])
+    assert m.initial_entropy == pytest.approx(2.0)            # 12 states uniform on 4 cells of 3
+    assert m.epsilon == eps and m.states == 12
+    iv = m.intervals
+    assert iv["converging_share"]["value"] == m.converging_share_50
+    assert iv["mean_entropy_10"]["value"] == pytest.approx(m.mean_entropy_10)
+    assert iv["settings"]["draws"] == 0 and iv["settings"]["structural_source"] == "none"
+    assert iv["settings"]["structural_sequences"] == 100 and iv["settings"]["runs"] == runs
+    assert iv["settings"]["epsilon"] == eps and iv["settings"]["count"] == count
+    assert np.isfinite(m.seconds)
+    # defaults: the convergence threshold 1e-3 bits, posterior draws on at most 1,000 sequences
+    big = part_metrics(model, seed=seed, count=1200, runs=20, max_tilts=cap, draws=2, sync_node_budget=2000)
+    assert big.epsilon == 1e-3 and big.intervals["settings"]["epsilon"] == 1e-3
+    assert big.intervals["settings"]["draw_count"] == 1000 and big.intervals["settings"]["draws"] == 2

@@ -1,0 +1,161 @@
+"""analysis.validate: the pieces of the model-versus-simulation comparison that need no physics
+(the end-to-end ``kruskal validate`` on a built model runs in test_build_model.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analysis.validate import _bootstrap_sd, _expected_plugin, model_grid, model_scene, reference_seed, validate_model
+from kruskal_markov.model import ModelError, TransitionModel
+from transition_builder.grid import ReportGrid
+from transition_builder.scene import scene_from_options
+
+
+def test_reference_seeds_are_fixed_and_distinct():
+    seeds = [reference_seed(0, i) for i in range(50)]
+    assert seeds == [reference_seed(0, i) for i in range(50)]           # a function of (seed, i) only
+    assert len(set(seeds)) == 50 and all(0 <= s < 2 ** 31 - 1 for s in seeds)
+    assert reference_seed(1, 0) != reference_seed(0, 0)
+
+
+def test_expected_plugin_entropy_matches_its_closed_form():
+    """Two equally likely cells and m = 2 draws: the plug-in entropy is 0 (same cell, probability
+    1/2) or 1 bit, so its expectation is 0.5 bits; one draw or one cell: 0."""
+    rng = np.random.default_rng(5)
+    assert _expected_plugin(np.array([0.5, 0.5]), 1, rng) == 0.0
+    assert _expected_plugin(np.array([0.0, 1.0, 0.0]), 40, rng) == 0.0
+    assert _expected_plugin(np.array([0.5, 0.5]), 0, rng) == 0.0
+    values = [_expected_plugin(np.array([0.5, 0.5]), 2, rng) for _ in range(40)]    # 40 x 200 draws
+    assert abs(np.mean(values) - 0.5) < 4 * 0.5 / np.sqrt(40 * 200)
+    # negative round-off is clipped and the distribution renormalised
+    assert _expected_plugin(np.array([-1e-18, 2.0]), 10, rng) == 0.0
+
+
+def test_bootstrap_sd():
+    rng = np.random.default_rng(0)
+    assert _bootstrap_sd(np.zeros(30, dtype=np.int64), 4, rng) == 0.0      # one cell: no spread
+    assert _bootstrap_sd(np.array([2]), 4, rng) == 0.0                      # fewer than 2 labels
+    # half the trials in each of two cells: the plug-in entropy's sd over resamples is about
+    # the delta method's sqrt(var(log-ratio term) / m), near zero at p = 1/2; it is small and positive
+    sd = _bootstrap_sd(np.repeat([0, 1], 50), 2, rng)
+    assert 0.0 < sd < 0.05
+
+
+def test_models_without_a_scene_or_grid_are_refused():
+    plain = TransitionModel(["N"], [np.eye(2)])
+    with pytest.raises(ModelError, match="no scene"):
+        model_scene(plain)
+    with pytest.raises(ModelError, match="no report grid"):
+        model_grid(plain)
+    scene = scene_from_options("rectangle:20x20")
+    grid = ReportGrid(200.0, 200.0, 2, 2, 2, symmetry_order=4)
+    built = TransitionModel(["N"], [np.eye(2)], metadata={"scene": scene.to_dict(), "grid": grid.to_dict()})
+    assert model_scene(built).content_hash() == scene.content_hash()
+    assert model_grid(built).to_dict() == grid.to_dict()
+    # the partition must be on the report grid
+    with pytest.raises(ModelError, match="partition"):
+        validate_model(built, sequences=1, trials=2, length=1, bands=0, simulate=lambda *a: None)
+
+
+@pytest.mark.parametrize("kw", [{"sequences": 0}, {"trials": 1}, {"length": 0}, {"bands": -1},
+                                {"sequences": True}, {"trials": 2.5}])
+def test_bad_counts_are_value_errors(kw):
+    with pytest.raises(ValueError, match=next(iter(kw))):
+        validate_model(TransitionModel(["N"], [np.eye(2)]), **kw)
+
+
+# --- every figure of `kruskal validate` by value, on a case checked by hand ------------------------
+
+def _built_point_model():
+    """8 report cells = 8 states, every tilt sends every state to cell 0 (sampled once per row)."""
+    import scipy.sparse as sp
+
+    scene = scene_from_options("rectangle:20x20")
+    grid = ReportGrid(200.0, 200.0, 2, 2, 2, symmetry_order=4)
+    n = grid.n_voxels
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), np.zeros(n, dtype=int))), shape=(n, n))
+            for _ in scene.actions]
+    extras = {f"counts_{a}": np.ones(n, dtype=np.int64) for a in range(len(scene.actions))}
+    md = {"kind": "kruskal.built_model", "stats": {"states": n}, "scene": scene.to_dict(), "grid": grid.to_dict(),
+          "noise": "none"}
+    return TransitionModel(list(scene.actions), mats, initial=np.full(n, 1.0 / n), partition=np.arange(n),
+                           n_cells=n, metadata=md, extras=extras), grid
+
+
+def _fake_reference(grid, cells_per_step, m):
+    """A direct-simulation result whose trials sit in the given cells at each step (no faults)."""
+    from types import SimpleNamespace
+
+    from kruskal_markov.entropy import histogram_entropy_bits
+
+    labels = np.array([np.resize(c, m) for c in cells_per_step])          # (steps, m)
+    poses = grid.centres(labels.T.ravel()).reshape(m, len(cells_per_step), 3)
+    h = np.array([histogram_entropy_bits(np.bincount(lab, minlength=grid.n_voxels)) for lab in labels])
+    return SimpleNamespace(poses=poses, status=np.zeros((m, len(cells_per_step)), dtype=np.int8),
+                           surviving=np.full(len(cells_per_step), m), entropy_bits=h, faults={})
+
+
+def test_validate_figures_by_value_on_a_hand_checked_case():
+    """Model: all mass in cell 0 from tilt 1 on (0 bits exactly, whatever M). Reference: all trials in
+    cell 0, except at tilts 3 and 7 of sequence 0 (half in cell 0, half in cell 1: 1 bit) and at the
+    last tilt of sequence 1 (half in cell 0, a quarter each in cells 2 and 3: 1.5 bits). By hand, over
+    2 x 10 tilts: errors 1, 1 and 1.5 bits, so mean 3.5 / 20 = 0.175, max 1.5, median 0, share above
+    0.25 = 3 / 20; the band (a one-point posterior, width 1.645 x the bootstrap sd, which is zero on
+    one cell) misses exactly those 3 steps: coverage 17 / 20 = 0.85, Wilson 95% 0.640-0.948; a point-mass
+    model cannot be widened, so those steps need an infinite delta and the 90% quantile (the 19th
+    smallest of 20) is infinite: None; final total variation: sequence 0 ends in cell 0 (0), sequence
+    1 at 0.5 (half its trials outside cell 0): mean 0.25."""
+    model, grid = _built_point_model()
+    length, m = 10, 40
+    two = [0, 1]
+    spread3 = [0, 0, 2, 3]
+
+    def fake(scene, seq, trials, seed, noise):
+        i = fake.calls
+        fake.calls += 1
+        steps = [list(range(8))] + [[0]] * length                  # step 0: one trial per cell, uniform
+        if i == 0:
+            steps[3] = two
+            steps[7] = two
+        else:
+            steps[length] = spread3
+        return _fake_reference(grid, steps, trials)
+    fake.calls = 0
+    out = validate_model(model, sequences=2, trials=m, seed=4, length=length, bands=5, simulate=fake)
+    assert out["mean_abs_error_bits"] == pytest.approx(3.5 / 20)
+    assert out["max_abs_error_bits"] == pytest.approx(1.5)
+    assert out["median_abs_error_bits"] == 0.0
+    assert out["share_steps_above_0_25"] == pytest.approx(3 / 20)
+    assert out["mean_abs_error_bits_exact_curve"] == pytest.approx(3.5 / 20)
+    assert out["final_tv_distance"] == pytest.approx(0.25)
+    assert out["reference_noise_bits"] >= 0 and out["reference_noise_bits_max"] < 0.2
+    assert out["band_steps"] == 20
+    assert out["band_coverage"] == pytest.approx(0.85)
+    assert out["band_coverage_dirichlet"] == pytest.approx(0.85)
+    assert out["band_coverage_ci95"] == pytest.approx([0.6396, 0.9476], abs=1e-3)
+    assert out["structural_delta_q90"] is None
+    assert out["structural_source"] == "default" and out["structural_delta"] == 0.105
+    s0, s1 = out["per_sequence"]
+    assert s0["mean_abs_error_bits"] == pytest.approx(0.2) and s1["mean_abs_error_bits"] == pytest.approx(0.15)
+    assert s0["band_coverage"] == pytest.approx(0.8) and s1["band_coverage"] == pytest.approx(0.9)
+    assert s0["final_tv_distance"] == 0.0 and s1["final_tv_distance"] == pytest.approx(0.5)
+    assert s0["structural_needed"][1:] == [0.0, 0.0, None, 0.0, 0.0, 0.0, None, 0.0, 0.0, 0.0]
+    # the model's step 0 through the plug-in estimator: 40 draws from 8 equal cells; by linearity the
+    # expectation is 8 E[-(n/40) log2(n/40)] with n ~ Binomial(40, 1/8) (Monte Carlo of 200 draws)
+    from scipy.stats import binom
+
+    k = np.arange(1, m + 1)
+    exact0 = 8 * float(np.sum(binom.pmf(k, m, 1 / 8) * -(k / m) * np.log2(k / m)))
+    assert s0["model"][0] == pytest.approx(exact0, abs=0.02) and exact0 < 2.9
+    assert s0["model"][1:] == [0.0] * length and s0["model_exact"] == pytest.approx([3.0] + [0.0] * length)
+    assert out["band_verdict"] == "consistent"
+
+
+def test_coverage_verdict_fails_a_band_that_is_too_wide_as_well_as_too_narrow():
+    from analysis.validate import coverage_verdict
+
+    assert coverage_verdict(90, 100) == "consistent"
+    assert coverage_verdict(100, 100) == "too wide"         # Wilson 96.3-100% lies above 85-95%
+    assert coverage_verdict(60, 100) == "too narrow"
+    assert coverage_verdict(20, 20) == "consistent"         # 20 steps: 83.9-100%, cannot tell
+    assert coverage_verdict(120, 120) == "too wide"

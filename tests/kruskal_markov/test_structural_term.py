@@ -1,0 +1,154 @@
+"""The structural term per model: none for a model that was not sampled, the model's own calibration
+when it has one (stored by `kruskal validate --calibrate`), the default for a built model without."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from analysis.commands import InputError
+from analysis.commands.validate import calibrate_model
+from kruskal_markov.answers import answer_intervals, plan_success_interval
+from kruskal_markov.automaton_json import model_from_automaton
+from kruskal_markov.model import TransitionModel
+from kruskal_markov.structural import (
+    NO_TERM_NOTE,
+    STRUCTURAL_DELTA,
+    conformal_quantile,
+    is_sampled,
+    structural_term,
+    with_calibration,
+)
+
+BUILT = {"kind": "kruskal.built_model", "stats": {"states": 12}, "scene": {}, "noise": "none"}
+
+
+def _counted(n=12, cells=4, seed=3, metadata=None):
+    rng = np.random.default_rng(seed)
+    mats, extras = [], {}
+    for a in range(3):
+        c = np.zeros((n, n))
+        for i in range(n):
+            c[i, rng.choice(n, 2, replace=False)] = rng.multinomial(20, [0.8, 0.2])
+        m = sp.csr_matrix(c)
+        extras[f"counts_{a}"] = m.data.astype(np.int64)
+        mats.append(sp.csr_matrix((m.data / 20.0, m.indices, m.indptr), shape=(n, n)))
+    return TransitionModel(["a", "b", "c"], mats, initial=np.full(n, 1.0 / n), partition=np.arange(n) % cells,
+                           n_cells=cells, extras=extras, metadata=metadata)
+
+
+def _automaton():
+    rng = np.random.default_rng(1)
+    n = 12
+    # a JSON automaton, even one whose metadata claims to be built, carries no sample counts
+    return model_from_automaton({"states": n, "actions": {"a": rng.integers(0, n, n).tolist(),
+                                                          "b": rng.integers(0, n, n).tolist()},
+                                 "metadata": BUILT})
+
+
+def test_a_model_that_was_not_sampled_has_no_structural_term():
+    for m in (_automaton(), _counted()):
+        assert not is_sampled(m)
+        t = structural_term(m)
+        assert (t.delta, t.source, t.note) == (0.0, "none", NO_TERM_NOTE)
+
+
+def test_an_automaton_given_as_json_has_zero_width_structural_ranges_and_says_so():
+    m = _automaton()
+    out = answer_intervals(m, seed=0, count=200, length=20, epsilon=1e-9, runs=40, max_steps=300,
+                           structural_sequences=30)
+    assert out["settings"]["structural_source"] == "none"
+    assert out["settings"]["structural_delta"] == 0.0
+    for k in ("converging_share", "mean_entropy_10", "mean_entropy_20", "random_tilts"):
+        v = out[k]
+        assert v["structural_range"] == [v["value"], v["value"]], k
+        assert v["note"] == NO_TERM_NOTE
+    # an explicit delta is the caller's choice and is applied
+    given = answer_intervals(m, seed=0, count=200, length=20, epsilon=1e-9, structural_delta=0.3,
+                             structural_sequences=30)
+    assert given["settings"]["structural_source"] == "given"
+    assert "note" not in given["mean_entropy_10"]
+
+
+def test_a_built_model_uses_its_stored_calibration_else_the_default():
+    m = _counted(metadata=BUILT)
+    assert is_sampled(m)
+    t = structural_term(m)
+    assert (t.delta, t.source) == (STRUCTURAL_DELTA, "default")
+    cal = with_calibration(m, 0.02, steps=60, seeds=[5])
+    t = structural_term(cal)
+    assert (t.delta, t.source) == (0.02, "calibrated") and "60 steps" in t.note and "seeds 5)" in t.note
+    # the structural range scales with the model's own delta: a 5x smaller delta, a narrower range
+    a = answer_intervals(m, seed=1, count=300, length=20, draws=0, structural_sequences=40)["mean_entropy_10"]
+    b = answer_intervals(cal, seed=1, count=300, length=20, draws=0, structural_sequences=40)["mean_entropy_10"]
+    wa = a["structural_range"][1] - a["structural_range"][0]
+    wb = b["structural_range"][1] - b["structural_range"][0]
+    assert wa > 0 and 0 < wb < wa / 2
+    with pytest.raises(ValueError, match="built model"):
+        with_calibration(_automaton(), 0.1)
+    with pytest.raises(ValueError, match="non-negative"):
+        with_calibration(m, -0.1)
+
+
+def test_plan_success_interval_of_an_automaton_has_no_structural_term():
+    m = _automaton()
+    out = plan_success_interval(m, [0, 1, 0], 0.7, draws=0)
+    assert out["structural_range"] == [0.7, 0.7] and out["note"] == NO_TERM_NOTE
+    built = plan_success_interval(_counted(metadata=BUILT), [0, 1], 0.7, draws=0)
+    assert built["structural_range"][0] < 0.7 < built["structural_range"][1]
+
+
+def _result(needed, seed=11, contact="plain"):
+    return {"seed": seed, "contact": contact, "model_contact": "plain",
+            "per_sequence": [{"structural_needed": [0.0, *row]} for row in needed]}
+
+
+def test_calibrate_writes_the_conformal_quantile_into_the_model_file_and_pools_runs(tmp_path):
+    path = str(tmp_path / "m.npz")
+    m = _counted(metadata=BUILT)
+    m.save(path)
+    first = [[0.0] * 8 + [0.05, 0.3], [0.0] * 9 + [None]]         # 20 steps, one unreachable (inf)
+    c = calibrate_model(m, _result(first), path)
+    scores = [0.0] * 17 + [0.05, 0.3, math.inf]
+    # ceil(21 * 0.9) = 19th smallest of 20 -> 0.3
+    assert c["delta"] == conformal_quantile(scores, 0.9) == 0.3 and c["steps"] == 20
+    stored = TransitionModel.load(path)
+    assert structural_term(stored).delta == 0.3 and structural_term(stored).source == "calibrated"
+    assert np.array_equal(stored.matrices[0].toarray(), m.matrices[0].toarray())
+    # a second run pools its steps with the first: 40 steps, ceil(41 * 0.9) = 37th smallest
+    second = [[0.0] * 19 + [0.01]]
+    c2 = calibrate_model(stored, _result(second, seed=12), path)
+    pooled = scores + [0.0] * 19 + [0.01]
+    assert c2["steps"] == 40 and c2["seeds"] == [11, 12]
+    assert c2["delta"] == conformal_quantile(pooled, 0.9) == 0.01
+    json.dumps(TransitionModel.load(path).metadata)
+
+
+def test_calibrate_refuses_what_it_cannot_calibrate(tmp_path):
+    path = str(tmp_path / "m.npz")
+    m = _counted(metadata=BUILT)
+    with pytest.raises(InputError, match="finite"):
+        calibrate_model(m, _result([[0.1, 0.2]]), path)               # 2 steps: no 90% quantile
+    with pytest.raises(InputError, match="contact"):
+        calibrate_model(m, _result([[0.0] * 30], contact="other"), path)
+
+
+def test_the_numba_range_equals_an_independent_bisection_on_random_rows():
+    """The exact per-row kernel against plain bisection on the clipping levels (tests/kruskal_markov/test_answers.py),
+    on rows of 2-64 cells with zeros, radii from 0 past the distance to uniform."""
+    from kruskal_markov.structural import entropy_range_tv
+    from tests.kruskal_markov.test_answers import _range_by_bisection
+
+    rng = np.random.default_rng(45)
+    for n in (2, 3, 7, 64):
+        p = rng.dirichlet(np.full(n, 0.4), size=40)
+        p[p < 0.03] = 0.0
+        p[:, 0] += 1e-3
+        d = rng.uniform(0, 1.1, size=40) * (rng.random(40) < 0.9)
+        lo, hi = entropy_range_tv(p, d)
+        for i in range(40):
+            want = _range_by_bisection(p[i], min(d[i], 1.0))
+            assert (lo[i], hi[i]) == pytest.approx(want, abs=1e-9), (n, i, d[i])
