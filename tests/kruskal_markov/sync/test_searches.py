@@ -1025,7 +1025,7 @@ def test_sync_result_as_dict_whole():
 def _no_dominance(monkeypatch, exact_mod):
     """Switch the subset-dominance pruning off: with it, the breadth-first stores of these small
     automata no longer overflow, and the depth-first phase these tests exercise is not reached
-    (the pruning itself is tested in tests/test_sync_trie.py)."""
+    (the pruning itself is tested in tests/kruskal_markov/sync/test_trie.py)."""
     monkeypatch.setattr(exact_mod, "_FORWARD_DOMINANCE", False)
     monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", False)
 
