@@ -82,6 +82,22 @@ def _big_stack():
     resource.setrlimit(resource.RLIMIT_STACK, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
 
 
+def _run_capped(cmd, timeout):
+    """Run ``cmd`` in its own process group; past ``timeout`` seconds kill the whole group (the
+    ``synchro`` script starts the solver as a child, which a plain timeout leaves running) and
+    raise ``subprocess.TimeoutExpired``."""
+    import signal
+
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=_big_stack,
+                            start_new_session=True)
+    try:
+        proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        raise
+
+
 def run_synchrowords(binary: str, config: str, only: tuple = ()) -> dict:
     """Run synchrowords on every instance (or those whose key starts with one of ``only``;
     ``SW_LIMIT`` seconds each) and return ``{key: row}``."""
@@ -98,12 +114,12 @@ def run_synchrowords(binary: str, config: str, only: tuple = ()) -> dict:
             res = os.path.join(d, "out.txt")
             cmd = [binary, "-c", config, "-f", src, "-o", res]
             try:        # JIT compilation for this (n, k) (a solve too: capped like the timed run)
-                subprocess.run(cmd, capture_output=True, timeout=SW_LIMIT + 30, preexec_fn=_big_stack)
+                _run_capped(cmd, SW_LIMIT + 30)
             except subprocess.TimeoutExpired:
                 pass
             t0 = time.perf_counter()
             try:
-                subprocess.run(cmd, capture_output=True, timeout=SW_LIMIT + 30, preexec_fn=_big_stack)
+                _run_capped(cmd, SW_LIMIT + 30)
                 wall = time.perf_counter() - t0
                 line = open(res).read().strip() if os.path.exists(res) else ""
             except subprocess.TimeoutExpired:
