@@ -56,7 +56,7 @@ MODULES = {
     "model": ("kruskal_markov/model.py", ["tests/kruskal_markov/test_model.py"], None),
     "closed_classes": ("kruskal_markov/closed_classes.py", ["tests/kruskal_markov/test_closed_classes.py"], None),
     "automaton_json": ("kruskal_markov/automaton_json.py", ["tests/kruskal_markov/test_automaton_json.py"], None),
-    "symmetry": ("transition_builder/symmetry.py", ["tests/transition_builder/test_snapping_symmetry.py"], None),
+    "symmetry": ("transition_builder/symmetry.py", ["tests/transition_builder/test_symmetry.py"], None),
     "grid": ("transition_builder/grid.py", ["tests/transition_builder/test_grid.py"], None),
     "status": ("transition_builder/status.py", _FAULT_TESTS, None),
     "posterior": ("kruskal_markov/posterior.py", ["tests/kruskal_markov/test_posterior.py"], None),

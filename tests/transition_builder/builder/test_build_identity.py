@@ -12,7 +12,7 @@ import numpy as np
 
 import tests
 from transition_builder.builder import BuildSettings, build_model
-from transition_builder.executors import SerialExecutor
+from transition_builder.executors import make_executor
 from transition_builder.scene import scene_from_options
 
 DATA = str(tests.DATA / "build_allen_key_8mm.npz")
@@ -21,7 +21,7 @@ DATA = str(tests.DATA / "build_allen_key_8mm.npz")
 def test_small_build_is_bit_identical_to_the_committed_arrays():
     ref = np.load(DATA)
     r = build_model(scene_from_options("allen-key"), BuildSettings(tol_mm=8, tol_deg=8, start_samples=50, seed=5),
-                    executor=SerialExecutor())
+                    executor=make_executor(2))
     m = r.model
     assert m.metadata["build_key"] == str(ref["build_key"])
     got = {"initial": m.initial, "partition": m.partition, "state_poses": m.extras["state_poses"]}
