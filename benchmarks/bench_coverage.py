@@ -5,8 +5,9 @@ random sequences of each seed (``kruskal validate``'s code: M = 2,000 trials, 30
 seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps each run's JSON in
 ``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
 
-``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ...`` prints the coverage of kept runs before
-(delta 0.105) and after (the model's own term).
+``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ... [--calibration=FILE,FILE,...]`` prints the
+coverage of kept runs before (the relative rule) and after (the flow rule), both calibrated on the
+``--calibration`` runs if given (else delta 0.105 before and the model's own term after).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
 the coverage of the Dirichlet band alone (before) and with the default structural term (after),
@@ -56,8 +57,9 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
               f" mean error {res['mean_abs_error_bits']:.3f}, {res['simulation_seconds']:.0f} s")
 
 
-def _steps(res: dict, delta: float, model=None):
-    """Per step 1..N: inside the band at ``delta``, and the score.
+def _steps(res: dict, delta: float, model=None, rule: str = "flow"):
+    """Per step 1..N: inside the band at ``delta``, and the score, under ``rule``: ``"flow"`` (radius
+    ``delta (1 - p_max) V_t``, today's) or ``"relative"`` (radius ``delta (1 - p_max)``, before).
 
     The band is recomputed from ``model`` as ``kruskal validate`` computes it (40 posterior draws
     seeded ``[seed, 4, r]``, the run's per-step reference noise, or its mean noise in JSONs that lack
@@ -65,7 +67,7 @@ def _steps(res: dict, delta: float, model=None):
     """
     from analysis.validate import model_band
     from kruskal_markov.posterior import has_counts, resample_model
-    from kruskal_markov.structural import band_with_structure, structural_score
+    from kruskal_markov.structural import band_with_structure, flow_scores, structural_score
 
     draws = ([resample_model(model, np.random.default_rng([res["seed"], 4, r])) for r in range(40)]
              if has_counts(model) else [])
@@ -76,10 +78,11 @@ def _steps(res: dict, delta: float, model=None):
         sd = np.asarray(s["reference_sd"]) if "reference_sd" in s else np.full(len(ref), s["reference_noise_bits"])
         seq = [model.actions.index(a) for a in s["sequence"]]
         band = model_band(model, seq, draws, np.full(len(ref), res["trials"]), sd, 0.0, rng)
-        cells, centre, width = band["cells"], band["centre"], band["width"]
-        lo, hi = band_with_structure(cells, centre, width, delta)
+        cells, centre, width, flow = band["cells"], band["centre"], band["width"], band["flow"]
+        lo, hi = band_with_structure(cells, centre, width, delta * (flow if rule == "flow" else 1.0))
         inside.append(((ref >= lo - 1e-12) & (ref <= hi + 1e-12))[1:])
-        scores.append(structural_score(cells, centre, width, ref)[1:])
+        rel = structural_score(cells, centre, width, ref)
+        scores.append((flow_scores(rel, flow) if rule == "flow" else rel)[1:])
     return np.concatenate(inside), np.concatenate(scores)
 
 
@@ -88,17 +91,23 @@ def _model(res: dict, fallback: str | None = None):
     return TransitionModel.load(fallback or res.get("model_path"))
 
 
-def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
-    """The split-conformal delta of kept validation runs; ``store``: written into the model file
-    (what ``kruskal validate --calibrate`` stores, for runs already kept)."""
-    from kruskal_markov.structural import conformal_quantile, with_calibration
+def calibrated_delta(files: list[str], model, rule: str = "flow") -> tuple[float, np.ndarray, list]:
+    """The split-conformal 90% ``delta`` of ``rule`` on kept validation runs, their scores and seeds."""
+    from kruskal_markov.structural import conformal_quantile
     scores, seeds = [], []
     for f in files:
         res = json.load(open(f))
-        scores.append(_steps(res, 0.0, _model(res, model_path))[1])
+        scores.append(_steps(res, 0.0, model if model is not None else _model(res), rule)[1])
         seeds.append(res["seed"])
     s = np.concatenate(scores)
-    q = conformal_quantile(s, 0.9)
+    return conformal_quantile(s, 0.9), s, seeds
+
+
+def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
+    """The split-conformal delta (flow rule) of kept validation runs; ``store``: written into the model file
+    (what ``kruskal validate --calibrate`` stores, for runs already kept)."""
+    from kruskal_markov.structural import with_calibration
+    q, s, seeds = calibrated_delta(files, _model({}, model_path) if model_path else None)
     print(f"{len(s)} calibration steps from {len(files)} runs: conformal 90% delta = {q:.4f} "
           f"(share of steps needing none: {np.mean(s == 0):.3f})")
     if store:
@@ -110,32 +119,41 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     return q
 
 
-def evaluate(files: list[str], model_path: str) -> None:
-    """Coverage of kept runs on ``model_path``: the Dirichlet band alone, the band at delta 0.105 (before
-    issue 45) and at the model's own term (after), each with its Wilson interval, per run and pooled."""
+def evaluate(files: list[str], model_path: str, calibration: list[str] | None = None) -> None:
+    """Coverage of kept runs on ``model_path``, each with its Wilson interval, per run and pooled: the
+    Dirichlet band alone, before (the relative rule, radius ``delta (1 - p_max)``) and after (the flow
+    rule). With ``calibration`` (kept runs of the same model, not ``files``), both rules are calibrated
+    on those runs; without, before is delta 0.105 and after the model's own term."""
     from analysis.validate import wilson_interval
     from kruskal_markov.structural import structural_term
 
     model = _model({}, model_path)
-    term = structural_term(model)
-    deltas = (("Dirichlet alone", 0.0), ("before: 0.105", 0.105), (f"after: {term.source} {term.delta:.4g}", term.delta))
-    pooled = {k: [] for k, _ in deltas}
+    if calibration:
+        d_rel = calibrated_delta(calibration, model, "relative")[0]
+        d_flow = calibrated_delta(calibration, model, "flow")[0]
+        cols = (("Dirichlet alone", 0.0, "flow"), (f"before: relative, calibrated {d_rel:.4g}", d_rel, "relative"),
+                (f"after: flow, calibrated {d_flow:.4g}", d_flow, "flow"))
+    else:
+        term = structural_term(model)
+        cols = (("Dirichlet alone", 0.0, "flow"), ("before: relative 0.105", 0.105, "relative"),
+                (f"after: flow, {term.source} {term.delta:.4g}", term.delta, "flow"))
+    pooled = {k: [] for k, _, _ in cols}
 
     def cell(x):
         lo, hi = wilson_interval(int(x.sum()), len(x))
-        return f"{100 * x.mean():.0f}% ({100 * lo:.0f}-{100 * hi:.0f})"
-    print("| run | steps | " + " | ".join(k for k, _ in deltas) + " |")
-    print("|---" * (2 + len(deltas)) + "|")
+        return f"{100 * x.mean():.1f}% ({100 * lo:.0f}-{100 * hi:.0f})"
+    print("| run | steps | " + " | ".join(k for k, _, _ in cols) + " |")
+    print("|---" * (2 + len(cols)) + "|")
     for f in files:
         res = json.load(open(f))
         row = []
-        for k, d in deltas:
-            ins = _steps(res, d, model)[0]
+        for k, d, rule in cols:
+            ins = _steps(res, d, model, rule)[0]
             pooled[k].append(ins)
             row.append(cell(ins))
         print(f"| {pathlib.Path(f).stem} | {len(ins)} | " + " | ".join(row) + " |")
-    print(f"| pooled | {sum(len(x) for x in pooled[deltas[0][0]])} | "
-          + " | ".join(cell(np.concatenate(pooled[k])) for k, _ in deltas) + " |")
+    print(f"| pooled | {sum(len(x) for x in pooled[cols[0][0]])} | "
+          + " | ".join(cell(np.concatenate(pooled[k])) for k, _, _ in cols) + " |")
 
 
 def summary() -> None:
@@ -181,7 +199,10 @@ def main(argv: list[str] | None = None) -> None:
     if argv and argv[0] == "run":
         run(argv[1], argv[2], [int(x) for x in argv[3:]])
     elif argv and argv[0] == "evaluate":
-        evaluate(argv[2:], argv[1].split("=", 1)[1])
+        rest = argv[2:]
+        cal = [x.split("=", 1)[1].split(",") for x in rest if x.startswith("--calibration=")]
+        evaluate([x for x in rest if not x.startswith("--calibration=")], argv[1].split("=", 1)[1],
+                 cal[0] if cal else None)
     elif argv and argv[0] == "calibrate":
         model = None
         files = argv[1:]
