@@ -8,6 +8,8 @@ seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps 
 ``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ... [--calibration=FILE,FILE,...]`` prints the
 coverage of kept runs before (the relative rule) and after (the flow rule), both calibrated on the
 ``--calibration`` runs if given (else delta 0.105 before and the model's own term after).
+``python -m benchmarks.bench_coverage loro --model=PATH FILE ...`` holds each kept run out in turn and
+calibrates both rules on the others (the tuning evidence for the flow rule, docs/uncertainty.md).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
 the coverage of the Dirichlet band alone (before) and with the default structural term (after),
@@ -156,6 +158,32 @@ def evaluate(files: list[str], model_path: str, calibration: list[str] | None = 
           + " | ".join(cell(np.concatenate(pooled[k])) for k, _, _ in cols) + " |")
 
 
+def leave_one_run_out(files: list[str], model_path: str) -> dict:
+    """Each kept run of ``model_path`` held out in turn, both rules calibrated on the others: the held-out
+    run's coverage. Prints, per rule, the pooled coverage (Wilson 95%), the per-run range and the range
+    of the calibrated deltas; returns them."""
+    from analysis.validate import wilson_interval
+    from kruskal_markov.structural import conformal_quantile
+
+    model = _model({}, model_path)
+    scores = {rule: [_steps(json.load(open(f)), 0.0, model, rule)[1] for f in files] for rule in ("relative", "flow")}
+    out = {}
+    for rule, per in scores.items():
+        inside, cov, deltas = [], [], []
+        for i in range(len(files)):
+            d = conformal_quantile(np.concatenate([x for j, x in enumerate(per) if j != i]), 0.9)
+            ins = per[i] <= d
+            inside.append(ins)
+            cov.append(float(ins.mean()))
+            deltas.append(d)
+        x = np.concatenate(inside)
+        lo, hi = wilson_interval(int(x.sum()), len(x))
+        out[rule] = {"coverage": float(x.mean()), "ci95": (lo, hi), "per_run": cov, "deltas": deltas}
+        print(f"{rule}: leave-one-run-out coverage {100 * x.mean():.1f}% ({100 * lo:.0f}-{100 * hi:.0f}) of {len(x)} "
+              f"steps; per run {100 * min(cov):.0f}-{100 * max(cov):.0f}%; calibrated delta {min(deltas):.4g}-{max(deltas):.4g}")
+    return out
+
+
 def summary() -> None:
     from analysis.validate import wilson_interval
     from kruskal_markov.structural import STRUCTURAL_DELTA
@@ -203,6 +231,8 @@ def main(argv: list[str] | None = None) -> None:
         cal = [x.split("=", 1)[1].split(",") for x in rest if x.startswith("--calibration=")]
         evaluate([x for x in rest if not x.startswith("--calibration=")], argv[1].split("=", 1)[1],
                  cal[0] if cal else None)
+    elif argv and argv[0] == "loro":
+        leave_one_run_out(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "calibrate":
         model = None
         files = argv[1:]
