@@ -59,9 +59,13 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
               f" mean error {res['mean_abs_error_bits']:.3f}, {res['simulation_seconds']:.0f} s")
 
 
-def _steps(res: dict, delta: float, model=None, rule: str = "flow"):
-    """Per step 1..N: inside the band at ``delta``, and the score, under ``rule``: ``"flow"`` (radius
-    ``delta (1 - p_max) V_t``, today's) or ``"relative"`` (radius ``delta (1 - p_max)``, before).
+_SCORES: dict = {}
+
+
+def _scores(res: dict, model):
+    """Per step 1..N of a kept run: the relative rule's score (the smallest ``delta`` whose ball of radius
+    ``delta (1 - p_max)`` makes the band hold the reference) and the flow ``V_t``; computed once per run
+    and model.
 
     The band is recomputed from ``model`` as ``kruskal validate`` computes it (40 posterior draws
     seeded ``[seed, 4, r]``, the run's per-step reference noise, or its mean noise in JSONs that lack
@@ -69,23 +73,38 @@ def _steps(res: dict, delta: float, model=None, rule: str = "flow"):
     """
     from analysis.validate import model_band
     from kruskal_markov.posterior import has_counts, resample_model
-    from kruskal_markov.structural import band_with_structure, flow_scores, structural_score
+    from kruskal_markov.structural import structural_score
 
+    key = (id(model), res["seed"], res["trials"], json.dumps([s["sequence"] for s in res["per_sequence"]]))
+    if key in _SCORES:
+        return _SCORES[key]
     draws = ([resample_model(model, np.random.default_rng([res["seed"], 4, r])) for r in range(40)]
              if has_counts(model) else [])
     rng = np.random.default_rng([res["seed"], 3])
-    inside, scores = [], []
+    rel, flows = [], []
     for s in res["per_sequence"]:
         ref = np.asarray(s["reference"])
         sd = np.asarray(s["reference_sd"]) if "reference_sd" in s else np.full(len(ref), s["reference_noise_bits"])
         seq = [model.actions.index(a) for a in s["sequence"]]
         band = model_band(model, seq, draws, np.full(len(ref), res["trials"]), sd, 0.0, rng)
-        cells, centre, width, flow = band["cells"], band["centre"], band["width"], band["flow"]
-        lo, hi = band_with_structure(cells, centre, width, delta * (flow if rule == "flow" else 1.0))
-        inside.append(((ref >= lo - 1e-12) & (ref <= hi + 1e-12))[1:])
-        rel = structural_score(cells, centre, width, ref)
-        scores.append((flow_scores(rel, flow) if rule == "flow" else rel)[1:])
-    return np.concatenate(inside), np.concatenate(scores)
+        rel.append(structural_score(band["cells"], band["centre"], band["width"], ref)[1:])
+        flows.append(band["flow"][1:])
+    _SCORES[key] = (np.concatenate(rel), np.concatenate(flows))
+    return _SCORES[key]
+
+
+def _steps(res: dict, delta: float, model=None, rule: str = "flow"):
+    """Per step 1..N: inside the band at ``delta``, and the score, under ``rule``: ``"flow"`` (radius
+    ``delta (1 - p_max) V_t``, today's) or ``"relative"`` (radius ``delta (1 - p_max)``, before).
+
+    The band widens monotonically with ``delta``, so a step is inside exactly when its score (the
+    smallest covering ``delta``, found by bisection to a relative 1e-20) is at most ``delta``.
+    """
+    from kruskal_markov.structural import flow_scores
+
+    rel, flow = _scores(res, model)
+    score = flow_scores(rel, flow) if rule == "flow" else rel
+    return score <= delta, score
 
 
 def _model(res: dict, fallback: str | None = None):
