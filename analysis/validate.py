@@ -45,7 +45,6 @@ from kruskal_markov.posterior import has_counts, resample_model
 from kruskal_markov.structural import (
     band_with_structure,
     conformal_quantile,
-    flow_scores,
     structural_flow,
     structural_score,
     structural_term,
@@ -159,8 +158,7 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
     reference_sd : array_like
         The reference's sampling noise at each step (bootstrap standard deviation).
     structural_delta : float
-        The structural ``delta`` of the flow rule (:mod:`kruskal_markov.structural`: the ball's radius
-        at step ``t`` is ``delta (1 - p_max) V_t``).
+        Relative structural error (:mod:`kruskal_markov.structural`).
     rng : numpy.random.Generator
         For the Monte Carlo of the plug-in estimator.
 
@@ -168,7 +166,8 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
     -------
     dict
         ``cells`` (steps x cells), ``exact`` (the model's curve), ``matched`` (its expected plug-in
-        curve at the reference's sample sizes), ``flow`` (``V_t``, :func:`kruskal_markov.structural.structural_flow`)
+        curve at the reference's sample sizes), ``flow`` (the row variance the sequence has flowed
+        through, :func:`kruskal_markov.structural.structural_flow`: a diagnostic, not used by the band)
         and, with draws, ``centre`` and ``width`` (the
         Dirichlet band: posterior 5-95% quantiles moved by the plug-in bias, widened by ``1.645
         reference_sd`` in quadrature) and ``lo``, ``hi`` (that band with the structural term).
@@ -178,14 +177,14 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
                       for p in traj.distributions])
     matched = np.array([_expected_plugin(cells[k], int(surviving[k]), rng) for k in range(len(cells))])
     exact = traj.entropy_bits
-    flow = structural_flow(model, sequence, traj.distributions)
-    out = {"cells": cells, "matched": matched, "exact": exact, "flow": flow}
+    out = {"cells": cells, "matched": matched, "exact": exact,
+           "flow": structural_flow(model, sequence, traj.distributions)}
     if draws is not None:
         curves = np.stack([entropy_trajectory(d, sequence).entropy_bits for d in draws] or [exact])
         post_sd = curves.std(axis=0, ddof=1) if len(curves) > 1 else np.zeros(len(exact))
         centre = curves.mean(axis=0) + (matched - exact)
         width = _Z90 * np.sqrt(post_sd ** 2 + np.asarray(reference_sd, dtype=np.float64) ** 2)
-        lo, hi = band_with_structure(cells, centre, width, structural_delta * flow)
+        lo, hi = band_with_structure(cells, centre, width, structural_delta)
         out.update(centre=centre, width=width, lo=lo, hi=hi)
     return out
 
@@ -287,7 +286,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         if bands:
             inside_dir = _inside(href, band["centre"] - band["width"], band["centre"] + band["width"])
             inside = _inside(href, band["lo"], band["hi"])
-            need = flow_scores(structural_score(cells, band["centre"], band["width"], href), band["flow"])
+            need = structural_score(cells, band["centre"], band["width"], href)
             entry["band_centre"] = band["centre"].tolist()
             entry["band_width"] = band["width"].tolist()
             entry["band_lo"] = band["lo"].tolist()

@@ -6,10 +6,10 @@ seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps 
 ``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
 
 ``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ... [--calibration=FILE,FILE,...]`` prints the
-coverage of kept runs before (the relative rule) and after (the flow rule), both calibrated on the
-``--calibration`` runs if given (else delta 0.105 before and the model's own term after).
+coverage of kept runs under the relative rule at 0.105 and at the model's own term, and, with
+``--calibration``, under the relative and the flow rule calibrated on those runs.
 ``python -m benchmarks.bench_coverage loro --model=PATH FILE ...`` holds each kept run out in turn and
-calibrates both rules on the others (the tuning evidence for the flow rule, docs/uncertainty.md).
+calibrates both rules on the others (the tuning evidence on the flow rule, docs/uncertainty.md).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
 the coverage of the Dirichlet band alone (before) and with the default structural term (after),
@@ -93,9 +93,10 @@ def _scores(res: dict, model):
     return _SCORES[key]
 
 
-def _steps(res: dict, delta: float, model=None, rule: str = "flow"):
-    """Per step 1..N: inside the band at ``delta``, and the score, under ``rule``: ``"flow"`` (radius
-    ``delta (1 - p_max) V_t``, today's) or ``"relative"`` (radius ``delta (1 - p_max)``, before).
+def _steps(res: dict, delta: float, model=None, rule: str = "relative"):
+    """Per step 1..N: inside the band at ``delta``, and the score, under ``rule``: ``"relative"`` (radius
+    ``delta (1 - p_max)``, the bands' rule) or ``"flow"`` (radius ``delta (1 - p_max) V_t``, measured and
+    not adopted: docs/uncertainty.md).
 
     The band widens monotonically with ``delta``, so a step is inside exactly when its score (the
     smallest covering ``delta``, found by bisection to a relative 1e-20) is at most ``delta``.
@@ -112,7 +113,7 @@ def _model(res: dict, fallback: str | None = None):
     return TransitionModel.load(fallback or res.get("model_path"))
 
 
-def calibrated_delta(files: list[str], model, rule: str = "flow") -> tuple[float, np.ndarray, list]:
+def calibrated_delta(files: list[str], model, rule: str = "relative") -> tuple[float, np.ndarray, list]:
     """The split-conformal 90% ``delta`` of ``rule`` on kept validation runs, their scores and seeds."""
     from kruskal_markov.structural import conformal_quantile
     scores, seeds = [], []
@@ -125,7 +126,7 @@ def calibrated_delta(files: list[str], model, rule: str = "flow") -> tuple[float
 
 
 def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
-    """The split-conformal delta (flow rule) of kept validation runs; ``store``: written into the model file
+    """The split-conformal delta (relative rule) of kept validation runs; ``store``: written into the model file
     (what ``kruskal validate --calibrate`` stores, for runs already kept)."""
     from kruskal_markov.structural import with_calibration
     q, s, seeds = calibrated_delta(files, _model({}, model_path) if model_path else None)
@@ -142,22 +143,21 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
 
 def evaluate(files: list[str], model_path: str, calibration: list[str] | None = None) -> None:
     """Coverage of kept runs on ``model_path``, each with its Wilson interval, per run and pooled: the
-    Dirichlet band alone, before (the relative rule, radius ``delta (1 - p_max)``) and after (the flow
-    rule). With ``calibration`` (kept runs of the same model, not ``files``), both rules are calibrated
-    on those runs; without, before is delta 0.105 and after the model's own term."""
+    Dirichlet band alone, the relative rule at delta 0.105 (before issue 45) and at the model's own term.
+    With ``calibration`` (kept runs of the same model, not ``files``), the relative rule and the flow rule
+    (radius ``delta (1 - p_max) V_t``, measured, not adopted) calibrated on those runs."""
     from analysis.validate import wilson_interval
     from kruskal_markov.structural import structural_term
 
     model = _model({}, model_path)
+    term = structural_term(model)
+    cols = [("Dirichlet alone", 0.0, "relative"), ("relative 0.105", 0.105, "relative"),
+            (f"relative, {term.source} {term.delta:.4g}", term.delta, "relative")]
     if calibration:
         d_rel = calibrated_delta(calibration, model, "relative")[0]
         d_flow = calibrated_delta(calibration, model, "flow")[0]
-        cols = (("Dirichlet alone", 0.0, "flow"), (f"before: relative, calibrated {d_rel:.4g}", d_rel, "relative"),
-                (f"after: flow, calibrated {d_flow:.4g}", d_flow, "flow"))
-    else:
-        term = structural_term(model)
-        cols = (("Dirichlet alone", 0.0, "flow"), ("before: relative 0.105", 0.105, "relative"),
-                (f"after: flow, {term.source} {term.delta:.4g}", term.delta, "flow"))
+        cols += [(f"relative, calibrated {d_rel:.4g}", d_rel, "relative"),
+                 (f"flow, calibrated {d_flow:.4g}", d_flow, "flow")]
     pooled = {k: [] for k, _, _ in cols}
 
     def cell(x):

@@ -17,9 +17,8 @@ tilt), the mean entropy at tilts 10, 20 and 50, and the expected random tilts un
 * ``model_ci90`` — the two model terms added end to end: ``posterior_ci90`` widened by the
   structural range.
 
-The structural ball scales with the probability outside the most likely cell (and with the row
-variance the sequence has flowed through, :func:`kruskal_markov.structural.structural_flow`), so a
-converged distribution stays converged: the structural range of the converging share and of the expected
+The structural ball scales with the probability outside the most likely cell, so a converged
+distribution stays converged: the structural range of the converging share and of the expected
 tilts measures only how the ball moves the entropy across ``epsilon`` on the way.
 """
 from __future__ import annotations
@@ -29,13 +28,7 @@ import math
 import numpy as np
 
 from kruskal_markov.estimate import Estimate
-from kruskal_markov.structural import (
-    _entropy_rows,
-    entropy_range_tv,
-    structural_flow,
-    structural_share,
-    structural_term,
-)
+from kruskal_markov.structural import _entropy_rows, entropy_range_tv, structural_share, structural_term
 
 __all__ = ["answer_intervals", "plan_success_interval", "wilson_interval"]
 
@@ -90,16 +83,12 @@ def _cell_curves(model, sequences, delta: float):
     part = np.asarray(model.partition) if model.partition is not None else np.arange(model.n_states)
     onto = sp.csr_matrix((np.ones(model.n_states), (np.arange(model.n_states), part)),
                          shape=(model.n_states, ncells))
-    cs, flows = [], []
-    for seq in sequences:
-        dist = np.asarray(entropy_trajectory(model, seq, return_distributions=True).distributions)
-        cs.append(np.asarray(onto.T @ dist.T).T)
-        flows.append(structural_flow(model, seq, dist))
-    c = np.stack(cs)
+    c = np.stack([np.asarray(onto.T @ np.asarray(entropy_trajectory(model, seq, return_distributions=True)
+                                                 .distributions).T).T for seq in sequences])
     flat = c.reshape(-1, c.shape[-1])
     flat = flat / flat.sum(1, keepdims=True)
     h = _entropy_rows(flat)
-    hmin, hmax = entropy_range_tv(flat, np.minimum(delta * np.concatenate(flows) * structural_share(flat), 1.0))
+    hmin, hmax = entropy_range_tv(flat, delta * structural_share(flat))
     shape = c.shape[:2]
     return h.reshape(shape), np.minimum(hmin, h).reshape(shape), np.maximum(hmax, h).reshape(shape)
 
@@ -269,8 +258,7 @@ def plan_success_interval(model, word, success: float, draws: int = 20, seed=0,
     -------
     dict
         ``value``, ``posterior_ci90`` (or None), ``structural_range`` (the final distribution's
-        probability outside its most likely cell, times ``structural_delta`` and the word's flow
-        ``V_N``, either way: :mod:`kruskal_markov.structural`) and
+        probability outside its most likely cell, times ``structural_delta``, either way) and
         ``model_ci90``; probabilities clipped to [0, 1].
     """
     from kruskal_markov.entropy import entropy_trajectory
@@ -283,11 +271,7 @@ def plan_success_interval(model, word, success: float, draws: int = 20, seed=0,
         p = entropy_trajectory(m, list(word), return_distributions=True).distributions[-1]
         return np.bincount(part, weights=p, minlength=ncells)
 
-    from kruskal_markov.structural import structural_flow
-
-    traj = entropy_trajectory(model, list(word), return_distributions=True)
-    c = np.bincount(part, weights=traj.distributions[-1], minlength=ncells)
-    flow = float(structural_flow(model, list(word), traj.distributions)[-1])
+    c = final(model)
     cell = int(np.argmax(c)) if final_cell is None else int(final_cell)
     post = None
     if draws and has_counts(model):
@@ -297,6 +281,6 @@ def plan_success_interval(model, word, success: float, draws: int = 20, seed=0,
         post = [max(0.0, success + float(q[0])), min(1.0, success + float(q[1]))]
     term = structural_term(model, structural_delta)
     share = float(structural_share(c / c.sum())[0])
-    s = min(1.0, term.delta * share * flow)
+    s = term.delta * share
     return Estimate.combine(float(success), posterior=post, structural=(max(0.0, success - s), min(1.0, success + s)),
                             note=term.note if term.source == "none" else None, clip=(0.0, 1.0)).to_dict()

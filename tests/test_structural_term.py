@@ -209,12 +209,14 @@ def test_flow_scores_divide_by_the_flow_and_a_band_at_the_score_holds_the_refere
         assert not lo[0] <= ref[i] <= hi[0]
 
 
-def test_a_calibration_of_an_earlier_rule_is_not_used():
-    """A stored delta without the flow rule's name is on another scale: the model falls back to the
-    default and says why; `validate --calibrate` does not pool its scores."""
-    m = _counted(metadata={**BUILT, "structural": {"delta": 0.0119, "steps": 270, "seeds": [2031]}})
+def test_a_calibration_of_another_rule_is_not_used():
+    """A stored delta of another rule (the flow rule, measured and not adopted) is on another scale: the
+    model falls back to the default and says why. A record without a rule predates the name and is used."""
+    m = _counted(metadata={**BUILT, "structural": {"delta": 2.27, "steps": 390, "seeds": [2031], "rule": "flow"}})
     t = structural_term(m)
-    assert (t.delta, t.source) == (STRUCTURAL_DELTA, "default") and "earlier rule" in t.note
-    cal = with_calibration(m, 1.5, steps=60, seeds=[5])
-    assert cal.metadata["structural"]["rule"] == "flow"
-    assert (structural_term(cal).delta, structural_term(cal).source) == (1.5, "calibrated")
+    assert (t.delta, t.source) == (STRUCTURAL_DELTA, "default") and "another rule ('flow'" in t.note
+    old = _counted(metadata={**BUILT, "structural": {"delta": 0.0119, "steps": 270, "seeds": [2031]}})
+    assert (structural_term(old).delta, structural_term(old).source) == (0.0119, "calibrated")
+    cal = with_calibration(m, 0.05, steps=60, seeds=[5])
+    assert cal.metadata["structural"]["rule"] == "relative"
+    assert (structural_term(cal).delta, structural_term(cal).source) == (0.05, "calibrated")

@@ -273,9 +273,9 @@ def add_interval_options(parser) -> None:
     parser.add_argument("--draws", type=int, default=20,
                         help="posterior draws of the model's rows for the answers' model intervals (default 20; 0: none)")
     parser.add_argument("--structural-delta", type=float, default=None, metavar="D",
-                        help="structural delta of the model intervals, the flow rule's (default: the model's "
-                             "own -- its `validate --calibrate` value, else the key's 2.27 for a built model, "
-                             "none for an automaton; 0: posterior only)")
+                        help="relative structural error of the model intervals (default: the model's own -- "
+                             "its `validate --calibrate` value, else 0.105 for a built model, none for an "
+                             "automaton; 0: posterior only)")
 
 
 def interval_settings(args) -> dict:

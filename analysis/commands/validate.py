@@ -25,9 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_contact(parser)
     parser.add_argument("--bands", type=int, default=40, help="posterior draws for the model's band (default 40)")
     parser.add_argument("--structural-delta", type=float, default=None, metavar="D",
-                        help="structural error of the band: the share of the probability outside the most "
-                             "likely cell the model may have misplaced, per unit of row variance the sequence "
-                             "has flowed through (default: the model's calibration, else "
+                        help="relative structural error of the band: the share of the probability outside "
+                             "the most likely cell the model may have misplaced (default: the calibrated "
                              "kruskal_markov.structural.STRUCTURAL_DELTA; 0: the Dirichlet band alone)")
     parser.add_argument("--calibrate", action="store_true",
                         help="store this run's structural calibration in the model file: the split-conformal 90%% "
@@ -79,8 +78,8 @@ def calibrate_model(model, result: dict, path: str) -> dict:
     from kruskal_markov.structural import STRUCTURAL_RULE
 
     old = model.metadata.get("structural") if isinstance(model.metadata.get("structural"), dict) else {}
-    if old.get("rule") != STRUCTURAL_RULE:
-        old = {}  # a calibration of an earlier rule: its scores are on another scale
+    if old.get("rule", STRUCTURAL_RULE) != STRUCTURAL_RULE:
+        old = {}  # a calibration of another rule: its scores are on another scale
     new = [math.inf if x is None else float(x) for s in result["per_sequence"] for x in s["structural_needed"][1:]]
     scores = [math.inf if x is None else float(x) for x in old.get("scores", [])] + new
     seeds = [*old.get("seeds", []), result["seed"]]
