@@ -41,7 +41,13 @@ from kruskal_markov.answers import wilson_interval
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
 from kruskal_markov.posterior import has_counts, resample_model
-from kruskal_markov.structural import band_with_structure, conformal_quantile, structural_score, structural_term
+from kruskal_markov.structural import (
+    band_with_structure,
+    conformal_quantile,
+    structural_flow,
+    structural_score,
+    structural_term,
+)
 from kruskal_markov.validation import check_int
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import Scene
@@ -160,7 +166,9 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
     -------
     dict
         ``cells`` (steps x cells), ``exact`` (the model's curve), ``matched`` (its expected plug-in
-        curve at the reference's sample sizes) and, with draws, ``centre`` and ``width`` (the
+        curve at the reference's sample sizes), ``flow`` (the row variance the sequence has flowed
+        through, :func:`kruskal_markov.structural.structural_flow`: a diagnostic, not used by the band)
+        and, with draws, ``centre`` and ``width`` (the
         Dirichlet band: posterior 5-95% quantiles moved by the plug-in bias, widened by ``1.645
         reference_sd`` in quadrature) and ``lo``, ``hi`` (that band with the structural term).
     """
@@ -169,7 +177,8 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
                       for p in traj.distributions])
     matched = np.array([_expected_plugin(cells[k], int(surviving[k]), rng) for k in range(len(cells))])
     exact = traj.entropy_bits
-    out = {"cells": cells, "matched": matched, "exact": exact}
+    out = {"cells": cells, "matched": matched, "exact": exact,
+           "flow": structural_flow(model, sequence, traj.distributions)}
     if draws is not None:
         curves = np.stack([entropy_trajectory(d, sequence).entropy_bits for d in draws] or [exact])
         post_sd = curves.std(axis=0, ddof=1) if len(curves) > 1 else np.zeros(len(exact))

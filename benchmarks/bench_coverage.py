@@ -5,8 +5,11 @@ random sequences of each seed (``kruskal validate``'s code: M = 2,000 trials, 30
 seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps each run's JSON in
 ``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
 
-``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ...`` prints the coverage of kept runs before
-(delta 0.105) and after (the model's own term).
+``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ... [--calibration=FILE,FILE,...]`` prints the
+coverage of kept runs under the relative rule at 0.105 and at the model's own term, and, with
+``--calibration``, under the relative and the flow rule calibrated on those runs.
+``python -m benchmarks.bench_coverage loro --model=PATH FILE ...`` holds each kept run out in turn and
+calibrates both rules on the others (the tuning evidence on the flow rule, docs/uncertainty.md).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
 (:mod:`kruskal_markov.structural`) from validation JSONs; ``summary`` prints, for every kept run,
 the coverage of the Dirichlet band alone (before) and with the default structural term (after),
@@ -56,8 +59,13 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
               f" mean error {res['mean_abs_error_bits']:.3f}, {res['simulation_seconds']:.0f} s")
 
 
-def _steps(res: dict, delta: float, model=None):
-    """Per step 1..N: inside the band at ``delta``, and the score.
+_SCORES: dict = {}
+
+
+def _scores(res: dict, model):
+    """Per step 1..N of a kept run: the relative rule's score (the smallest ``delta`` whose ball of radius
+    ``delta (1 - p_max)`` makes the band hold the reference) and the flow ``V_t``; computed once per run
+    and model.
 
     The band is recomputed from ``model`` as ``kruskal validate`` computes it (40 posterior draws
     seeded ``[seed, 4, r]``, the run's per-step reference noise, or its mean noise in JSONs that lack
@@ -65,22 +73,39 @@ def _steps(res: dict, delta: float, model=None):
     """
     from analysis.validate import model_band
     from kruskal_markov.posterior import has_counts, resample_model
-    from kruskal_markov.structural import band_with_structure, structural_score
+    from kruskal_markov.structural import structural_score
 
+    key = (id(model), res["seed"], res["trials"], json.dumps([s["sequence"] for s in res["per_sequence"]]))
+    if key in _SCORES:
+        return _SCORES[key]
     draws = ([resample_model(model, np.random.default_rng([res["seed"], 4, r])) for r in range(40)]
              if has_counts(model) else [])
     rng = np.random.default_rng([res["seed"], 3])
-    inside, scores = [], []
+    rel, flows = [], []
     for s in res["per_sequence"]:
         ref = np.asarray(s["reference"])
         sd = np.asarray(s["reference_sd"]) if "reference_sd" in s else np.full(len(ref), s["reference_noise_bits"])
         seq = [model.actions.index(a) for a in s["sequence"]]
         band = model_band(model, seq, draws, np.full(len(ref), res["trials"]), sd, 0.0, rng)
-        cells, centre, width = band["cells"], band["centre"], band["width"]
-        lo, hi = band_with_structure(cells, centre, width, delta)
-        inside.append(((ref >= lo - 1e-12) & (ref <= hi + 1e-12))[1:])
-        scores.append(structural_score(cells, centre, width, ref)[1:])
-    return np.concatenate(inside), np.concatenate(scores)
+        rel.append(structural_score(band["cells"], band["centre"], band["width"], ref)[1:])
+        flows.append(band["flow"][1:])
+    _SCORES[key] = (np.concatenate(rel), np.concatenate(flows))
+    return _SCORES[key]
+
+
+def _steps(res: dict, delta: float, model=None, rule: str = "relative"):
+    """Per step 1..N: inside the band at ``delta``, and the score, under ``rule``: ``"relative"`` (radius
+    ``delta (1 - p_max)``, the bands' rule) or ``"flow"`` (radius ``delta (1 - p_max) V_t``, measured and
+    not adopted: docs/uncertainty.md).
+
+    The band widens monotonically with ``delta``, so a step is inside exactly when its score (the
+    smallest covering ``delta``, found by bisection to a relative 1e-20) is at most ``delta``.
+    """
+    from kruskal_markov.structural import flow_scores
+
+    rel, flow = _scores(res, model)
+    score = flow_scores(rel, flow) if rule == "flow" else rel
+    return score <= delta, score
 
 
 def _model(res: dict, fallback: str | None = None):
@@ -88,17 +113,23 @@ def _model(res: dict, fallback: str | None = None):
     return TransitionModel.load(fallback or res.get("model_path"))
 
 
-def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
-    """The split-conformal delta of kept validation runs; ``store``: written into the model file
-    (what ``kruskal validate --calibrate`` stores, for runs already kept)."""
-    from kruskal_markov.structural import conformal_quantile, with_calibration
+def calibrated_delta(files: list[str], model, rule: str = "relative") -> tuple[float, np.ndarray, list]:
+    """The split-conformal 90% ``delta`` of ``rule`` on kept validation runs, their scores and seeds."""
+    from kruskal_markov.structural import conformal_quantile
     scores, seeds = [], []
     for f in files:
         res = json.load(open(f))
-        scores.append(_steps(res, 0.0, _model(res, model_path))[1])
+        scores.append(_steps(res, 0.0, model if model is not None else _model(res), rule)[1])
         seeds.append(res["seed"])
     s = np.concatenate(scores)
-    q = conformal_quantile(s, 0.9)
+    return conformal_quantile(s, 0.9), s, seeds
+
+
+def calibrate(files: list[str], model_path: str | None = None, store: bool = False) -> float:
+    """The split-conformal delta (relative rule) of kept validation runs; ``store``: written into the model file
+    (what ``kruskal validate --calibrate`` stores, for runs already kept)."""
+    from kruskal_markov.structural import with_calibration
+    q, s, seeds = calibrated_delta(files, _model({}, model_path) if model_path else None)
     print(f"{len(s)} calibration steps from {len(files)} runs: conformal 90% delta = {q:.4f} "
           f"(share of steps needing none: {np.mean(s == 0):.3f})")
     if store:
@@ -110,32 +141,66 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     return q
 
 
-def evaluate(files: list[str], model_path: str) -> None:
-    """Coverage of kept runs on ``model_path``: the Dirichlet band alone, the band at delta 0.105 (before
-    issue 45) and at the model's own term (after), each with its Wilson interval, per run and pooled."""
+def evaluate(files: list[str], model_path: str, calibration: list[str] | None = None) -> None:
+    """Coverage of kept runs on ``model_path``, each with its Wilson interval, per run and pooled: the
+    Dirichlet band alone, the relative rule at delta 0.105 (before issue 45) and at the model's own term.
+    With ``calibration`` (kept runs of the same model, not ``files``), the relative rule and the flow rule
+    (radius ``delta (1 - p_max) V_t``, measured, not adopted) calibrated on those runs."""
     from analysis.validate import wilson_interval
     from kruskal_markov.structural import structural_term
 
     model = _model({}, model_path)
     term = structural_term(model)
-    deltas = (("Dirichlet alone", 0.0), ("before: 0.105", 0.105), (f"after: {term.source} {term.delta:.4g}", term.delta))
-    pooled = {k: [] for k, _ in deltas}
+    cols = [("Dirichlet alone", 0.0, "relative"), ("relative 0.105", 0.105, "relative"),
+            (f"relative, {term.source} {term.delta:.4g}", term.delta, "relative")]
+    if calibration:
+        d_rel = calibrated_delta(calibration, model, "relative")[0]
+        d_flow = calibrated_delta(calibration, model, "flow")[0]
+        cols += [(f"relative, calibrated {d_rel:.4g}", d_rel, "relative"),
+                 (f"flow, calibrated {d_flow:.4g}", d_flow, "flow")]
+    pooled = {k: [] for k, _, _ in cols}
 
     def cell(x):
         lo, hi = wilson_interval(int(x.sum()), len(x))
-        return f"{100 * x.mean():.0f}% ({100 * lo:.0f}-{100 * hi:.0f})"
-    print("| run | steps | " + " | ".join(k for k, _ in deltas) + " |")
-    print("|---" * (2 + len(deltas)) + "|")
+        return f"{100 * x.mean():.1f}% ({100 * lo:.0f}-{100 * hi:.0f})"
+    print("| run | steps | " + " | ".join(k for k, _, _ in cols) + " |")
+    print("|---" * (2 + len(cols)) + "|")
     for f in files:
         res = json.load(open(f))
         row = []
-        for k, d in deltas:
-            ins = _steps(res, d, model)[0]
+        for k, d, rule in cols:
+            ins = _steps(res, d, model, rule)[0]
             pooled[k].append(ins)
             row.append(cell(ins))
         print(f"| {pathlib.Path(f).stem} | {len(ins)} | " + " | ".join(row) + " |")
-    print(f"| pooled | {sum(len(x) for x in pooled[deltas[0][0]])} | "
-          + " | ".join(cell(np.concatenate(pooled[k])) for k, _ in deltas) + " |")
+    print(f"| pooled | {sum(len(x) for x in pooled[cols[0][0]])} | "
+          + " | ".join(cell(np.concatenate(pooled[k])) for k, _, _ in cols) + " |")
+
+
+def leave_one_run_out(files: list[str], model_path: str) -> dict:
+    """Each kept run of ``model_path`` held out in turn, both rules calibrated on the others: the held-out
+    run's coverage. Prints, per rule, the pooled coverage (Wilson 95%), the per-run range and the range
+    of the calibrated deltas; returns them."""
+    from analysis.validate import wilson_interval
+    from kruskal_markov.structural import conformal_quantile
+
+    model = _model({}, model_path)
+    scores = {rule: [_steps(json.load(open(f)), 0.0, model, rule)[1] for f in files] for rule in ("relative", "flow")}
+    out = {}
+    for rule, per in scores.items():
+        inside, cov, deltas = [], [], []
+        for i in range(len(files)):
+            d = conformal_quantile(np.concatenate([x for j, x in enumerate(per) if j != i]), 0.9)
+            ins = per[i] <= d
+            inside.append(ins)
+            cov.append(float(ins.mean()))
+            deltas.append(d)
+        x = np.concatenate(inside)
+        lo, hi = wilson_interval(int(x.sum()), len(x))
+        out[rule] = {"coverage": float(x.mean()), "ci95": (lo, hi), "per_run": cov, "deltas": deltas}
+        print(f"{rule}: leave-one-run-out coverage {100 * x.mean():.1f}% ({100 * lo:.0f}-{100 * hi:.0f}) of {len(x)} "
+              f"steps; per run {100 * min(cov):.0f}-{100 * max(cov):.0f}%; calibrated delta {min(deltas):.4g}-{max(deltas):.4g}")
+    return out
 
 
 def summary() -> None:
@@ -181,7 +246,12 @@ def main(argv: list[str] | None = None) -> None:
     if argv and argv[0] == "run":
         run(argv[1], argv[2], [int(x) for x in argv[3:]])
     elif argv and argv[0] == "evaluate":
-        evaluate(argv[2:], argv[1].split("=", 1)[1])
+        rest = argv[2:]
+        cal = [x.split("=", 1)[1].split(",") for x in rest if x.startswith("--calibration=")]
+        evaluate([x for x in rest if not x.startswith("--calibration=")], argv[1].split("=", 1)[1],
+                 cal[0] if cal else None)
+    elif argv and argv[0] == "loro":
+        leave_one_run_out(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "calibrate":
         model = None
         files = argv[1:]

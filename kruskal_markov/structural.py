@@ -12,6 +12,14 @@ misplaced a share ``delta_eff = delta * (1 - max(p))`` of the probability, so th
 within total-variation distance ``delta_eff`` of ``p``. The structural error scales with the mass
 not yet gathered in the most likely cell: a model that has converged (all mass in one cell) is
 taken at its word — its plans replay at 99.9-99.99% in direct simulation (docs/plans.md).
+
+:func:`structural_flow` measures ``V_t``, the Dirichlet row variance (:func:`row_variance`) a
+sequence's probability has flowed through by step ``t``. A radius ``delta (1 - max(p)) V_t`` (the
+*flow* rule) calibrated more stably than the one above on the kept validation runs, but failed its
+held-out test (68% coverage on the key's new seeds against 98% for the rule above,
+docs/uncertainty.md): it is kept as a diagnostic (``flow`` of :func:`analysis.validate.model_band`),
+not used by any band or interval.
+
 The entropy range of that total-variation ball is exact (Ho and Yeung, "The interplay between
 entropy and variational distance", IEEE Trans. Inf. Theory 56(12), 2010): the largest entropy
 clips ``p`` from above and below (the water-filling of :func:`entropy_range_tv`), the smallest
@@ -32,15 +40,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["STRUCTURAL_DELTA", "entropy_range_tv", "structural_share", "band_with_structure",
+__all__ = ["STRUCTURAL_DELTA", "STRUCTURAL_RULE", "entropy_range_tv", "structural_share", "band_with_structure",
            "structural_score", "conformal_quantile", "StructuralTerm", "structural_term", "with_calibration",
-           "is_sampled"]
+           "is_sampled", "row_variance", "structural_flow", "flow_scores"]
 
 #: The fallback relative structural error of a *built* model that carries no calibration of its own:
 #: the share of the not-yet-gathered probability that the model may have misplaced (split-conformal
 #: 90% quantile on the key's calibration seeds 2031 and 3). Models calibrated by
 #: ``kruskal validate --calibrate`` use their own value (:func:`structural_term`).
 STRUCTURAL_DELTA = 0.105
+
+#: The rule of the bands and intervals (radius ``delta (1 - p_max)``); a stored calibration names it,
+#: and one naming another rule (e.g. ``"flow"``, measured and not adopted) is ignored: its delta is on
+#: another scale. A record without a rule predates the name and is of this rule.
+STRUCTURAL_RULE = "relative"
 
 #: What the output says for a model that was not sampled.
 NO_TERM_NOTE = ("no structural term: the model was not sampled from physics (an automaton given exactly, "
@@ -104,6 +117,11 @@ def structural_term(model, delta: float | None = None) -> StructuralTerm:
     if not is_sampled(model):
         return StructuralTerm(0.0, "none", NO_TERM_NOTE)
     rec = model.metadata.get("structural")
+    if isinstance(rec, dict) and rec.get("rule", STRUCTURAL_RULE) != STRUCTURAL_RULE:
+        return StructuralTerm(STRUCTURAL_DELTA, "default",
+                              f"structural delta {STRUCTURAL_DELTA:g}: the allen key's calibration; the model's "
+                              f"stored calibration is of another rule ({rec.get('rule')!r}; `kruskal validate "
+                              "--calibrate` renews it)")
     if isinstance(rec, dict) and isinstance(rec.get("delta"), (int, float)) and math.isfinite(rec["delta"]) \
             and rec["delta"] >= 0:
         return StructuralTerm(float(rec["delta"]), "calibrated",
@@ -139,9 +157,98 @@ def with_calibration(model, delta: float, **record):
     if not (math.isfinite(d) and d >= 0):
         raise ValueError(f"calibrated delta must be a finite non-negative number, got {delta!r}")
     md = dict(model.metadata)
-    md["structural"] = {"delta": d, **record}
+    md["structural"] = {"delta": d, **record, "rule": STRUCTURAL_RULE}
     return TransitionModel(model.actions, model.matrices, initial=model.initial, partition=model.partition,
                            n_cells=model.n_cells, metadata=md, tol=model.tol, extras=model.extras)
+
+def row_variance(model) -> list[np.ndarray]:
+    """Per action, each row's Dirichlet variance summed over report cells, ``(1 - sum_j c_j^2) / (n + 1)``.
+
+    ``c`` is the row's distribution over report cells (``model.partition``; states without one) and
+    ``n`` the row's sample count (:func:`kruskal_markov.posterior.row_counts`). It is the summed
+    variance of the cells' probabilities under a Dirichlet posterior of concentration ``n + 1``
+    centred on the row: zero for a row sampled once or whose samples agree on one cell.
+
+    Parameters
+    ----------
+    model : TransitionModel
+        A model with sample counts (zeros for every row of one without).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        One array of length ``n_states`` per action.
+    """
+    import scipy.sparse as sp
+
+    from kruskal_markov.posterior import has_counts, row_counts
+
+    cached = getattr(model, "_structural_row_variance", None)
+    if cached is not None:
+        return cached
+    if not has_counts(model):
+        out = [np.zeros(model.n_states) for _ in range(model.n_actions)]
+    else:
+        part = np.asarray(model.partition) if model.partition is not None else np.arange(model.n_states)
+        ncells = int(model.n_cells) if model.partition is not None else model.n_states
+        out = []
+        for a in range(model.n_actions):
+            m = sp.csr_matrix(model.matrices[a])
+            rows = np.repeat(np.arange(m.shape[0]), np.diff(m.indptr))
+            n = np.bincount(rows, weights=row_counts(model, a).astype(np.float64), minlength=m.shape[0])
+            c = sp.csr_matrix((np.array(m.data, dtype=np.float64), part[m.indices], m.indptr.copy()),
+                              shape=(m.shape[0], ncells))
+            c.sum_duplicates()
+            tot = np.asarray(c.sum(1)).ravel()
+            sq = np.asarray(c.multiply(c).sum(1)).ravel()
+            with np.errstate(divide="ignore", invalid="ignore"):
+                v = np.where(tot > 0, (1.0 - sq / np.where(tot > 0, tot, 1.0) ** 2) / (n + 1.0), 0.0)
+            out.append(np.clip(v, 0.0, None))
+    try:
+        object.__setattr__(model, "_structural_row_variance", out)
+    except (AttributeError, TypeError):  # pragma: no cover - a model type without attributes
+        pass
+    return out
+
+
+def structural_flow(model, sequence, distributions) -> np.ndarray:
+    """``V_t``: the row variance the sequence's probability has flowed through by step ``t`` (0 at step 0).
+
+    Parameters
+    ----------
+    model : TransitionModel
+    sequence : sequence of int
+        Action indices, ``N`` of them.
+    distributions : array_like, shape (N + 1, n_states)
+        The state distribution at steps 0..N (``entropy_trajectory(..., return_distributions=True)``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (N + 1,)
+        ``V_t = sum_{k <= t} E_{p_{k-1}} v(s, a_k)`` (:func:`row_variance`).
+    """
+    v = row_variance(model)
+    p = np.asarray(distributions, dtype=np.float64)
+    seq = [int(a) for a in sequence]
+    if len(p) != len(seq) + 1:
+        raise ValueError(f"need {len(seq) + 1} distributions for {len(seq)} actions, got {len(p)}")
+    step = np.zeros(len(p))
+    for k, a in enumerate(seq, start=1):
+        tot = p[k - 1].sum()
+        step[k] = float(p[k - 1] @ v[a]) / tot if tot > 0 else 0.0
+    return np.cumsum(step)
+
+
+def flow_scores(relative_scores, flow) -> np.ndarray:
+    """The flow rule's per-step score from the relative one (:func:`structural_score`): ``score / V_t``.
+
+    0 where no term is needed; inf where one is needed but no variance has flowed (``V_t = 0``).
+    """
+    s = np.asarray(relative_scores, dtype=np.float64)
+    f = np.asarray(flow, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(s <= 0, 0.0, np.where(f > 0, s / np.where(f > 0, f, 1.0), np.inf))
+
 
 def _entropy_rows(q: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -231,7 +338,8 @@ def band_with_structure(cells, centre, width, delta):
         The band without structure (:mod:`analysis.validate`: the posterior's 90% band moved by
         the plug-in bias and widened by the reference's noise), ``centre +- width``.
     delta : float or array_like of shape (steps,)
-        Relative structural error (0: the band unchanged).
+        Relative structural error, per step or one for all: the ball's radius is
+        ``delta (1 - p_max)`` (0: the band unchanged).
 
     Returns
     -------

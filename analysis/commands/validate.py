@@ -75,7 +75,11 @@ def calibrate_model(model, result: dict, path: str) -> dict:
 
     if result.get("contact") != result.get("model_contact"):
         raise InputError("--calibrate compares the model with its own physics: drop --contact")
+    from kruskal_markov.structural import STRUCTURAL_RULE
+
     old = model.metadata.get("structural") if isinstance(model.metadata.get("structural"), dict) else {}
+    if old.get("rule", STRUCTURAL_RULE) != STRUCTURAL_RULE:
+        old = {}  # a calibration of another rule: its scores are on another scale
     new = [math.inf if x is None else float(x) for s in result["per_sequence"] for x in s["structural_needed"][1:]]
     scores = [math.inf if x is None else float(x) for x in old.get("scores", [])] + new
     seeds = [*old.get("seeds", []), result["seed"]]

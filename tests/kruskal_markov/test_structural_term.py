@@ -152,3 +152,71 @@ def test_the_numba_range_equals_an_independent_bisection_on_random_rows():
         for i in range(40):
             want = _range_by_bisection(p[i], min(d[i], 1.0))
             assert (lo[i], hi[i]) == pytest.approx(want, abs=1e-9), (n, i, d[i])
+
+
+def test_row_variance_is_the_dirichlet_variance_of_each_rows_report_cells():
+    """(1 - sum_j c_j^2) / (n + 1), checked by hand on a 3-state model: a row sampled once and a row
+    whose samples agree on one cell add nothing; a row split 3:1 between two cells adds 0.375 / 5."""
+    from kruskal_markov.structural import row_variance
+
+    counts = sp.csr_matrix(np.array([[1, 0, 0],      # sampled once
+                                     [0, 2, 2],      # 4 samples, targets 1 and 2 share cell 1
+                                     [3, 0, 1]]))    # 3:1 between cells 0 and 1
+    m = TransitionModel(["a"], [sp.csr_matrix((counts.data / np.repeat(np.asarray(counts.sum(1)).ravel(),
+                                                                        np.diff(counts.indptr)),
+                                               counts.indices, counts.indptr), shape=(3, 3))],
+                        initial=np.full(3, 1 / 3), partition=np.array([0, 1, 1]), n_cells=2,
+                        extras={"counts_0": counts.data.astype(np.int64)}, metadata=BUILT)
+    v = row_variance(m)[0]
+    assert v == pytest.approx([0.0, 0.0, (1 - 0.75 ** 2 - 0.25 ** 2) / 5])
+    # a model without counts has no row variance (and no structural term)
+    assert not np.any(row_variance(_automaton())[0])
+
+
+def test_structural_flow_accumulates_the_row_variance_along_the_sequence():
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.structural import row_variance, structural_flow
+
+    m = _counted(metadata=BUILT)
+    seq = [0, 2, 1, 1, 0]
+    tr = entropy_trajectory(m, seq, return_distributions=True)
+    v = row_variance(m)
+    flow = structural_flow(m, seq, tr.distributions)
+    by_hand = [0.0]
+    for k, a in enumerate(seq):
+        p = np.asarray(tr.distributions[k])
+        by_hand.append(by_hand[-1] + sum(p[s] * v[a][s] for s in range(m.n_states)) / p.sum())
+    assert flow == pytest.approx(by_hand)
+    assert flow[0] == 0 and np.all(np.diff(flow) >= 0) and flow[-1] > 0
+    with pytest.raises(ValueError, match="distributions"):
+        structural_flow(m, seq, tr.distributions[:-1])
+
+
+def test_flow_scores_divide_by_the_flow_and_a_band_at_the_score_holds_the_reference():
+    from kruskal_markov.structural import band_with_structure, flow_scores, structural_score
+
+    assert flow_scores([0.0, 0.4, 0.4, 0.0], [0.0, 2.0, 0.0, 0.0]).tolist() == [0.0, 0.2, math.inf, 0.0]
+    cells = np.array([[0.7, 0.2, 0.1], [0.5, 0.3, 0.2], [0.6, 0.4, 0.0]])
+    centre = np.array([1.10, 1.40, 0.95])
+    width = np.full(3, 0.01)
+    ref = np.array([1.25, 1.30, 0.80])
+    flow = np.array([0.3, 0.5, 0.8])
+    s = flow_scores(structural_score(cells, centre, width, ref), flow)
+    for i in range(3):
+        lo, hi = band_with_structure(cells[i:i + 1], centre[i:i + 1], width[i:i + 1], s[i] * flow[i] * 1.0001)
+        assert lo[0] <= ref[i] <= hi[0]
+        lo, hi = band_with_structure(cells[i:i + 1], centre[i:i + 1], width[i:i + 1], 0.97 * s[i] * flow[i])
+        assert not lo[0] <= ref[i] <= hi[0]
+
+
+def test_a_calibration_of_another_rule_is_not_used():
+    """A stored delta of another rule (the flow rule, measured and not adopted) is on another scale: the
+    model falls back to the default and says why. A record without a rule predates the name and is used."""
+    m = _counted(metadata={**BUILT, "structural": {"delta": 2.27, "steps": 390, "seeds": [2031], "rule": "flow"}})
+    t = structural_term(m)
+    assert (t.delta, t.source) == (STRUCTURAL_DELTA, "default") and "another rule ('flow'" in t.note
+    old = _counted(metadata={**BUILT, "structural": {"delta": 0.0119, "steps": 270, "seeds": [2031]}})
+    assert (structural_term(old).delta, structural_term(old).source) == (0.0119, "calibrated")
+    cal = with_calibration(m, 0.05, steps=60, seeds=[5])
+    assert cal.metadata["structural"]["rule"] == "relative"
+    assert (structural_term(cal).delta, structural_term(cal).source) == (0.05, "calibrated")
