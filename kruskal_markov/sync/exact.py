@@ -17,6 +17,7 @@ import numpy as np
 
 from kruskal_markov import _sync_kernels as _k
 from kruskal_markov._subsets import SubsetStore, as_start
+from kruskal_markov.sync import _trie
 from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 from kruskal_markov.sync.greedy import greedy_synchronizing_word
@@ -39,12 +40,33 @@ _MEET_GROUPS = 32
 _DFS_CHUNK = 4096
 #: automata up to this many states get the pair-distance pruning (the pair table has n^2 / 2 entries)
 _PRUNE_MAX_N = 2048
-#: drop backward sets contained in larger sets of the same level (subset dominance, Kisielewicz,
-#: Kowalski and Szykula 2015). Off: it halves the subsets on random 8-letter automata but its
-#: check (``_sync_kernels.dominated_in_store``) costs more than it saves (docs/plans.md, issue 43)
+#: subset dominance (Kisielewicz, Kowalski and Szykula 2015; synchrowords' reductions): a new
+#: forward set containing another forward set, or a new backward set inside another backward set,
+#: of its level or an earlier one, is dropped (it cannot lie on a shortest word that the other does
+#: not shorten or equal). Checked with the implicit subset trie of :mod:`kruskal_markov.sync._trie`.
+#: Off: on the tuning instances (random 2 x 200 and 8 x 100, seed 0) it keeps 10-35% fewer subsets
+#: but the check costs more time than it saves (docs/plans.md, issue 43).
+_FORWARD_DOMINANCE = False
 _BACKWARD_DOMINANCE = False
-#: earlier backward levels a new one is checked against (0: the level itself)
-_DOMINANCE_LEVELS = 0
+#: check new sets against the earlier levels of their direction too (not only their own level),
+#: forward / backward
+_DOMINANCE_VISITED = True
+_BACKWARD_VISITED = True
+#: meet test by the implicit subset trie (forward level stored, backward level queried) instead of
+#: the rarest-member index (``_sync_kernels.RarestMeetIndex``): random 2 x 200 seed 1, meet tests
+#: 4.6 s -> 1.9 s (docs/plans.md)
+_TRIE_MEET = True
+#: backward roots: only the singletons a letter merges two states into (:func:`_backward_roots`)
+_RESTRICT_ROOTS = True
+#: a dominance check runs only while the sets it is checked against number at most this many (its
+#: cost grows like queries x stored^0.5..0.8; docs/plans.md, issue 43)
+_DOMINANCE_MAX_ROWS = 50_000
+#: the depth-first phase from the backward side when the newest forward level is the larger
+#: (:func:`_inverse_depth_first_phase`)
+_INVERSE_DFS = True
+#: enter the depth-first phase once the next breadth-first level would hold more sets than this
+#: (None: only when memory or time run out)
+_DFS_SWITCH_ROWS = None
 #: run the inverse beam search for a short first word (tests of the depth-first phase switch it off)
 _USE_BEAM = True
 #: share of the memory budget the beam's level store may use
@@ -86,6 +108,62 @@ def _choose_forward(fwd, bwd, k):
     return (fhi - flo) <= (bhi - blo)
 
 
+def _dominance(aut, store, forward):
+    """Drop the newest level's sets that a stored set dominates (forward: a proper subset is stored;
+    backward: a proper superset), within the level and, with ``_DOMINANCE_VISITED``, the earlier
+    levels. Returns how many were dropped."""
+    lo, hi = store.levels[-1]
+    visited = _DOMINANCE_VISITED if forward else _BACKWARD_VISITED
+    ylo = 0 if visited and hi <= _DOMINANCE_MAX_ROWS else lo
+    if hi - ylo < 2 or hi - ylo > _DOMINANCE_MAX_ROWS:
+        return 0
+    stored, query = store.rows[ylo:hi], store.rows[lo:hi]
+    if forward:
+        dominated = _trie.superset_mask(stored, query, proper=True)
+    else:
+        dominated = _trie.subset_mask(stored, query, aut.n, proper=True)
+    return store.keep_last(~dominated)
+
+
+def _backward_roots(aut, start):
+    """The states a shortest word can end in: with a start set of two states or more, the last
+    letter ``a`` merges at least two states into the final state ``q``, so ``a^-1({q})`` holds
+    two states or more for some letter (synchrowords' initial inverse list, Szykula and Zyzik
+    2022). Every state for a start set of one state (the empty word), or when ``_RESTRICT_ROOTS``
+    is off."""
+    if not _RESTRICT_ROOTS or len(start) < 2:
+        return range(aut.n)
+    keep = np.zeros(aut.n, dtype=bool)
+    for a in range(aut.k):
+        deg = np.diff(aut.indptr[a])
+        single = np.flatnonzero(deg == 1)
+        pre = np.bincount(aut.indices[aut.indptr[a, single]], minlength=aut.n)
+        pre += int(np.count_nonzero(deg == 0))      # an empty support lies in every set
+        keep |= pre >= 2
+    return np.flatnonzero(keep)
+
+
+def _meet_levels(aut, fwd, bwd, total, deadline):
+    """The meet test of the newest levels: ``(f, b)`` (store rows, forward set inside backward set),
+    ``(-1, -1)`` when none meets, ``(-2, -2)`` when the deadline passed."""
+    (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
+    if _TRIE_MEET:
+        if total and deadline is not None and time.perf_counter() > deadline:
+            return -2, -2
+        s, q = _trie.first_superset_pair(fwd.rows[flo:fhi], bwd.rows[blo:bhi])
+        return (flo + s, blo + q) if s >= 0 else (-1, -1)
+    index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # built once per level pair
+    grouped = index.groups(fwd.rows, flo, fhi)
+    ng = grouped[2].shape[0]
+    for g in range(0, max(ng, 1), _MEET_GROUPS):
+        if total and deadline is not None and time.perf_counter() > deadline:
+            return -2, -2
+        f, b = index.query_groups(fwd.rows, grouped, g, min(ng, g + _MEET_GROUPS))
+        if f >= 0:
+            return f, b
+    return -1, -1
+
+
 def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node_budget=None, upper=None):
     """Bidirectional BFS, then (when memory runs out) a depth-first phase.
 
@@ -106,7 +184,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
     bwd = SubsetStore(W, max(1024, aut.n), max_rows)
     fwd.add_roots([aut.bits(start)])
     singletons = []
-    for q in range(aut.n):
+    for q in _backward_roots(aut, start):
         b = np.zeros(W, dtype=np.uint64)
         b[q >> 6] = np.uint64(1) << np.uint64(q & 63)
         singletons.append(b)
@@ -126,16 +204,9 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         if tested < total:
             tm = time.perf_counter()
             # the meet test in slices of the forward level, so that the budget is checked between them
-            f = b = -1
-            index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # built once per level pair
-            grouped = index.groups(fwd.rows, flo, fhi)
-            ng = grouped[2].shape[0]
-            for g in range(0, max(ng, 1), _MEET_GROUPS):
-                if total and deadline is not None and time.perf_counter() > deadline:
-                    return None, "budget", fwd.count + bwd.count, total
-                f, b = index.query_groups(fwd.rows, grouped, g, min(ng, g + _MEET_GROUPS))
-                if f >= 0:
-                    break
+            f, b = _meet_levels(aut, fwd, bwd, total, deadline)
+            if f == -2:
+                return None, "budget", fwd.count + bwd.count, total
             pairs = (fhi - flo) * (bhi - blo)
             if pairs > 10_000_000:
                 rate_pair = (time.perf_counter() - tm) / pairs
@@ -163,6 +234,9 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         new_rows = (hi - lo) * min(growth, aut.k)
         other = (bhi - blo) if forward else (fhi - flo)
         predicted = new_rows * rate_row + new_rows * other * rate_pair
+        if _DFS_SWITCH_ROWS is not None and upper is not None and new_rows > _DFS_SWITCH_ROWS:
+            return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
+                                      block)
         if deadline is not None and time.perf_counter() + predicted > deadline:
             if upper is None and not aut.deterministic:     # no bound on the streaming phase's length
                 return None, "budget", fwd.count + bwd.count, total + 1
@@ -182,10 +256,8 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
                 return None, "upper", fwd.count + bwd.count, upper
             return None, "none", fwd.count + bwd.count, total
         total += 1
-        if not forward and _BACKWARD_DOMINANCE:
-            lo, hi = bwd.levels[-1]
-            ylo = bwd.levels[max(0, len(bwd.levels) - 1 - _DOMINANCE_LEVELS)][0]
-            pruned += bwd.keep_last(~_k.dominated_in_store(bwd.rows, ylo, bwd.count, lo, hi, aut.n))
+        if _FORWARD_DOMINANCE if forward else _BACKWARD_DOMINANCE:
+            pruned += _dominance(aut, store, forward)
         if forward and dist is not None and upper - 1 - (len(fwd.levels) - 1) < dmax:
             # a forward set at depth i whose largest pair-merging distance exceeds upper - 1 - i
             # cannot start a word shorter than ``upper``: dropped (admissible)
@@ -206,6 +278,8 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     W = aut.n_words
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
+    if _INVERSE_DFS and upper is not None and fhi - flo >= bhi - blo:
+        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb)
     i_b = len(bwd.levels) - 1
     row_bytes = 8 * W + 8 + 4 + 32
     cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
@@ -272,6 +346,80 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
         for lo in range(flo, fhi, _DFS_CHUNK):
             hi = min(fhi, lo + _DFS_CHUNK)
             res = rec(fwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
+            if res is not None:
+                break
+        if res == "budget":
+            return None, "budget", used[0], t
+        if res is not None:
+            f, extra, b = res
+            u, _ = fwd.path(f)
+            v, _ = bwd.path(b)
+            return u[::-1] + extra + v, "found-dfs", used[0], t
+        t += 1
+    return None, "upper", used[0], upper
+
+
+def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb):
+    """The depth-first phase from the backward side (synchrowords' inverse DFS, Szykula and Zyzik
+    2022): words of length ``t = total + 1, ..., upper - 1`` are tested by expanding the newest
+    backward level ``t - total`` more levels by preimages, chunk by chunk (memory bounded), and
+    asking the implicit subset trie of the newest forward level (sorted once) whether a generated
+    set contains a forward set -- the trie's cheap direction (the forward sets are stored, the
+    generated sets queried). Used when the forward level is the larger one. Returns like
+    :func:`_exact_search`."""
+    W = aut.n_words
+    flo, fhi = fwd.levels[-1]
+    blo, bhi = bwd.levels[-1]
+    fsorted = fwd.rows[flo:fhi][_trie.lex_order(fwd.rows[flo:fhi])]
+    row_bytes = 8 * W + 8 + 4 + 32
+    cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
+    used = [fwd.count + bwd.count]
+
+    def over_budget():
+        return (node_budget is not None and used[0] >= node_budget) or \
+            (deadline is not None and time.perf_counter() > deadline)
+
+    def rec(rows, rid, words, x):
+        """Backward sets ``x`` levels above the newest backward level, the rows they grew from and
+        the letters of their preimage steps in the order taken (reversed, they are the word from
+        the set to that row)."""
+        if over_budget():
+            return "budget"
+        if x == 0:
+            hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True))
+            if hit.size == 0:
+                return None
+            q = int(hit[0])
+            inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)
+            return flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q])
+        m = rows.shape[0]
+        if m * aut.k > cap and m > 1:
+            for part in (slice(0, m // 2), slice(m // 2, m)):
+                r = rec(rows[part], rid[part], words[part], x)
+                if r is not None:
+                    return r
+            return None
+        st = SubsetStore(W, m * aut.k + m, m * aut.k + m)
+        st.add_roots(list(rows))
+        grown = st.expand(aut, False)
+        lo2, hi2 = st.levels[-1]
+        used[0] += hi2 - lo2
+        par = st.parent[lo2:hi2]
+        nrows = st.rows[lo2:hi2].copy()
+        nwords = np.concatenate([words[par], st.letter[lo2:hi2, None].astype(np.int16)], axis=1)
+        nrid = rid[par]
+        del st
+        if not grown:
+            return None
+        return rec(nrows, nrid, nwords, x - 1)
+
+    t = total + 1
+    while t < upper:
+        x = t - total
+        res = None
+        for lo in range(blo, bhi, _DFS_CHUNK):
+            hi = min(bhi, lo + _DFS_CHUNK)
+            res = rec(bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
             if res is not None:
                 break
         if res == "budget":

@@ -787,10 +787,14 @@ def test_greedy_gets_forty_percent_of_the_time_budget(monkeypatch):
     assert not any("greedy word not found" in note for note in r.notes)
 
 
-def test_stores_follow_the_memory_budget():
+def test_stores_follow_the_memory_budget(monkeypatch):
     """Three eighths of the budget per direction, 8 W + 44 bytes a row (bitset, parent, letter, hash
-    slots), at least 1,024 rows; an automaton whose n backward roots do not fit gets no exact search."""
+    slots), at least 1,024 rows; an automaton whose n backward roots do not fit gets no exact search
+    (every singleton a root: the restriction to merging states switched off)."""
+    import kruskal_markov.sync.exact as exact_mod
     from kruskal_markov.sync.exact import _exact_search
+
+    monkeypatch.setattr(exact_mod, "_RESTRICT_ROOTS", False)
 
     n = 2000
     aut = SyncAutomaton.from_table(np.random.default_rng(0).integers(0, n, size=(2, n)))
@@ -1018,11 +1022,21 @@ def test_sync_result_as_dict_whole():
     assert none.as_dict(("N", "E"))["word"] is None and none.notes == ()
 
 
-def test_depth_first_phase_budget_status():
+def _no_dominance(monkeypatch, exact_mod):
+    """Switch the subset-dominance pruning off: with it, the breadth-first stores of these small
+    automata no longer overflow, and the depth-first phase these tests exercise is not reached
+    (the pruning itself is tested in tests/kruskal_markov/sync/test_trie.py)."""
+    monkeypatch.setattr(exact_mod, "_FORWARD_DOMINANCE", False)
+    monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", False)
+
+
+def test_depth_first_phase_budget_status(monkeypatch):
     """_exact_search's contract: a node budget that stops the depth-first phase (past the 2,048 rows
     of the breadth-first stores of a 0.05 MB budget) returns status 'budget' with the subsets counted."""
+    import kruskal_markov.sync.exact as exact_mod
     from kruskal_markov.sync.exact import _exact_search
 
+    _no_dominance(monkeypatch, exact_mod)
     n = 60
     aut = SyncAutomaton.from_table(np.random.default_rng(1).integers(0, n, size=(2, n)))
     word, status, explored, lower = _exact_search(aut, np.arange(n), None, 0.05, node_budget=2500)
@@ -1098,6 +1112,8 @@ def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(mon
     import kruskal_markov.sync.exact as exact_mod
 
     monkeypatch.setattr(exact_mod, "time", types.SimpleNamespace(perf_counter=lambda: 0.0))
+    _no_dominance(monkeypatch, exact_mod)      # the model below is the plain search's, from every singleton
+    monkeypatch.setattr(exact_mod, "_RESTRICT_ROOTS", False)
     cases = [(n, [list(map(int, r)) for r in table]) for _, n, table in random_tables(5, 12, (5, 10), k=(2, 4))]
     cases.append((300, [list(map(int, r)) for r in random_table(np.random.default_rng(3), 300, 2)]))
     stops = set()
@@ -1197,6 +1213,7 @@ def test_depth_first_chunks_of_a_few_frontier_sets_cover_the_frontier(monkeypatc
 
     monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
     monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
+    _no_dominance(monkeypatch, exact_mod)
     for seed in (1, 2, 4, 7):
         table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
         r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=0.05,
@@ -1228,6 +1245,7 @@ def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_abov
     monkeypatch.setattr(exact_mod, "SubsetStore", Spy)
     monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
     monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
+    _no_dominance(monkeypatch, exact_mod)
     memory_mb = bytes_48 * 48 / 2 ** 20
     cap = max(4 * 2, int(memory_mb / 4 * 2 ** 20 / (8 + 44) / 12))
     assert cap == (20 if bytes_48 == 1050 else 8)

@@ -1,0 +1,178 @@
+"""Issue 43: subset-dominance pruning with an implicit subset trie (``kruskal_markov.sync._trie``).
+Judges: a plain scan over every pair of sets, and breadth-first search over subsets for the
+search results. Budgets in nodes, never seconds."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kruskal_markov import generators
+from kruskal_markov.sync import SyncAutomaton, _trie, is_synchronizing_word, shortest_synchronizing_word
+
+
+def pack(M: np.ndarray) -> np.ndarray:
+    """Boolean rows -> uint64 bitset rows."""
+    n = M.shape[1]
+    out = np.zeros((M.shape[0], (n + 63) // 64), dtype=np.uint64)
+    for i, row in enumerate(M):
+        for q in np.flatnonzero(row):
+            out[i, q >> 6] |= np.uint64(1) << np.uint64(q & 63)
+    return out
+
+
+def random_family(rng, count, n):
+    """``count`` random subsets of ``n`` states (density drawn per family, duplicates likely)."""
+    return rng.random((count, n)) < rng.uniform(0.02, 0.9)
+
+
+@pytest.mark.parametrize("tasks", [1, 3])
+def test_superset_and_subset_queries_agree_with_a_plain_scan(tasks, monkeypatch):
+    """300 random families (1-200 states, so 1-4 words; 0-300 stored sets, queries that include
+    stored sets and duplicates): ``superset_mask`` flags a query exactly when some stored set lies
+    inside it (a different one with ``proper``), ``subset_mask`` exactly when it lies inside one.
+    The parallel split is forced on for ``tasks=3`` (its threshold patched down)."""
+    monkeypatch.setattr(_trie, "_PAR_MIN", 1)
+    rng = np.random.default_rng(4360)
+    seen = set()
+    for _ in range(300):
+        n = int(rng.integers(1, 200))
+        S = random_family(rng, int(rng.integers(0, 300)), n)
+        Q = np.concatenate([random_family(rng, int(rng.integers(0, 120)), n), S[:int(rng.integers(0, 20))]])
+        inside = (S[None, :, :] <= Q[:, None, :]).all(axis=2)      # [q, s]: stored s inside query q
+        holds = (S[None, :, :] >= Q[:, None, :]).all(axis=2)       # [q, s]: query q inside stored s
+        same = (S[None, :, :] == Q[:, None, :]).all(axis=2)
+        Sb, Qb = pack(S), pack(Q)
+        for proper in (False, True):
+            want_sup = (inside & ~same).any(axis=1) if proper else inside.any(axis=1)
+            want_sub = (holds & ~same).any(axis=1) if proper else holds.any(axis=1)
+            got_sup = _trie.superset_mask(Sb, Qb, proper=proper, tasks=tasks)
+            got_sub = _trie.subset_mask(Sb, Qb, n, proper=proper, tasks=tasks)
+            assert got_sup.tolist() == want_sup.tolist()
+            assert got_sub.tolist() == want_sub.tolist()
+            seen.update((bool(x), "sup") for x in want_sup)
+            seen.update((bool(x), "sub") for x in want_sub)
+    assert seen == {(True, "sup"), (False, "sup"), (True, "sub"), (False, "sub")}
+
+
+def test_first_superset_pair_is_a_real_pair_and_none_only_when_none_exists():
+    """``first_superset_pair`` (the meet test): a returned pair is a stored set inside a query set;
+    (-1, -1) exactly when no such pair exists (plain scan), on 200 random families."""
+    rng = np.random.default_rng(4361)
+    outcomes = set()
+    for _ in range(200):
+        n = int(rng.integers(2, 150))
+        S = random_family(rng, int(rng.integers(1, 100)), n)
+        Q = random_family(rng, int(rng.integers(1, 100)), n)
+        s, q = _trie.first_superset_pair(pack(S), pack(Q))
+        exists = bool((S[None, :, :] <= Q[:, None, :]).all(axis=2).any())
+        assert (s >= 0) == exists
+        if s >= 0:
+            assert (S[s] <= Q[q]).all()
+        outcomes.add(exists)
+    assert outcomes == {True, False}
+
+
+def test_bad_shapes_are_refused():
+    with pytest.raises(ValueError, match="same width"):
+        _trie.superset_mask(np.zeros((2, 1), dtype=np.uint64), np.zeros((2, 2), dtype=np.uint64))
+
+
+def brute(table) -> int | None:
+    """Shortest reset length by breadth-first search over the images of the whole state set."""
+    t = np.asarray(table)
+    level, seen, d = [frozenset(range(t.shape[1]))], set(), 0
+    while level:
+        if any(len(s) == 1 for s in level):
+            return d
+        nxt = []
+        for s in level:
+            for a in range(t.shape[0]):
+                u = frozenset(int(t[a, q]) for q in s)
+                if u not in seen:
+                    seen.add(u)
+                    nxt.append(u)
+        level, d = nxt, d + 1
+    return None
+
+
+@pytest.mark.parametrize("forward, backward, visited, trie_meet", [
+    (True, True, True, False), (True, False, True, False), (False, True, True, False),
+    (True, True, False, False), (True, True, True, True)])
+def test_dominance_keeps_every_shortest_length(monkeypatch, forward, backward, visited, trie_meet):
+    """With either direction's dominance pruning, against the level only or every earlier level, and
+    with the trie's meet test: on 50 small random automata (5-16 states, 2-4 letters, some not
+    synchronizing) and Cerny C_5..C_8, the search (beam off, so it must find the word itself) gives
+    exactly the brute-force length, a word that synchronizes, or no word when none exists."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
+    monkeypatch.setattr(exact_mod, "_FORWARD_DOMINANCE", forward)
+    monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", backward)
+    monkeypatch.setattr(exact_mod, "_DOMINANCE_VISITED", visited)
+    monkeypatch.setattr(exact_mod, "_TRIE_MEET", trie_meet)
+    rng = np.random.default_rng(4362)
+    tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(50)]
+    tables += [generators.cerny_table(n) for n in range(5, 9)]
+    nones = 0
+    for table in tables:
+        aut = SyncAutomaton.from_table(table)
+        r = shortest_synchronizing_word(aut, time_budget=None)
+        want = brute(table)
+        assert r.length == want and r.exact
+        if want is None:
+            nones += 1
+        else:
+            assert is_synchronizing_word(aut, r.word)
+    assert 0 < nones < len(tables)
+
+
+def test_dominance_prunes_and_keeps_the_answer_on_a_larger_automaton(monkeypatch):
+    """On a random binary automaton of 60 states the pruning keeps fewer subsets than the plain
+    search (counts of subsets, machine-independent) and the same shortest length, with a word."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
+    aut = SyncAutomaton.from_table(generators.random_table(60, 2, 4363))
+    got = {}
+    for on in (False, True):
+        monkeypatch.setattr(exact_mod, "_FORWARD_DOMINANCE", on)
+        monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", on)
+        got[on] = shortest_synchronizing_word(aut, time_budget=None)
+    assert got[True].length == got[False].length and got[True].exact and got[False].exact
+    assert is_synchronizing_word(aut, got[True].word)
+    assert got[True].states_explored < got[False].states_explored
+
+
+@pytest.mark.parametrize("switch_rows", [4, 40])
+def test_inverse_depth_first_phase_keeps_every_shortest_length(monkeypatch, switch_rows):
+    """The depth-first phase from the backward side (entered early: once a breadth-first level
+    would exceed ``switch_rows`` sets), its chunks (the module's constant patched to 3 sets) and
+    the trie's meet test: on 60 small random automata and Cerny C_5..C_8, with the greedy word as
+    the bound (beam off, so the search has words to find below it), the answer is the brute-force
+    length, exact, with a word that synchronizes; some answers come from the inverse phase."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
+    monkeypatch.setattr(exact_mod, "_DFS_SWITCH_ROWS", switch_rows)
+    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", 3)
+    inverse_found = []
+    real = exact_mod._inverse_depth_first_phase
+
+    def spy(*args, **kw):
+        out = real(*args, **kw)
+        inverse_found.append(out[1] == "found-dfs")
+        return out
+    monkeypatch.setattr(exact_mod, "_inverse_depth_first_phase", spy)
+    rng = np.random.default_rng(4364)
+    tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
+    tables += [generators.cerny_table(n) for n in range(5, 9)]
+    methods = set()
+    for table in tables:
+        aut = SyncAutomaton.from_table(table)
+        r = shortest_synchronizing_word(aut, time_budget=None)
+        want = brute(table)
+        assert r.length == want and r.exact
+        if want is not None:
+            assert is_synchronizing_word(aut, r.word)
+        methods.add(r.method)
+    assert "bidirectional-bfs+dfs" in methods and any(inverse_found)
