@@ -18,8 +18,9 @@ import pytest
 import tests
 
 ROOT = tests.ROOT
-SMALL = {"start_samples": 400}
-#: the compared contact model of the small scene (the sphere): coarse, to keep the suite short
+#: the key's model: snapped at 0.5 mm / 0.5 deg (``kruskal rank``'s default resolution), 400 start poses
+SMALL = {"start_samples": 400, "tol_mm": 0.5, "tol_deg": 0.5}
+#: the compared contact model (the sphere) and the other part's model: coarse, to keep the suite short
 CONTACT = {"start_samples": 100, "tol_mm": 1.0, "tol_deg": 1.0}
 
 
@@ -42,7 +43,7 @@ def report(cache_dir, tmp_path_factory):
 
     s = ReproduceSettings(quick=True, seed=0, shape="rectangle:30x30", tray_mm=(90.0, 90.0), friction=0.1,
                           length=12, a_sequences=6, ensemble_count=300, parts=("polygon:0,0;30,0;0,20",),
-                          maps=("map:low:1",), key_build=SMALL, part_build=SMALL, a_check_trials=30,
+                          maps=("map:low:1",), key_build=SMALL, part_build=CONTACT, a_check_trials=30,
                           b_trials=20, c_trials=20, replay_trials=100, validate_sequences=1, validate_trials=30,
                           validate_length=5, metrics_count=100, metrics_runs=30, sync_time_budget=10,
                           part_sync_time_budget=10, sync_node_budget=100_000,
@@ -136,7 +137,7 @@ def test_rank_cli_uses_cached_models_and_puts_a_synchronizable_part_first(report
     scene = tmp_path / "scene.json"
     scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)).save(str(scene))
     res = subprocess.run([sys.executable, "-m", "analysis", "rank", "--shapes", "rectangle:30x30", "rectangle:20x30",
-                          "--scene", str(scene), "--start-samples", "400", "--resolution", "0.25,0.25",
+                          "--scene", str(scene), "--start-samples", "400", "--resolution", "0.5,0.5",
                           "--recenter-rounds", "3", "--count", "200", "--runs", "30", "--workers", "2", "--json",
                           "--markdown", str(tmp_path / "rank.md")],
                          capture_output=True, text=True, timeout=600, cwd=ROOT,
@@ -151,7 +152,7 @@ def test_rank_cli_uses_cached_models_and_puts_a_synchronizable_part_first(report
     assert rows["rectangle:30x30"]["sync_word"] == report[0]["key_metrics"]["sync_word"]
     table = (tmp_path / "rank.md").read_text()
     assert "| 1 | rectangle:30x30 |" in table and "| 2 | rectangle:20x30 |" in table
-    assert "--resolution 0.25,0.25" in table and "--recenter-rounds 3" in table   # the command that made it
+    assert "--resolution 0.5,0.5" in table and "--recenter-rounds 3" in table   # the command that made it
     # the 20 x 30 rectangle never converges: every random run censored, so a bound and no mean
     assert rows["rectangle:20x30"]["random_tilts"] is None and rows["rectangle:20x30"]["random_tilts_censored"] == 30
     assert "| >= 1000.0 (30) |" in table

@@ -14,7 +14,7 @@ import pytest
 
 from analysis.cli import main
 from transition_builder.builder import BuildSettings, BuildWarning, build_key, build_model
-from transition_builder.executors import SerialExecutor
+from transition_builder.executors import SerialExecutor, make_executor
 from transition_builder.scene import scene_from_options
 
 
@@ -23,6 +23,8 @@ def _square():
 
 
 _SETTINGS = BuildSettings(start_samples=150, max_states=1200, seed=3)
+#: the builds here run on two kept worker processes (a model is the same on every executor)
+BUILDS = make_executor(2)
 
 
 class _Interrupting(SerialExecutor):
@@ -48,7 +50,7 @@ def _one_line_error(err: str, command: str) -> str:
 
 @pytest.fixture(scope="module")
 def fresh_square():
-    return build_model(_square(), _SETTINGS, executor=SerialExecutor(), batch_tilts=160)
+    return build_model(_square(), _SETTINGS, executor=BUILDS, batch_tilts=160)
 
 
 @pytest.fixture
@@ -136,7 +138,7 @@ def test_a_checkpoint_that_does_not_replay_is_set_aside_and_the_build_starts_aga
     arrays["land"][explored[0], :, 0, 0] += 7.0        # landings far from every representative
     np.savez(interrupted_checkpoint, **arrays)
     with pytest.warns(BuildWarning) as record:
-        r = build_model(_square(), _SETTINGS, executor=SerialExecutor(), checkpoint=interrupted_checkpoint,
+        r = build_model(_square(), _SETTINGS, executor=BUILDS, checkpoint=interrupted_checkpoint,
                         batch_tilts=160)
     (w,) = [w for w in record if issubclass(w.category, BuildWarning)]
     text = str(w.message)
@@ -150,7 +152,7 @@ def test_a_corrupt_checkpoint_is_named_in_a_warning_not_dropped_silently(tmp_pat
     with open(path, "wb") as f:
         f.write(os.urandom(2000))
     with pytest.warns(BuildWarning, match=r"checkpoint .*c\.ckpt\.npz cannot be resumed: it does not read"):
-        r = build_model(_square(), _SETTINGS, executor=SerialExecutor(), checkpoint=path, batch_tilts=160)
+        r = build_model(_square(), _SETTINGS, executor=BUILDS, checkpoint=path, batch_tilts=160)
     assert r.model.same_arrays(fresh_square.model) and os.path.exists(path + ".rejected")
 
 
@@ -160,14 +162,14 @@ def test_no_cache_resumes_no_checkpoint(tmp_path, interrupted_checkpoint):
     key = build_key(_square(), _SETTINGS)
     os.replace(interrupted_checkpoint, tmp_path / f"{key}.ckpt.npz")
     r, _, cached = cached_build(_square(), _SETTINGS, use_cache=False, directory=str(tmp_path),
-                                executor=SerialExecutor(), batch_tilts=160)
+                                executor=BUILDS, batch_tilts=160)
     assert not cached and not r.stats["resumed"]
 
 
 # 7. a resumed build records the total work -----------------------------------------------------
 
 def test_a_resumed_build_records_the_work_of_every_run(interrupted_checkpoint, fresh_square):
-    r = build_model(_square(), _SETTINGS, executor=SerialExecutor(), checkpoint=interrupted_checkpoint,
+    r = build_model(_square(), _SETTINGS, executor=BUILDS, checkpoint=interrupted_checkpoint,
                     batch_tilts=160)
     assert r.stats["resumed"] and r.model.same_arrays(fresh_square.model)
     total = fresh_square.stats["tilts_simulated"]

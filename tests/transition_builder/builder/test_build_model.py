@@ -22,6 +22,9 @@ from transition_builder.scene import scene_from_options
 from transition_builder.sim import TraySimulator
 
 ROOT = str(tests.ROOT)
+#: the executor of the builds here: two kept worker processes (a model is the same on every executor,
+#: which test_local_pool_and_dask_give_identical_models checks against a serial build)
+BUILDS = make_executor(2)
 ACTIONS = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 # action -> (x, y) components of its downhill direction
 COMPONENTS = {"N": (0, 1), "NE": (1, 1), "E": (1, 0), "SE": (1, -1), "S": (0, -1), "SW": (-1, -1),
@@ -36,7 +39,7 @@ def _square_scene():
 @pytest.fixture(scope="module")
 def square_build():
     settings = BuildSettings(start_samples=150, max_states=1200, seed=3)
-    return build_model(_square_scene(), settings, executor=SerialExecutor())
+    return build_model(_square_scene(), settings, executor=BUILDS)
 
 
 def test_corner_states_have_the_known_transitions(square_build):
@@ -152,12 +155,12 @@ def test_derived_rows_agree_with_direct_simulation(square_build):
 def test_zero_noise_is_bit_identical_and_noise_is_seeded():
     scene = _square_scene()
     base = dict(start_samples=60, max_states=160, seed=5)
-    none = build_model(scene, BuildSettings(noise="none", **base), executor=SerialExecutor()).model
-    zero = build_model(scene, BuildSettings(noise="pose:0,0", **base), executor=SerialExecutor()).model
+    none = build_model(scene, BuildSettings(noise="none", **base), executor=BUILDS).model
+    zero = build_model(scene, BuildSettings(noise="pose:0,0", **base), executor=BUILDS).model
     assert none.same_arrays(zero)
     s = BuildSettings(noise="pose:0.5,0.5", samples=3, **base)
-    a = build_model(scene, s, executor=SerialExecutor()).model
-    b = build_model(scene, s, executor=SerialExecutor()).model
+    a = build_model(scene, s, executor=BUILDS).model
+    b = build_model(scene, s, executor=BUILDS).model
     assert a.same_arrays(b)
     assert not a.same_arrays(none)
     # noisy rows are estimated from several samples, so some are genuinely stochastic
@@ -189,7 +192,7 @@ _RESUME_SCRIPT = textwrap.dedent("""
     from transition_builder.executors import SerialExecutor
     from transition_builder.scene import scene_from_options
     scene = scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0))
-    r = build_model(scene, BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor(),
+    r = build_model(scene, BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=BUILDS,
                     checkpoint=sys.argv[1], checkpoint_interval_s=0.0, batch_tilts=160)
     r.model.save(sys.argv[2])
     print("resumed" if r.stats["resumed"] else "fresh")
@@ -227,7 +230,7 @@ def test_resume_after_sigkill(tmp_path):
     assert res.stdout.strip() == "resumed"
     assert not os.path.exists(ckpt)                       # removed once the model is written
     fresh = build_model(scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0)),
-                        BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor(),
+                        BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=BUILDS,
                         batch_tilts=160).model          # the same task grouping as the killed build
     assert TransitionModel.load(out).same_arrays(fresh)
 
@@ -237,18 +240,18 @@ def test_cache_reuse_and_corrupt_file(tmp_path, recwarn):
 
     scene = _square_scene()
     s = BuildSettings(start_samples=40, max_states=100, seed=9)
-    r1, p1, c1 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
-    r2, p2, c2 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
+    r1, p1, c1 = cached_build(scene, s, directory=str(tmp_path), executor=BUILDS)
+    r2, p2, c2 = cached_build(scene, s, directory=str(tmp_path), executor=BUILDS)
     assert (c1, c2) == (False, True) and p1 == p2
     assert r1.model.same_arrays(r2.model)
     # another scene never reuses it
     other = scene.with_settings(solver_iterations=90)
-    _, p3, c3 = cached_build(other, s, directory=str(tmp_path), executor=SerialExecutor())
+    _, p3, c3 = cached_build(other, s, directory=str(tmp_path), executor=BUILDS)
     assert not c3 and p3 != p1
     with open(p1, "r+b") as fh:                          # corrupt the cached file
         fh.seek(100)
         fh.write(b"\0" * 200)
-    r4, _, c4 = cached_build(scene, s, directory=str(tmp_path), executor=SerialExecutor())
+    r4, _, c4 = cached_build(scene, s, directory=str(tmp_path), executor=BUILDS)
     assert not c4
     assert any("rebuilding" in str(w.message) for w in recwarn.list)
     assert r1.model.same_arrays(r4.model)
@@ -317,10 +320,10 @@ def test_refinement_splits_diverging_representatives():
     scene = _square_scene()
     # probes off: refinement alone, so every rest row is one landing
     base = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=0, tol_mm=0.5, tol_deg=0.5,
-                                            probes=0), executor=SerialExecutor())
+                                            probes=0), executor=BUILDS)
     ref = build_model(scene, BuildSettings(start_samples=150, seed=3, refine_rounds=2, recenter_rounds=0, probes=0,
                                     tol_mm=0.5, tol_deg=0.5),
-                      executor=SerialExecutor())
+                      executor=BUILDS)
     st = ref.stats
     assert st["refinement_rounds"] == 2 and st["refinement_tilts"] > 0
     assert st["representatives_split"] > 0
@@ -343,7 +346,7 @@ def test_recentring_moves_representatives_onto_resting_points():
     every landing still has a representative and every sample is accounted for."""
     scene = _square_scene()
     r = build_model(scene, BuildSettings(start_samples=150, seed=3, recenter_rounds=2, probes=0),
-                    executor=SerialExecutor())
+                    executor=BUILDS)
     st = r.stats
     assert st["recentring_rounds"] >= 1 and st["representatives_moved"] > 0
     assert st["unexplored_states"] == 0
@@ -375,7 +378,7 @@ def test_weighted_exploration_borrows_rows_of_nearby_explored_states():
 
     scene = _square_scene()
     s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5, max_samples=0)
-    r = build_model(scene, s, executor=SerialExecutor())
+    r = build_model(scene, s, executor=BUILDS)
     m, st = r.model, r.stats
     kind = m.extras["state_kind"]
     assert st["unexplored_states"] > 0 and st["rows_borrowed"] > 0
@@ -422,10 +425,10 @@ def test_snap_compensation_subtracts_the_snapping_offset_from_the_noise():
     s = BuildSettings(noise="pose:0.5,0.5", samples=3, start_samples=60, explore_weight=0.05, seed=5,
                       snap_compensation=True, max_samples=0)
     assert build_key(scene, s) != build_key(scene, replace(s, snap_compensation=False))
-    a = build_model(scene, s, executor=SerialExecutor())
-    b = build_model(scene, s, executor=SerialExecutor())
+    a = build_model(scene, s, executor=BUILDS)
+    b = build_model(scene, s, executor=BUILDS)
     assert a.model.same_arrays(b.model)
-    plain = build_model(scene, replace(s, snap_compensation=False), executor=SerialExecutor())
+    plain = build_model(scene, replace(s, snap_compensation=False), executor=BUILDS)
     assert not a.model.same_arrays(plain.model)
     st = a.stats
     assert 0 < st["snap_spread_mm"] < s.tol_mm and 0 < st["snap_spread_deg"] < s.tol_deg
@@ -449,8 +452,8 @@ def test_confirm_samples_tops_up_only_the_rows_whose_samples_disagree():
         BuildSettings(noise="pose:0.5,0.5", samples=6, confirm_samples=6, explore_weight=0.05)
     with pytest.raises(ValueError, match="weighted exploration"):
         BuildSettings(noise="pose:0.5,0.5", samples=6, confirm_samples=3, explore_weight=0.0)
-    r = build_model(scene, s, executor=SerialExecutor())
-    assert r.model.same_arrays(build_model(scene, s, executor=SerialExecutor()).model)
+    r = build_model(scene, s, executor=BUILDS)
+    assert r.model.same_arrays(build_model(scene, s, executor=BUILDS).model)
     m = r.model
     assert r.stats["confirm_samples"] == 3
     rest = m.extras["state_kind"] == STATE_REST
@@ -468,7 +471,7 @@ def test_confirm_samples_tops_up_only_the_rows_whose_samples_disagree():
                 cells = np.unique(m.partition[P.indices[P.indptr[i]:P.indptr[i + 1]]])
                 assert (len(cells) == 1 and m.extras["faults"][a][i] == 0) == agree
     assert {3, 6} <= seen          # (every row of this small scene is heavy)
-    plain = build_model(scene, replace(s, confirm_samples=0), executor=SerialExecutor())
+    plain = build_model(scene, replace(s, confirm_samples=0), executor=BUILDS)
     assert r.stats["tilts_simulated"] < plain.stats["tilts_simulated"]
 
 
@@ -548,7 +551,7 @@ def test_without_the_flush_side_landings_snap_across_the_two_ends():
     resting on the other end of a flush edge."""
     scene = _square_scene()
     r = build_model(scene, BuildSettings(start_samples=150, max_states=1200, seed=3, flush_side=False),
-                    executor=SerialExecutor())
+                    executor=BUILDS)
     share, _ = _flush_mismatch(scene, r.model)
     assert share > 0.1
 
@@ -582,9 +585,9 @@ def test_max_samples_gives_heavy_rows_samples_in_proportion_to_their_weight():
     assert BuildSettings(noise="pose:0.5,0.5").max_samples == 128 and BuildSettings().max_samples == 0
     assert BuildSettings(noise="pose:0.5,0.5", explore_weight=0.0).max_samples == 0
     assert BuildSettings(noise="pose:0.5,0.5", samples=8, confirm_samples=4).max_samples == 0
-    r = build_model(scene, s, executor=SerialExecutor())
+    r = build_model(scene, s, executor=BUILDS)
     m = r.model
-    assert m.same_arrays(build_model(scene, s, executor=SerialExecutor()).model)
+    assert m.same_arrays(build_model(scene, s, executor=BUILDS).model)
     # the weights, as the builder computes them, on the finished model
     rng = np.random.default_rng([s.seed, _WEIGHT_STREAM])
     seqs = rng.integers(0, m.n_actions, size=(_WEIGHT_SEQUENCES, _WEIGHT_LENGTH))
@@ -650,7 +653,7 @@ _PROBE_SETTINGS = BuildSettings(start_samples=100, seed=2, tol_mm=1.0, tol_deg=1
 @pytest.fixture(scope="module")
 def probed_build():
     """The probe scene built with member probes (cell-sensitive rows only), shared by two tests."""
-    return build_model(_probe_scene(), _PROBE_SETTINGS, executor=SerialExecutor())
+    return build_model(_probe_scene(), _PROBE_SETTINGS, executor=BUILDS)
 
 
 def test_member_probes_give_sensitive_rows_their_members_landings(probed_build):
@@ -705,7 +708,7 @@ def test_probe_distance_also_spreads_rows_whose_members_scatter_inside_a_cell(pr
 
     scene, s = _probe_scene(), _PROBE_SETTINGS
     cell_only = probed_build
-    far = build_model(scene, replace(s, probe_distance=2.0), executor=SerialExecutor())
+    far = build_model(scene, replace(s, probe_distance=2.0), executor=BUILDS)
     assert far.stats["rows_probed_sensitive"] > cell_only.stats["rows_probed_sensitive"] > 0
     for a in range(cell_only.model.n_actions):
         rows_cell = np.flatnonzero(cell_only.model.extras["samples"][a] > 1)
