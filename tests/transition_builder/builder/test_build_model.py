@@ -192,7 +192,7 @@ _RESUME_SCRIPT = textwrap.dedent("""
     from transition_builder.executors import SerialExecutor
     from transition_builder.scene import scene_from_options
     scene = scene_from_options("rectangle:30x30", friction_spec=0.1, tray_mm=(90.0, 90.0))
-    r = build_model(scene, BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=BUILDS,
+    r = build_model(scene, BuildSettings(start_samples=100, seed=4, tol_mm=0.5, tol_deg=0.5), executor=SerialExecutor(),
                     checkpoint=sys.argv[1], checkpoint_interval_s=0.0, batch_tilts=160)
     r.model.save(sys.argv[2])
     print("resumed" if r.stats["resumed"] else "fresh")
