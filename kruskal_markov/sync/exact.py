@@ -318,26 +318,7 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
                 if over_budget():
                     return "budget"
             return None
-        m = rows.shape[0]
-        if m * aut.k > cap and m > 1:
-            for part in (slice(0, m // 2), slice(m // 2, m)):
-                r = rec(rows[part], rid[part], words[part], x)
-                if r is not None:
-                    return r
-            return None
-        st = SubsetStore(W, m * aut.k + m, m * aut.k + m)
-        st.add_roots(list(rows))
-        grown = st.expand(aut, True)
-        lo2, hi2 = st.levels[-1]
-        used[0] += hi2 - lo2
-        par = st.parent[lo2:hi2]
-        nrows = st.rows[lo2:hi2].copy()
-        nwords = np.concatenate([words[par], st.letter[lo2:hi2, None].astype(np.int16)], axis=1)
-        nrid = rid[par]
-        del st
-        if not grown:
-            return None
-        return rec(nrows, nrid, nwords, x - 1)
+        return _descend(rec, aut, cap, True, used, rows, rid, words, x)
 
     t = total + 1
     while upper is None or t < upper:
@@ -357,6 +338,34 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
             return u[::-1] + extra + v, "found-dfs", used[0], t
         t += 1
     return None, "upper", used[0], upper
+
+
+def _descend(rec, aut, cap, forward, used, rows, rid, words, x):
+    """One step down a depth-first phase: ``rows`` (with the frontier rows ``rid`` they grew from and
+    their letters ``words``) expanded by one level of images (``forward``) or preimages in a fresh
+    store, and ``rec`` called on the new level at ``x - 1``; a chunk whose expansion would pass
+    ``cap`` rows is split in halves first (memory bounded). ``used[0]`` counts the sets generated.
+    Returns ``rec``'s first answer that is not None (None when nothing new grows)."""
+    m = rows.shape[0]
+    if m * aut.k > cap and m > 1:
+        for part in (slice(0, m // 2), slice(m // 2, m)):
+            r = rec(rows[part], rid[part], words[part], x)
+            if r is not None:
+                return r
+        return None
+    st = SubsetStore(aut.n_words, m * aut.k + m, m * aut.k + m)
+    st.add_roots(list(rows))
+    grown = st.expand(aut, forward)
+    lo2, hi2 = st.levels[-1]
+    used[0] += hi2 - lo2
+    par = st.parent[lo2:hi2]
+    nrows = st.rows[lo2:hi2].copy()
+    nwords = np.concatenate([words[par], st.letter[lo2:hi2, None].astype(np.int16)], axis=1)
+    nrid = rid[par]
+    del st
+    if not grown:
+        return None
+    return rec(nrows, nrid, nwords, x - 1)
 
 
 def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb):
@@ -392,26 +401,7 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
             q = int(hit[0])
             inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)
             return flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q])
-        m = rows.shape[0]
-        if m * aut.k > cap and m > 1:
-            for part in (slice(0, m // 2), slice(m // 2, m)):
-                r = rec(rows[part], rid[part], words[part], x)
-                if r is not None:
-                    return r
-            return None
-        st = SubsetStore(W, m * aut.k + m, m * aut.k + m)
-        st.add_roots(list(rows))
-        grown = st.expand(aut, False)
-        lo2, hi2 = st.levels[-1]
-        used[0] += hi2 - lo2
-        par = st.parent[lo2:hi2]
-        nrows = st.rows[lo2:hi2].copy()
-        nwords = np.concatenate([words[par], st.letter[lo2:hi2, None].astype(np.int16)], axis=1)
-        nrid = rid[par]
-        del st
-        if not grown:
-            return None
-        return rec(nrows, nrid, nwords, x - 1)
+        return _descend(rec, aut, cap, False, used, rows, rid, words, x)
 
     t = total + 1
     while t < upper:
