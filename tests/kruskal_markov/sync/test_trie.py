@@ -8,6 +8,7 @@ import pytest
 
 from kruskal_markov import generators
 from kruskal_markov.sync import SyncAutomaton, _trie, is_synchronizing_word, shortest_synchronizing_word
+from tests.kruskal_markov.sync.test_exact import brute
 
 
 def pack(M: np.ndarray) -> np.ndarray:
@@ -75,24 +76,6 @@ def test_first_superset_pair_is_a_real_pair_and_none_only_when_none_exists():
 def test_bad_shapes_are_refused():
     with pytest.raises(ValueError, match="same width"):
         _trie.superset_mask(np.zeros((2, 1), dtype=np.uint64), np.zeros((2, 2), dtype=np.uint64))
-
-
-def brute(table) -> int | None:
-    """Shortest reset length by breadth-first search over the images of the whole state set."""
-    t = np.asarray(table)
-    level, seen, d = [frozenset(range(t.shape[1]))], set(), 0
-    while level:
-        if any(len(s) == 1 for s in level):
-            return d
-        nxt = []
-        for s in level:
-            for a in range(t.shape[0]):
-                u = frozenset(int(t[a, q]) for q in s)
-                if u not in seen:
-                    seen.add(u)
-                    nxt.append(u)
-        level, d = nxt, d + 1
-    return None
 
 
 @pytest.mark.parametrize("forward, backward, visited, trie_meet", [
