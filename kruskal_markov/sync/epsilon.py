@@ -20,7 +20,7 @@ def _cell_entropy(p, partition, n_cells):
     return partition_entropy_bits(p, partition, n_cells)
 
 
-def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time_budget: float = 30.0,
+def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time_budget: float | None = 30.0,
                                node_budget: int = 2_000_000, decimals: int = 12, *, clock=time.perf_counter,
                                max_nodes: int | None = None) -> SyncResult:
     """Shortest word whose predicted entropy from ``model.initial`` is ``<= epsilon``.
@@ -39,8 +39,9 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
         The entropy (bits, >= 0) a word must reach.
     max_length : int, default 30
         Longest word tried.
-    time_budget : float, default 30.0
-        Seconds before the search gives up.
+    time_budget : float or None, default 30.0
+        Seconds before the search gives up; None: no time limit (the node budget still holds), as
+        in :func:`kruskal_markov.sync.shortest.shortest_word`.
     node_budget : int, default 2,000,000
         Distributions kept before the search gives up (the family's budget name,
         :mod:`kruskal_markov.sync.shortest`).
@@ -104,7 +105,7 @@ def epsilon_synchronizing_word(model, epsilon: float, max_length: int = 30, time
                                       lower_bound=depth, seconds=clock() - t0,
                                       notes=[f"entropy {h:.6g} bits"])
                 nxt.append((q, w + [a]))
-            if explored > max_nodes or clock() - t0 > time_budget:
+            if explored > max_nodes or (time_budget is not None and clock() - t0 > time_budget):
                 return SyncResult(None, None, False, "distribution-bfs", states_explored=explored,
                                   lower_bound=depth, seconds=clock() - t0,
                                   greedy_length=len(best[1]), best_word=best[1],

@@ -987,6 +987,9 @@ def test_epsilon_word_answers_whole():
     assert (long.word, long.exact, long.lower_bound) == (None, False, 31)
     assert long.notes == ("no word of length <= 30 reaches entropy <= 0.0",) and long.method == "distribution-bfs"
     assert 0 < long.seconds < 10 ** 5
+    unlimited = epsilon_synchronizing_word(cerny7, 0.0, time_budget=None)   # None: no time limit, as its siblings
+    assert (unlimited.word, unlimited.exact, unlimited.lower_bound, unlimited.notes) == \
+        (None, False, 31, long.notes)
 
 
 def plain_shortest_word(table):
