@@ -32,7 +32,7 @@ _EXPORTS = {
     "make_shape": "shapes",
     "SimSettings": "sim_settings",
     "TraySimulator": "sim",
-    "simulate": "sim",
+    "simulate": "simulators",
     "ReportGrid": "grid",
     "parse_grid": "grid",
     "parse_friction": "friction",

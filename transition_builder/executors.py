@@ -3,8 +3,9 @@
 One layer for direct Monte Carlo (:func:`analysis.montecarlo.run_direct`) and for model building.
 A caller splits its work into tasks (tuples of arguments of one module-level, picklable function)
 and :meth:`Executor.map` yields ``(index, result)`` pairs as the tasks complete. Results must not
-depend on where a task ran: a task builds its simulator with :func:`simulator_for` (one per scene,
-kept between tasks) and draws any randomness from its own arguments.
+depend on where a task ran: a task builds its simulator with
+:func:`transition_builder.simulators.simulator_for` (one per scene, kept between tasks) and draws any
+randomness from its own arguments.
 
 - :class:`SerialExecutor` runs every task in this process, in order.
 - :class:`LocalExecutor` runs them in worker processes on this machine. Workers are *spawned*
@@ -23,16 +24,13 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import hashlib
 import multiprocessing as mp
 import os
-import pickle
 import signal
 import socket
 import sys
 import threading
 import time
-from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
@@ -47,12 +45,9 @@ __all__ = [
     "default_workers",
     "make_executor",
     "shutdown_workers",
-    "simulator_for",
     "terminate_workers",
 ]
 
-#: simulators kept per process and thread (least recently used first out).
-SIM_CACHE_SIZE = 4
 #: seconds to wait for a Dask scheduler to answer.
 DASK_CONNECT_TIMEOUT_S = 10.0
 
@@ -66,87 +61,6 @@ _WATCHDOG_INTERVAL_S = 1.0
 def _one_line(exc: BaseException) -> str:
     text = str(exc).strip()
     return text.splitlines()[0] if text else type(exc).__name__
-
-
-# ----------------------------------------------------------------------------------------------
-# simulators, cached per process and thread
-# ----------------------------------------------------------------------------------------------
-
-_LOCAL = threading.local()
-
-
-def _sim_cache() -> OrderedDict:
-    """This thread's simulator cache (key -> simulator)."""
-    cache = getattr(_LOCAL, "sims", None)
-    if cache is None:
-        cache = _LOCAL.sims = OrderedDict()
-    return cache
-
-
-def _default_factory(scene):
-    from transition_builder.sim import TraySimulator
-
-    return TraySimulator(scene)
-
-
-def _simulator_key(scene, factory) -> str:
-    """A key identifying (scene, simulator factory) across processes.
-
-    Every task brings its own unpickled copy of the scene, and a content hash costs about a
-    millisecond (thousands of tasks in a build), so keys are remembered per thread by the pickle
-    of the pair: an equal pickle is an equal scene (a scene that pickles otherwise is only hashed
-    again)."""
-    last = getattr(_LOCAL, "last_key", None)
-    if last is not None and last[0] is scene and last[1] is factory:
-        return last[2]
-    blob = pickle.dumps((scene, factory))
-    memo = getattr(_LOCAL, "key_memo", None)
-    if memo is None:
-        memo = _LOCAL.key_memo = OrderedDict()
-    key = memo.get(blob)
-    if key is None:
-        h = hashlib.sha256()
-        content_hash = getattr(scene, "content_hash", None)
-        h.update(content_hash().encode() if callable(content_hash) else pickle.dumps(scene))
-        h.update(pickle.dumps(factory))
-        key = memo[blob] = h.hexdigest()
-        while len(memo) > 4 * SIM_CACHE_SIZE:
-            memo.popitem(last=False)
-    _LOCAL.last_key = (scene, factory, key)
-    return key
-
-
-def simulator_for(scene, factory=None):
-    """The simulator of ``scene`` in this process and thread, built on first use and then kept.
-
-    Parameters
-    ----------
-    scene : transition_builder.scene.Scene
-        Keyed by its content hash (an object without ``content_hash`` by its pickle).
-    factory : callable, optional
-        ``factory(scene)`` builds the simulator; default :class:`transition_builder.sim.TraySimulator`.
-        Part of the key (by its pickle), so it must be picklable (a module-level function).
-
-    Returns
-    -------
-    object
-        The simulator. At most :data:`SIM_CACHE_SIZE` are kept per thread; the least recently used
-        one is closed when another is built.
-    """
-    key = _simulator_key(scene, factory)
-    cache = _sim_cache()
-    sim = cache.get(key)
-    if sim is None:
-        sim = (factory or _default_factory)(scene)
-        cache[key] = sim
-        while len(cache) > SIM_CACHE_SIZE:
-            _, old = cache.popitem(last=False)
-            close = getattr(old, "close", None)
-            if callable(close):
-                close()
-    else:
-        cache.move_to_end(key)
-    return sim
 
 
 def default_workers() -> int:

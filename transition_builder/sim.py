@@ -49,7 +49,7 @@ from transition_builder.sampling import is_collision_free
 from transition_builder.scene import Scene
 from transition_builder.sim_settings import SIMULATOR_VERSION
 
-__all__ = ["TraySimulator", "simulate", "SIMULATOR_VERSION", "valid_start"]
+__all__ = ["TraySimulator", "SIMULATOR_VERSION", "valid_start"]
 
 
 
@@ -281,33 +281,3 @@ class TraySimulator:
             out[i] = (px, py, yaw + w.phi)
             z[i] = w.lift_mm()
         return t, out, z
-
-
-def simulate(scene: Scene, poses, action) -> tuple[np.ndarray, np.ndarray]:
-    """Tilt the tray toward ``action`` from every start pose: ``(rest_poses (n, 3), status (n,) int8)``.
-
-    Convenience form of :meth:`TraySimulator.tilt` on the simulator of ``scene`` kept by this
-    process and thread (the one simulator cache, :func:`transition_builder.executors.simulator_for`,
-    keyed by the scene's content hash). Faulted trials have NaN poses.
-
-    Parameters
-    ----------
-    scene : Scene
-        Shape, tray, friction, tilt and simulator settings.
-    poses : array_like (n, 3)
-        Start poses ``(x_mm, y_mm, theta_rad)``.
-    action : str or int
-        Action name or index into ``scene.actions``.
-
-    Returns
-    -------
-    rest : ndarray (n, 3)
-        Rest poses (NaN where a trial faulted).
-    status : ndarray (n,) of int8
-        Fault codes (:mod:`transition_builder.status`; 0 is OK).
-    """
-    if not isinstance(scene, Scene):
-        raise ValueError(f"simulate needs a Scene, got {type(scene).__name__}")
-    from transition_builder.executors import simulator_for
-
-    return simulator_for(scene).tilt(poses, action)

@@ -8,7 +8,7 @@ Two kinds of task, one per job (issue 42):
 - :func:`trial_task`: drive a batch of trials through an action sequence (direct Monte Carlo,
   :func:`run_direct`, the paper's method and the ground truth for models).
 
-Both run on one simulator cache (:func:`transition_builder.executors.simulator_for`), start every
+Both run on one simulator cache (:func:`transition_builder.simulators.simulator_for`), start every
 task on fresh worlds (:meth:`transition_builder.sim.TraySimulator.fresh_start`) and pass every
 tilt through the same status check (:func:`checked_tilt`: unknown codes are an error, a fault is
 never returned as a pose). Work is cut into tasks by one chunker (:func:`chunk_bounds`), whose
@@ -39,7 +39,7 @@ import numpy as np
 from kruskal_markov.entropy import histogram_entropy_bits
 from kruskal_markov.limits import check_memory
 from kruskal_markov.validation import action_position, check_int, is_int
-from transition_builder.executors import Executor, SerialExecutor, make_executor, simulator_for
+from transition_builder.executors import Executor, SerialExecutor, make_executor
 from transition_builder.grid import ReportGrid, parse_grid
 from transition_builder.noise import (
     NoiseSpec,
@@ -50,6 +50,7 @@ from transition_builder.noise import (
     perturb_poses,
 )
 from transition_builder.sampling import sample_start_poses
+from transition_builder.simulators import simulator_for
 from transition_builder.status import INVALID, OK, STATUS_NAMES
 
 __all__ = [

@@ -25,9 +25,9 @@ from transition_builder.executors import (
     SerialExecutor,
     default_workers,
     make_executor,
-    simulator_for,
 )
 from transition_builder.scene import scene_from_options
+from transition_builder.simulators import simulator_for
 
 ROOT = str(tests.ROOT)
 

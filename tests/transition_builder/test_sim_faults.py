@@ -12,7 +12,8 @@ import pytest
 
 from transition_builder.sampling import sample_start_poses
 from transition_builder.scene import scene_from_options
-from transition_builder.sim import TraySimulator, simulate
+from transition_builder.sim import TraySimulator
+from transition_builder.simulators import simulate
 from transition_builder.status import ESCAPED, INVALID, OK, TIPPED, fault_counts
 
 
@@ -52,7 +53,7 @@ _CHILD = """
 import json, sys, numpy as np
 from transition_builder.scene import scene_from_options
 from transition_builder.sampling import sample_start_poses
-from transition_builder.sim import simulate
+from transition_builder.simulators import simulate
 sc = scene_from_options("allen-key", "map:medium:4")
 poses = sample_start_poses(sc.shape, 200.0, 200.0, 12, np.random.default_rng(11))
 rest, status = simulate(sc, poses, sys.argv[1])

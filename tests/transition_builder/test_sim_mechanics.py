@@ -14,7 +14,8 @@ import pytest
 
 from transition_builder.sampling import sample_start_poses
 from transition_builder.scene import ACTIONS, scene_from_options
-from transition_builder.sim import TraySimulator, simulate
+from transition_builder.sim import TraySimulator
+from transition_builder.simulators import simulate
 from transition_builder.status import OK
 
 G = 9.81
