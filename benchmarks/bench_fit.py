@@ -10,6 +10,10 @@ and every fit is kept under ``benchmarks/results/fit/``; a run stops starting ne
 Parts (``python -m benchmarks.bench_fit [recovery|timing|plan]``, default all):
 
 - ``recovery``: logs i = 0.. in order: estimate error, interval width, coverage, fit time.
+- ``recovery200``: the same logs cut to their first 200 trials (no new simulation).
+- ``pose_noise``: one log with process noise ``pose:0.2,0.2`` in the physics (log 0's truth and
+  seeds), fitted with ``--fit mu`` (noise-free models).
+- ``logs tuning|paper|pose_noise``: only make the logs; ``tuning``: fit the tuning logs.
 - ``timing``: log 0 fitted again with every model cached (the second-fit time).
 - ``plan``: the key's robust plan for mu 0.2..0.4 (5 models) against the single-mu optimum (mu
   0.3), both replayed by direct simulation at the 4 coefficients halfway between the models.
@@ -301,10 +305,13 @@ def main(parts=None) -> None:
     if parts[0] == "tuning":
         tuning()
         return
-    if "recovery" in parts:
-        rows = recovery(budget)
-        if rows:
-            print(json.dumps(summarise(rows)), flush=True)
+    for part, proto in (("recovery", PAPER), ("recovery200", PAPER_200), ("pose_noise", POSE_NOISE)):
+        if part in parts:
+            rows = recovery(budget, proto)
+            if rows:
+                summary = summarise(rows)
+                print(json.dumps(summary), flush=True)
+                (pathlib.Path(proto.out) / "summary.json").write_text(json.dumps({"rows": rows, "summary": summary}))
     if "timing" in parts:
         timing()
     if "plan" in parts:
