@@ -413,7 +413,8 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     if at_edge or len(x) < 3 or g.log.trials < 2:     # fewer models cannot show a curve: no interval
         return _summary_1d_out(name, est, at_edge, None, None, {}, None)
     diffs = [float(g.ll[p][cam].sum() - r[cam].sum()) for p in pts for r in g.rep.get(p, [])]
-    err = model_error(x, y, n, j, diffs)
+    h = float(min(np.diff(x)[max(0, j - 1):j + 1]))        # the finest spacing beside the best point
+    err = model_error(x, y, n, j, diffs, resolution=h)
     rng = np.random.default_rng([s.seed, _SALT])
     B = max(s.bootstrap, 2)
     both = resample_vertices(x, L, n, err, rng, B)
@@ -428,7 +429,8 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
                "untempered_profile_90": _profile_interval(x, y, j)})
     if err.var is None:
         me["note"] = "the models' error is not measured (no replicate build and a 3-point window)"
-    return _summary_1d_out(name, est, at_edge, interval, profile, trials_needed(g.log.trials, sd_t, sd_m), me,
+    need = trials_needed(g.log.trials, sd_t, sd_m, sd_resolution=h / math.sqrt(12.0))
+    return _summary_1d_out(name, est, at_edge, interval, profile, need, me,
                            [float(v) for v in np.quantile(only_trials, [0.05, 0.95])])
 
 

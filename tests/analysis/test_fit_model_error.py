@@ -76,16 +76,20 @@ def test_exact_models_keep_a_narrow_interval(scene, tmp_path):
     assert r["model_error"]["replicate_differences"] == [0.0, 0.0, 0.0]
     lo, hi = r["interval_90"]["mu"]
     assert lo <= 0.33 <= hi and hi - lo < 0.06
-    assert r["trials_needed"]["dominated_by"] == "trials"
+    assert r["trials_needed"]["dominated_by"] != "model"       # the builds agree: not their error
+    assert r["model_error"]["resolution"] == pytest.approx(0.025)   # 0.05 refined once
 
 
-def test_model_error_pools_replicates_and_residuals():
+def test_model_error_carries_the_larger_of_replicates_and_residuals():
     x = np.linspace(0.2, 0.4, 5)
     y = -1000 * (x - 0.3) ** 2                         # an exact quadratic: no residual
     e = model_error(x, y, np.ones(5), 2, [3.0, -4.0])
     assert e.replicate_sd == pytest.approx(np.sqrt((9 + 16) / 2 / 2))
-    assert e.residual_sd == pytest.approx(0.0, abs=1e-6) and e.dof == 4
-    assert e.var == pytest.approx((9 + 16) / 2 / 4)
+    assert e.residual_sd == pytest.approx(0.0, abs=1e-6)
+    assert e.var == pytest.approx((9 + 16) / 2 / 2) and e.dof == 2      # the larger of the two is carried
+    bumpy = y + np.array([0.0, 50.0, 0.0, -50.0, 0.0])
+    e = model_error(x, bumpy, np.ones(5), 2, [3.0, -4.0])
+    assert e.var == pytest.approx(e.residual_sd ** 2) and e.var > 100
     assert model_error(x[1:4], y[1:4], np.ones(3), 1, []).var is None     # nothing measured it
 
 
@@ -95,6 +99,8 @@ def test_trials_needed_splits_the_terms():
     h = 0.01 / 1.6448536
     assert need["half_width_90"]["0.01"] == int(np.ceil(500 * 0.004 ** 2 / (h ** 2 - 0.001 ** 2)))
     assert trials_needed(500, 0.001, 0.02)["half_width_90"] == {"0.01": None, "0.02": None, "0.05": 1}
+    grid = trials_needed(500, 0.001, 0.008, sd_resolution=0.0072)
+    assert grid["dominated_by"] == "grid resolution" and "finer grid" in grid["note"]
 
 
 def test_camera_noise_below_the_models_tolerance_is_not_called_an_estimate(scene, tmp_path):
