@@ -181,7 +181,9 @@ def format_text(result: dict) -> str:
                   f"({pair['criterion_gain_over_single']:.1f} below the pair)")
         lines.append(f"mu_s - mu_k: 90% interval {d[0]:.4g} .. {d[1]:.4g}{single}")
     cam = result["camera_noise"]
-    lines.append(f"camera noise {cam['mm']:g} mm / {cam['deg']:g} deg ({'estimated' if cam['estimated'] else 'given'});"
+    how = "given" if not cam["estimated"] else ("estimated" if cam.get("identifiable", True) else
+                                                 "not identifiable: at or below the models' tolerance")
+    lines.append(f"camera noise {cam['mm']:g} mm / {cam['deg']:g} deg ({how});"
                  f" {result['trials']} trials, {result['tilts']} tilts, {result['observations']} observations")
     names = list(result["estimate"])
     lines.append("  ".join(f"{n:>6}" for n in names) + "      loglik  hist_dist")
@@ -190,6 +192,9 @@ def format_text(result: dict) -> str:
     needed = result["trials_needed"]["half_width_90"]
     if needed:
         lines.append("trials for a 90% half-width of " + ", ".join(
-            f"{k}: {'unreachable (model error)' if v is None else format(v, ',')}" for k, v in needed.items()))
+            f"{k}: {'unreachable (models / grid)' if v is None else format(v, ',')}" for k, v in needed.items()))
+    if result["trials_needed"].get("dominated_by"):
+        lines.append(f"the interval is dominated by: {result['trials_needed']['dominated_by']} "
+                     f"({result['trials_needed']['note']})")
     lines.append(f"seconds: {result['seconds']:.1f}")
     return "\n".join(lines)

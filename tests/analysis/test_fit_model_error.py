@@ -121,3 +121,32 @@ def test_camera_noise_below_the_models_tolerance_is_not_called_an_estimate(scene
         assert "not identifiable" in cam["note"]
     exact = _fit(scene, path, seed=0, build=lambda sc, st: (synthetic_model(sc, sc.friction.mu), "synthetic"))
     assert exact.camera_noise["model_tolerance"] == {"mm": 0.0, "deg": 0.0}
+
+
+def test_command_line_reports_the_model_error(monkeypatch, scene, tmp_path, capsys):
+    """``kruskal fit`` (builds stood in by the noisy family): the JSON's model-error keys, replicate
+    models labelled ``mu#1``, and the text summary naming the dominating term."""
+    import json
+    from types import SimpleNamespace
+
+    import transition_builder.cache as cache
+    from analysis.cli import main
+    from tests.analysis.test_fit import SHAPE
+
+    monkeypatch.setattr(cache, "cached_build",
+                        lambda sc, st, **kw: (SimpleNamespace(model=_noisy_build(sc, st)[0]), f"{sc.friction}", None))
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.31, trials=150, tilts=12, seed=21)
+    args = ["fit", "--poses", str(path), "--shape", SHAPE, "--range", "0.1..0.5", "--points", "9",
+            "--camera-noise", "0.5,0.5", "--bootstrap", "50"]
+    assert main([*args, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {"model_error", "interval_90_trials_only"} <= set(out)
+    assert sum(k.endswith("#1") for k in out["models"]) == 3
+    assert out["trials_needed"]["dominated_by"] in ("trials", "model", "grid resolution")
+    assert main([*args, "--replicates", "0", "--json"]) == 0
+    assert not any(k.endswith("#1") for k in json.loads(capsys.readouterr().out)["models"])
+    assert main(args) == 0
+    assert "the interval is dominated by: " + out["trials_needed"]["dominated_by"] in capsys.readouterr().out
+    assert main([*args, "--replicates", "-1"]) == 2
+    assert "--replicates" in capsys.readouterr().err
