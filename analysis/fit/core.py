@@ -5,10 +5,12 @@ Models are built at a grid of parameter values across the range (ordinary cached
 every one (:mod:`analysis.fit.hmm`), and the grid is refined around the best point. The estimate
 is the vertex of a quadratic through the log-likelihood at the best grid point and its neighbours
 (each model is its own sampled build, so the curve between points is smoothed, not interpolated).
-The 90% interval is the 5-95% range of the same estimate on bootstrap resamples of the trials
-(trials are independent; Efron & Tibshirani 1993, ch. 13), which is cheap here because every
-trial's likelihood under every model is already known. The profile-likelihood interval (the
-values within 1.353 of the maximum, chi-square(1) at 90%) is reported beside it. A best grid point
+The 90% interval is the 5-95% range of the same estimate on resamples that carry both the log's
+error (the trials drawn with replacement; trials are independent, Efron & Tibshirani 1993, ch. 13;
+cheap because every trial's likelihood under every model is known) and the models' own (replicate
+builds, the criterion's residual scatter and the grid's resolution, :mod:`analysis.fit.model_error`):
+a physics log comes from none of the models, and their error does not shrink with more trials. The
+tempered profile-likelihood interval is reported beside it. A best grid point
 at an end of the range is reported as such (``at_edge``), without an interval.
 
 The likelihood-free baseline, the report-cell histogram distance (:mod:`analysis.fit.histograms`),
