@@ -10,6 +10,10 @@ and every fit is kept under ``benchmarks/results/fit/``; a run stops starting ne
 Parts (``python -m benchmarks.bench_fit [recovery|timing|plan]``, default all):
 
 - ``recovery``: logs i = 0.. in order: estimate error, interval width, coverage, fit time.
+- ``recovery200``: the same logs cut to their first 200 trials (no new simulation).
+- ``pose_noise``: one log with process noise ``pose:0.2,0.2`` in the physics (log 0's truth and
+  seeds), fitted with ``--fit mu`` (noise-free models).
+- ``logs tuning|paper|pose_noise``: only make the logs; ``tuning``: fit the tuning logs.
 - ``timing``: log 0 fitted again with every model cached (the second-fit time).
 - ``plan``: the key's robust plan for mu 0.2..0.4 (5 models) against the single-mu optimum (mu
   0.3), both replayed by direct simulation at the 4 coefficients halfway between the models.
@@ -48,9 +52,20 @@ class Protocol:
     build_options: tuple = ()          # extra ``kruskal fit`` options (resolution, start samples, ...)
     out: pathlib.Path = OUT
     workers: int = 2
+    noise: str | None = None           # process noise of the logs' physics (``pose:S,S``), None: none
 
 
 PAPER = Protocol()
+#: the tuning logs of the model-error term (docs/fit.md, named before any was fitted): seeds 4300-4302,
+#: truths ``default_rng(4343).uniform(0.15, 0.45, 3)`` rounded.
+TUNING = Protocol(truths=(0.333, 0.238, 0.352), seed0=4300, out=HERE / "results" / "fit_tuning")
+#: the second validation set (docs/fit.md), named after the first was spent on the model-error term.
+PAPER2 = Protocol(truths=(0.304, 0.282, 0.333, 0.419, 0.34, 0.377, 0.296, 0.252, 0.173, 0.441), seed0=4500,
+                  out=HERE / "results" / "fit_validation2")
+#: the validation logs cut to their first 200 trials (no new simulation).
+PAPER_200 = Protocol(trials=200, out=HERE / "results" / "fit_200")
+#: one log with process noise in the physics (``pose:0.2,0.2``), protocol log 0's truth and seed.
+POSE_NOISE = Protocol(truths=(0.237,), noise="pose:0.2,0.2", out=HERE / "results" / "fit_pose_noise")
 
 
 def _key(mu=0.3, shape="allen-key"):
@@ -64,12 +79,16 @@ def make_log(i: int, proto: Protocol = PAPER) -> tuple[str, list]:
     from analysis.montecarlo import run_direct, write_poses_csv
 
     path = pathlib.Path(proto.out) / f"log{i}.csv"
+    path.parent.mkdir(parents=True, exist_ok=True)
     scene = _key(proto.truths[i], proto.shape)
     seq = parse_sequence(f"random:{proto.tilts}", scene.actions, sequence_rng(proto.seed0 + i))
     names = [scene.actions[a] for a in seq]
+    if not path.exists() and proto.out == PAPER_200.out:
+        _cut_log(make_log(i, PAPER)[0], path, proto.trials)
     if not path.exists():
         t = time.perf_counter()
-        res = run_direct(scene, names, proto.trials, seed=proto.seed0 + i, workers=proto.workers)
+        res = run_direct(scene, names, proto.trials, seed=proto.seed0 + i, workers=proto.workers,
+                         noise=proto.noise)
         rng = np.random.default_rng([proto.seed0 + i, 0xCA])
         noisy = res.poses.copy()
         noisy[..., :2] += rng.normal(0.0, proto.camera[0], noisy[..., :2].shape)
@@ -81,6 +100,40 @@ def make_log(i: int, proto: Protocol = PAPER) -> tuple[str, list]:
     return str(path), names
 
 
+def _cut_log(src, dst, trials: int) -> None:
+    """The first ``trials`` trials of log ``src`` written to ``dst`` (atomically)."""
+    lines = pathlib.Path(src).read_text().splitlines(keepends=True)
+    col = lines[0].strip().split(",").index("trial")
+    keep = [lines[0]] + [ln for ln in lines[1:] if int(ln.split(",")[col]) < trials]
+    tmp = pathlib.Path(dst).with_suffix(".tmp")
+    tmp.write_text("".join(keep))
+    os.replace(tmp, dst)
+
+
+REPORT_DIR = HERE / "results" / "fit_report_log"
+
+
+def make_report_log() -> tuple[str, list, float, int]:
+    """The report's ``tray_log`` log (seed ``stream_seed(0, "tray_log")``), made exactly as
+    :func:`analysis.fit.study.tray_log_study` makes it: its path, action names, truth and seed."""
+    from analysis.experiments.context import stream_seed
+    from analysis.fit.study import _SALT, add_camera_noise, hidden_coefficient
+    from analysis.montecarlo import run_direct, write_poses_csv
+    from transition_builder.friction import parse_friction
+
+    seed = stream_seed(0, "tray_log")
+    truth = hidden_coefficient(seed)
+    scene = _key()
+    seq = np.random.default_rng([seed, _SALT, 1]).integers(0, len(scene.actions), TILTS)
+    names = [scene.actions[a] for a in seq]
+    path = REPORT_DIR / "log0.csv"
+    if not path.exists():
+        REPORT_DIR.mkdir(parents=True, exist_ok=True)
+        res = run_direct(replace(scene, friction=parse_friction(truth)), names, TRIALS, seed=seed, workers=2)
+        write_poses_csv(path, add_camera_noise(res, *CAMERA, seed))
+    return str(path), names, truth, seed
+
+
 def _build_seconds(paths) -> float:
     """Sum of the models' recorded build (simulation) seconds."""
     from kruskal_markov.model import TransitionModel
@@ -88,33 +141,87 @@ def _build_seconds(paths) -> float:
                      for p in paths))
 
 
-def fit(i: int, seed: int | None = None, name: str | None = None, proto: Protocol = PAPER) -> dict:
+def fit(i: int, seed: int | None = None, name: str | None = None, proto: Protocol = PAPER,
+        options: tuple = ()) -> dict:
     """``kruskal fit`` of log ``i`` with the wall time and the models' recorded build seconds."""
-    from analysis.cli import main as cli
-
     path, names = make_log(i, proto)
-    out = pathlib.Path(proto.out) / (name or f"fit{i}.json")
-    t = time.perf_counter()
-    argv = ["fit", "--poses", path, "--shape", proto.shape, "--sequence", ",".join(names),
-            "--seed", str(i if seed is None else seed), "--json", "--workers", str(proto.workers),
-            "--range", proto.range, "--points", str(proto.points), *proto.build_options]
+    argv = ["--range", proto.range, "--points", str(proto.points), *proto.build_options, *options]
+    return fit_file(path, names, i if seed is None else seed, pathlib.Path(proto.out) / (name or f"fit{i}.json"),
+                    proto.truths[i], argv, proto.shape, proto.workers)
+
+
+def fit_file(path, names, seed: int, out, truth: float, options, shape="allen-key", workers=2) -> dict:
+    """``kruskal fit --poses path`` with ``options``; the JSON with the wall time, the truth and the
+    models' recorded build seconds, written to ``out`` (atomically)."""
     import contextlib
     import io
 
+    from analysis.cli import main as cli
+
+    t = time.perf_counter()
+    argv = ["fit", "--poses", str(path), "--shape", shape, "--sequence", ",".join(names),
+            "--seed", str(seed), "--json", "--workers", str(workers), *options]
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         status = cli(argv)
     if status != 0:
-        raise RuntimeError(f"kruskal fit failed on log {i}")
+        raise RuntimeError(f"kruskal fit failed on {path}")
     result = json.loads(buf.getvalue())
     result["wall_seconds"] = time.perf_counter() - t
-    result["truth"] = proto.truths[i]
+    result["truth"] = truth
     result["build_seconds"] = _build_seconds(result["models"].values())
     result["command"] = "kruskal " + " ".join(argv)
+    out = pathlib.Path(out)
     tmp = out.with_suffix(".tmp")
     tmp.write_text(json.dumps(result))
     os.replace(tmp, out)
     return result
+
+
+def row(r: dict, log=None) -> dict:
+    """One fit's recovery row."""
+    est = r["estimate"]["mu"]
+    iv = (r["interval_90"] or {}).get("mu")
+    pv = (r.get("interval_90_profile") or {}).get("mu")
+    tv = (r.get("interval_90_trials_only") or {}).get("mu")
+    me = r.get("model_error") or {}
+    return {"log": log, "truth": r["truth"], "estimate": est, "error": est - r["truth"],
+            "interval_90": iv, "covered": bool(iv and iv[0] <= r["truth"] <= iv[1]),
+            "profile_90": pv, "profile_covered": bool(pv and pv[0] <= r["truth"] <= pv[1]),
+            "trials_only_90": tv, "trials_only_covered": bool(tv and tv[0] <= r["truth"] <= tv[1]),
+            "sd_loglik_model": me.get("sd_loglik"), "replicate_sd": me.get("replicate_sd_loglik"),
+            "residual_sd": me.get("residual_sd_loglik"), "sd_estimate_model": me.get("sd_estimate_model"),
+            "sd_estimate_trials": me.get("sd_estimate_trials"),
+            "at_edge": r["at_edge"], "camera_mm": r["camera_noise"]["mm"],
+            "seconds": r.get("seconds"), "wall_seconds": r["wall_seconds"], "models": len(r["models"]),
+            "build_seconds": r.get("build_seconds"),
+            "hist_best": min(r["criterion"], key=lambda c: c["histogram_distance"])["mu"],
+            "entropy_band_inside": r["goodness_of_fit"]["entropy"]["inside"],
+            "trials_needed": r["trials_needed"]["half_width_90"],
+            "dominated_by": r["trials_needed"].get("dominated_by")}
+
+
+def tuning(replicates=(1, 0)) -> list:
+    """The tuning logs (docs/fit.md): the report's log (its own fit settings: 0.1..0.55, 10 points) and
+    TUNING's three, each fitted with every ``replicates`` setting (kept; resumable)."""
+    rows = []
+    path, names, truth, seed = make_report_log()
+    jobs = [(path, names, seed, REPORT_DIR, truth, ("--range", "0.1..0.55", "--points", "10"), "report")]
+    for i in range(len(TUNING.truths)):
+        p, nm = make_log(i, TUNING)
+        jobs.append((p, nm, i, TUNING.out, TUNING.truths[i], ("--range", TUNING.range, "--points", str(TUNING.points)),
+                     f"tuning{i}"))
+    budget, start = float(os.environ.get("FIT_BENCH_BUDGET_S", "540")), time.perf_counter()
+    for p, nm, sd, d, tr, opts, label in jobs:
+        for rep in replicates:
+            out = pathlib.Path(d) / f"fit_{label}_rep{rep}.json"
+            if not out.exists() and time.perf_counter() - start > budget:
+                return rows
+            r = json.loads(out.read_text()) if out.exists() else fit_file(
+                p, nm, sd, out, tr, (*opts, "--replicates", str(rep)))
+            rows.append({"label": label, "replicates": rep, **row(r)})
+            print(json.dumps(rows[-1]), flush=True)
+    return rows
 
 
 def recovery(budget_s: float, proto: Protocol = PAPER) -> list:
@@ -130,18 +237,7 @@ def recovery(budget_s: float, proto: Protocol = PAPER) -> list:
             break
         else:
             r = fit(i, proto=proto)
-        est = r["estimate"]["mu"]
-        iv = (r["interval_90"] or {}).get("mu")
-        pv = (r.get("interval_90_profile") or {}).get("mu")
-        rows.append({"log": i, "truth": r["truth"], "estimate": est, "error": est - r["truth"],
-                     "interval_90": iv, "covered": bool(iv and iv[0] <= r["truth"] <= iv[1]),
-                     "profile_90": pv, "profile_covered": bool(pv and pv[0] <= r["truth"] <= pv[1]),
-                     "at_edge": r["at_edge"], "camera_mm": r["camera_noise"]["mm"],
-                     "seconds": r["wall_seconds"], "models": len(r["models"]),
-                     "build_seconds": r.get("build_seconds"),
-                     "hist_best": min(r["criterion"], key=lambda c: c["histogram_distance"])["mu"],
-                     "entropy_band_inside": r["goodness_of_fit"]["entropy"]["inside"],
-                     "trials_needed": r["trials_needed"]["half_width_90"]})
+        rows.append(row(r, i))
         print(json.dumps(rows[-1]), flush=True)
     return rows
 
@@ -188,14 +284,38 @@ def summarise(rows: list) -> dict:
             "mean_interval_width": float(np.mean(widths)) if widths else None}
 
 
+def make_logs(which: str) -> None:
+    """Make (only) the logs of ``which``: ``tuning`` (the report's log and TUNING), ``paper``,
+    ``pose_noise``; each kept, so a run resumes; stops starting logs after ``FIT_BENCH_BUDGET_S``."""
+    budget = float(os.environ.get("FIT_BENCH_BUDGET_S", "540"))
+    start = time.perf_counter()
+    if which == "tuning":
+        make_report_log()
+    for proto in {"tuning": (TUNING,), "paper": (PAPER,), "pose_noise": (POSE_NOISE,), "paper2": (PAPER2,)}[which]:
+        for i in range(len(proto.truths)):
+            if time.perf_counter() - start > budget:
+                return
+            make_log(i, proto)
+
+
 def main(parts=None) -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     parts = parts or ["recovery", "timing", "plan"]
     budget = float(os.environ.get("FIT_BENCH_BUDGET_S", "540"))
-    if "recovery" in parts:
-        rows = recovery(budget)
-        if rows:
-            print(json.dumps(summarise(rows)), flush=True)
+    if parts[0] == "logs":
+        make_logs(parts[1])
+        return
+    if parts[0] == "tuning":
+        tuning()
+        return
+    for part, proto in (("recovery", PAPER), ("recovery200", PAPER_200), ("pose_noise", POSE_NOISE),
+                        ("recovery2", PAPER2)):
+        if part in parts:
+            rows = recovery(budget, proto)
+            if rows:
+                summary = summarise(rows)
+                print(json.dumps(summary), flush=True)
+                (pathlib.Path(proto.out) / "summary.json").write_text(json.dumps({"rows": rows, "summary": summary}))
     if "timing" in parts:
         timing()
     if "plan" in parts:

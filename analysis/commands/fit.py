@@ -53,6 +53,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--criterion", choices=("likelihood", "histogram"), default="likelihood",
                         help="likelihood (hidden Markov model, default) or histogram (cell-histogram distance)")
     parser.add_argument("--bootstrap", type=int, default=400, help="bootstrap resamples of the trials (default 400)")
+    parser.add_argument("--replicates", type=int, default=1,
+                        help="--fit mu: extra builds (other build seeds) of the best model and its two neighbours, "
+                             "measuring the models' own error for the interval (default 1; 0: from the "
+                             "criterion's residual scatter alone)")
     parser.add_argument("--figure", metavar="PNG", help="write the criterion and goodness-of-fit figure here")
     parser.add_argument("--resolution", default="1,1", metavar="MM,DEG",
                         help="snapping tolerance of the grid's models (default 1,1; see docs/fit.md)")
@@ -96,8 +100,8 @@ def _settings(args):
         raise InputError(_PAIR_RANGE_NOTE)
     check_positive(args.points, "--points")
     check_positive(args.noise_points, "--noise-points")
-    if (args.refine is not None and args.refine < 0) or args.bootstrap < 0:
-        raise InputError("--refine and --bootstrap must be >= 0")
+    if (args.refine is not None and args.refine < 0) or args.bootstrap < 0 or args.replicates < 0:
+        raise InputError("--refine, --bootstrap and --replicates must be >= 0")
     camera = None
     if args.camera_noise is not None:
         camera = parse_resolution(args.camera_noise)
@@ -110,7 +114,8 @@ def _settings(args):
         _check_pair(args, fr)
     try:
         return FitSettings(params=params, ranges=ranges, points=points, refine=args.refine, camera=camera,
-                           criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed)
+                           criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed,
+                           replicates=args.replicates)
     except ValueError as exc:
         raise InputError(f"--fit {args.fit}: {exc}") from None
 
@@ -176,7 +181,9 @@ def format_text(result: dict) -> str:
                   f"({pair['criterion_gain_over_single']:.1f} below the pair)")
         lines.append(f"mu_s - mu_k: 90% interval {d[0]:.4g} .. {d[1]:.4g}{single}")
     cam = result["camera_noise"]
-    lines.append(f"camera noise {cam['mm']:g} mm / {cam['deg']:g} deg ({'estimated' if cam['estimated'] else 'given'});"
+    how = "given" if not cam["estimated"] else ("estimated" if cam.get("identifiable", True) else
+                                                 "not identifiable: at or below the models' tolerance")
+    lines.append(f"camera noise {cam['mm']:g} mm / {cam['deg']:g} deg ({how});"
                  f" {result['trials']} trials, {result['tilts']} tilts, {result['observations']} observations")
     names = list(result["estimate"])
     lines.append("  ".join(f"{n:>6}" for n in names) + "      loglik  hist_dist")
@@ -184,6 +191,10 @@ def format_text(result: dict) -> str:
         lines.append("  ".join(f"{row[n]:6.3f}" for n in names) + f"  {row['loglik']:10.1f}  {row['histogram_distance']:9.4f}")
     needed = result["trials_needed"]["half_width_90"]
     if needed:
-        lines.append("trials for a 90% half-width of " + ", ".join(f"{k}: {v:,}" for k, v in needed.items()))
+        lines.append("trials for a 90% half-width of " + ", ".join(
+            f"{k}: {'unreachable (models / grid)' if v is None else format(v, ',')}" for k, v in needed.items()))
+    if result["trials_needed"].get("dominated_by"):
+        lines.append(f"the interval is dominated by: {result['trials_needed']['dominated_by']} "
+                     f"({result['trials_needed']['note']})")
     lines.append(f"seconds: {result['seconds']:.1f}")
     return "\n".join(lines)

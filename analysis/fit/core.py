@@ -5,10 +5,12 @@ Models are built at a grid of parameter values across the range (ordinary cached
 every one (:mod:`analysis.fit.hmm`), and the grid is refined around the best point. The estimate
 is the vertex of a quadratic through the log-likelihood at the best grid point and its neighbours
 (each model is its own sampled build, so the curve between points is smoothed, not interpolated).
-The 90% interval is the 5-95% range of the same estimate on bootstrap resamples of the trials
-(trials are independent; Efron & Tibshirani 1993, ch. 13), which is cheap here because every
-trial's likelihood under every model is already known. The profile-likelihood interval (the
-values within 1.353 of the maximum, chi-square(1) at 90%) is reported beside it. A best grid point
+The 90% interval is the 5-95% range of the same estimate on resamples that carry both the log's
+error (the trials drawn with replacement; trials are independent, Efron & Tibshirani 1993, ch. 13;
+cheap because every trial's likelihood under every model is known) and the models' own (replicate
+builds, the criterion's residual scatter and the grid's resolution, :mod:`analysis.fit.model_error`):
+a physics log comes from none of the models, and their error does not shrink with more trials. The
+tempered profile-likelihood interval is reported beside it. A best grid point
 at an end of the range is reported as such (``at_edge``), without an interval.
 
 The likelihood-free baseline, the report-cell histogram distance (:mod:`analysis.fit.histograms`),
@@ -27,7 +29,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
-from analysis.fit.hmm import EmissionSettings, trial_loglik
+from analysis.fit.hmm import EmissionSettings, _model_tolerance, trial_loglik
+from analysis.fit.model_error import model_error, replicate_indices, resample_vertices, trials_needed, weighted_vertex
 from analysis.fit.pair import PAIR, pair_axes, pair_grid, pair_refinement, pair_summary
 
 __all__ = ["FitSettings", "FitResult", "PARAMETERS", "FITS", "fit_log", "CAMERA_CANDIDATES"]
@@ -87,6 +90,10 @@ class FitSettings:
         Seed of the bootstrap and of the goodness-of-fit band.
     outlier : float
         Share of observations allowed from anywhere in the tray (:class:`EmissionSettings`).
+    replicates : int
+        ``--fit mu``: extra builds (build seed + r, r = 1..replicates) of the best grid point and its
+        two neighbours, which measure the models' own error (:mod:`analysis.fit.model_error`);
+        0 measures it from the residual scatter of the criterion alone.
     """
 
     params: tuple = ("mu",)
@@ -99,6 +106,7 @@ class FitSettings:
     bootstrap: int = 400
     seed: int = 0
     outlier: float = 1e-3
+    replicates: int = 1
 
     def __post_init__(self):
         if tuple(self.params) not in FITS:
@@ -158,6 +166,7 @@ class _Grid:
         self.ll: dict = {}                  # point -> (n_cams, T)
         self.dist: dict = {}
         self.paths: dict = {}
+        self.rep: dict = {}                 # point -> list of (n_cams, T), the replicate builds
         self.counts = log_histograms(log, grid)
 
     def add(self, point: tuple) -> None:
@@ -170,27 +179,20 @@ class _Grid:
         self.dist[point] = histogram_distance(model, self.log, self.grid, self.counts)
         self.points.append(point)
 
+    def add_replicates(self, point: tuple, count: int) -> None:
+        """Build ``point`` ``count`` more times (build seeds + 1 .. + count) and score each build."""
+        have = self.rep.setdefault(point, [])
+        for r in range(len(have) + 1, count + 1):
+            model, path = self.build(point, replicate=r)
+            self.paths[(point, r)] = path
+            have.append(np.stack([trial_loglik(model, self.log, em, self.grid) for em in self.cams]))
+
+    def mean_ll(self, point: tuple, cam: int) -> np.ndarray:
+        """Every trial's log-likelihood at ``point``, the mean over its builds."""
+        return np.mean([self.ll[point][cam]] + [r[cam] for r in self.rep.get(point, [])], axis=0)
+
     def sorted_points(self) -> list[tuple]:
         return sorted(self.points)
-
-
-def _quadratic_vertex(x: np.ndarray, y: np.ndarray, j: int) -> float:
-    """The maximum of a quadratic through the best point ``j`` and up to two neighbours each side
-    (``x`` sorted); the best point itself when the fit is not concave or its vertex leaves the window."""
-    lo, hi = max(0, j - 2), min(len(x), j + 3)
-    xs, ys = x[lo:hi], y[lo:hi]
-    if len(xs) >= 3:
-        a, b, _ = np.polyfit(xs - x[j], ys - y[j], 2)
-        if a < 0:
-            v = x[j] - b / (2 * a)
-            if xs[0] <= v <= xs[-1]:
-                return float(v)
-    return float(x[j])
-
-
-def _estimate_1d(x: np.ndarray, y: np.ndarray) -> tuple[float, int]:
-    j = int(np.argmax(y))
-    return _quadratic_vertex(x, y, j), j
 
 
 def _profile_interval(x, y, j) -> list | None:
@@ -258,8 +260,8 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
             res, path, _ = cached_build(sc, st, workers=workers, scheduler=scheduler, progress=progress)
             return res.model, path
 
-    def build_point(point):
-        sc, st = scene, bs
+    def build_point(point, replicate=0):
+        sc, st = scene, (bs if not replicate else replace(bs, seed=bs.seed + replicate))
         if tuple(s.params) == PAIR:
             return build(_set_pair(sc, *point), st)
         for name, v in zip(s.params, point):
@@ -281,17 +283,43 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         row["histogram_distance"] = g.dist[p]
         crit.append(row)
     cam_used = cams[cam]
-    extra = {"pair": out["pair"]} if "pair" in out else {}
+    extra = {k: out[k] for k in ("pair", "model_error", "interval_90_trials_only") if k in out}
     return FitResult(
         estimate=out["estimate"], interval_90=out["interval"], interval_90_profile=out["profile"],
         at_edge=out["at_edge"], criterion=crit, criterion_name=s.criterion,
-        camera_noise={"mm": cam_used.sigma_mm, "deg": cam_used.sigma_deg,
-                      "estimated": s.camera is None},
+        camera_noise=_camera_report(cam_used, s.camera is None, model),
         trials=log.trials, tilts=log.tilts, observations=log.n_observations,
         trials_needed=out["trials_needed"],
         goodness={"model_point": dict(zip(s.params, best_point)), "entropy": band,
                   "log_histograms": g.counts.tolist(), "model_histograms": pred.tolist()},
-        models={",".join(f"{v:g}" for v in p): g.paths[p] for p in pts}, extra=extra)
+        models=_model_paths(g, pts), extra=extra)
+
+
+def _model_paths(g: _Grid, pts) -> dict:
+    """Point label -> model file; a replicate build is labelled ``mu#r``."""
+    out = {",".join(f"{v:g}" for v in p): g.paths[p] for p in pts}
+    for p, reps in g.rep.items():
+        for r in range(1, len(reps) + 1):
+            out[",".join(f"{v:g}" for v in p) + f"#{r}"] = g.paths[(p, r)]
+    return out
+
+
+def _camera_report(em: EmissionSettings, estimated: bool, model) -> dict:
+    """The camera noise used; when estimated, whether the log can tell it: the emission's sigma is
+    ``hypot(camera, tolerance)`` (:mod:`analysis.fit.hmm`), so below the models' snapping tolerance
+    the camera's share of the blur is small (at most 1 - 1/sqrt(2) = 29% of it) and confounded with
+    how well a model's states stand for the physics' rest poses."""
+    tol_mm, tol_deg = _model_tolerance(model)
+    out = {"mm": em.sigma_mm, "deg": em.sigma_deg, "estimated": estimated,
+           "model_tolerance": {"mm": tol_mm, "deg": tol_deg}}
+    if estimated:
+        ident = em.sigma_mm > tol_mm or em.sigma_deg > tol_deg
+        out["identifiable"] = bool(ident)
+        if not ident:
+            out["note"] = (f"not identifiable: the likelihood's best candidate lies at or below the models' "
+                           f"tolerance ({tol_mm:g} mm / {tol_deg:g} deg), where the camera's blur is swamped "
+                           f"by the models' own; the log says only that the camera noise is not much above it")
+    return out
 
 
 def _refine(g: _Grid, s: FitSettings, axis: np.ndarray) -> None:
@@ -320,6 +348,12 @@ def _fit_grid(g: _Grid, s: FitSettings):
         _refine(g, s, axes[0])
     cam = _best_camera(g) if s.criterion == "likelihood" else 0
     pts = g.sorted_points()
+    if len(s.params) == 1 and s.criterion == "likelihood" and s.replicates > 0 and len(pts) >= 3:
+        j = int(np.argmax(_criterion_values(g, pts, cam, s.criterion)))
+        if 0 < j < len(pts) - 1:                  # at an edge there is no interval to widen
+            for k in replicate_indices(len(pts), j):
+                g.add_replicates(pts[k], s.replicates)
+            cam = _best_camera(g)
     return (_summary_1d if len(s.params) == 1 else _summary_nd)(g, s, pts, cam, axes), pts, cam
 
 
@@ -362,36 +396,55 @@ def _refine_pair(g: _Grid, s: FitSettings, axes) -> np.ndarray:
 
 
 def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
+    """Estimate, intervals and trials needed of a 1-D fit, the models' own error included
+    (:mod:`analysis.fit.model_error`)."""
     name = s.params[0]
     x = np.array([p[0] for p in pts])
-    y = _criterion_values(g, pts, cam, s.criterion)
-    est, j = _estimate_1d(x, y)
     lo, hi = s.ranges[name]
+    if s.criterion != "likelihood":
+        y = _criterion_values(g, pts, cam, s.criterion)
+        j = int(np.argmax(y))
+        return _summary_1d_out(name, weighted_vertex(x, y, np.ones(len(x)), j),
+                               bool(len(x) > 1 and (x[j] <= lo + 1e-9 or x[j] >= hi - 1e-9)), None, None, {}, None)
+    n = np.array([1.0 + len(g.rep.get(p, [])) for p in pts])
+    L = np.stack([g.mean_ll(p, cam) for p in pts], axis=1)              # (T, points)
+    y = L.sum(axis=0)
+    j = int(np.argmax(y))
+    est = weighted_vertex(x, y, n, j)
     at_edge = bool(len(x) > 1 and (x[j] <= lo + 1e-9 or x[j] >= hi - 1e-9))
+    if at_edge or len(x) < 3 or g.log.trials < 2:     # fewer models cannot show a curve: no interval
+        return _summary_1d_out(name, est, at_edge, None, None, {}, None)
+    diffs = [float(g.ll[p][cam].sum() - r[cam].sum()) for p in pts for r in g.rep.get(p, [])]
+    h = float(min(np.diff(x)[max(0, j - 1):j + 1]))        # the finest spacing beside the best point
+    err = model_error(x, y, n, j, diffs, resolution=h)
     rng = np.random.default_rng([s.seed, _SALT])
-    T = g.log.trials
-    boots = []
-    if s.criterion == "likelihood" and T > 1:
-        L = np.stack([g.ll[p][cam] for p in pts], axis=1)             # (T, points)
-        for _ in range(s.bootstrap):
-            rows = rng.integers(0, T, T)
-            boots.append(_estimate_1d(x, L[rows].sum(axis=0))[0])
-    boots = np.array(boots)
-    interval = profile = None
-    needed = {}
-    if not at_edge and len(x) >= 3:         # fewer models cannot show a curve: no interval
-        if boots.size:
-            interval = [float(v) for v in np.quantile(boots, [0.05, 0.95])]
-            se = float(boots.std(ddof=1))
-            for half in (0.01, 0.02, 0.05):
-                needed[f"{half:g}"] = int(math.ceil(T * (1.645 * se / half) ** 2)) if se > 0 else 1
-        if s.criterion == "likelihood":
-            profile = _profile_interval(x, y, j)
-    return {"estimate": {name: round(est, 6)}, "estimate_tuple": (est,),
-            "interval": None if interval is None else {name: interval},
-            "profile": None if profile is None else {name: profile},
-            "at_edge": at_edge, "trials_needed": {"half_width_90": needed, "bootstrap_sd": (
-                float(boots.std(ddof=1)) if boots.size > 1 else None)}}
+    B = max(s.bootstrap, 2)
+    both = resample_vertices(x, L, n, err, rng, B)
+    only_trials = resample_vertices(x, L, n, err, rng, B, model=False)
+    only_model = resample_vertices(x, L, n, err, rng, B, trials=False)
+    sd_t, sd_m, sd = (float(v.std(ddof=1)) for v in (only_trials, only_model, both))
+    interval = [float(v) for v in np.quantile(both, [0.05, 0.95])]
+    profile = [est - 1.6448536 * sd, est + 1.6448536 * sd]
+    me = err.to_dict()
+    me.update({"replicated_points": [p[0] for p in pts if p in g.rep], "replicates": s.replicates,
+               "sd_estimate": sd, "sd_estimate_trials": sd_t, "sd_estimate_model": sd_m,
+               "untempered_profile_90": _profile_interval(x, y, j)})
+    if err.var is None:
+        me["note"] = "the models' error is not measured (no replicate build and a 3-point window)"
+    need = trials_needed(g.log.trials, sd_t, sd_m, sd_resolution=h / math.sqrt(12.0))
+    return _summary_1d_out(name, est, at_edge, interval, profile, need, me,
+                           [float(v) for v in np.quantile(only_trials, [0.05, 0.95])])
+
+
+def _summary_1d_out(name, est, at_edge, interval, profile, needed, me, trials_only=None) -> dict:
+    out = {"estimate": {name: round(est, 6)}, "estimate_tuple": (est,),
+           "interval": None if interval is None else {name: interval},
+           "profile": None if profile is None else {name: profile}, "at_edge": at_edge,
+           "trials_needed": needed or {"half_width_90": {}, "bootstrap_sd": None}}
+    if me is not None:
+        out["model_error"] = me
+        out["interval_90_trials_only"] = {name: trials_only}
+    return out
 
 
 def _summary_nd(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:

@@ -85,6 +85,27 @@ def _surface(P: np.ndarray, y: np.ndarray, j: int, half: np.ndarray):
     return np.array([b1, b2]), np.array([[2 * a11, a12], [a12, 2 * a22]]), win
 
 
+def surface_residual(P: np.ndarray, y: np.ndarray, half: np.ndarray) -> tuple[float | None, int]:
+    """The residual variance of the estimate's quadratic surface (the window :func:`pair_estimate`
+    uses, around the best point) and its degrees of freedom (window points - 6); (None, 0) when the
+    window holds no spare point. The models' own error in the criterion (each is a sampled build,
+    and a physics log comes from none of them) shows as this scatter (:mod:`analysis.fit.model_error`)."""
+    j = int(np.argmax(y))
+    for scale in (1, 2, 4):
+        d = (P - P[j]) / (half * scale)
+        win = np.all(np.abs(d) <= 1 + 1e-9, axis=1)
+        if win.sum() < 6:
+            continue
+        u, v = d[win, 0], d[win, 1]
+        X = np.column_stack([np.ones_like(u), u, v, u * u, u * v, v * v])
+        coef, _, rank, _ = np.linalg.lstsq(X, y[win], rcond=None)
+        dof = int(win.sum()) - 6
+        if rank < 6 or dof < 1:
+            return None, 0
+        return float(np.sum((y[win] - X @ coef) ** 2) / dof), dof
+    return None, 0
+
+
 def pair_estimate(P: np.ndarray, y: np.ndarray, half: np.ndarray) -> tuple[np.ndarray, dict]:
     """The constrained maximum of the local quadratic surface (module docstring).
 
@@ -142,6 +163,17 @@ def pair_estimate(P: np.ndarray, y: np.ndarray, half: np.ndarray) -> tuple[np.nd
     return np.array([mu, mu]), info
 
 
+def _resampled(L: np.ndarray, var, dof: int, rng: np.random.Generator) -> np.ndarray:
+    """One resample of the criterion: the trials drawn with replacement, plus, when the surface's
+    residual variance is known, independent normal errors of a variance drawn from its
+    scaled-inverse-chi-square posterior (as :func:`analysis.fit.model_error.resample_vertices`)."""
+    T = L.shape[0]
+    y = L[rng.integers(0, T, T)].sum(axis=0)
+    if var:
+        y = y + rng.normal(0.0, 1.0, len(y)) * math.sqrt(var * dof / rng.chisquare(dof))
+    return y
+
+
 def pair_summary(P: np.ndarray, y: np.ndarray, L: np.ndarray | None, ranges: dict, half: np.ndarray,
                  bootstrap: int, rng: np.random.Generator) -> dict:
     """Estimate, intervals, edge flag and the pair's own answers of a fitted grid.
@@ -174,10 +206,10 @@ def pair_summary(P: np.ndarray, y: np.ndarray, L: np.ndarray | None, ranges: dic
     at_edge = any(best[i] <= ranges[n][0] + _EPS or best[i] >= ranges[n][1] - _EPS
                   for i, n in enumerate(PAIR) if ranges[n][1] > ranges[n][0])
     boots = np.empty((0, 2))
+    var, dof = surface_residual(P, y, half) if L is not None else (None, 0)
     if L is not None and L.shape[0] > 1 and bootstrap > 0:
         T = L.shape[0]
-        boots = np.array([pair_estimate(P, L[rng.integers(0, T, T)].sum(axis=0), half)[0]
-                          for _ in range(bootstrap)])
+        boots = np.array([pair_estimate(P, _resampled(L, var, dof, rng), half)[0] for _ in range(bootstrap)])
     interval = profile = None
     needed, sds, diff_iv, corr = {}, {}, None, None
     if not at_edge and len(boots) > 1:
@@ -202,7 +234,9 @@ def pair_summary(P: np.ndarray, y: np.ndarray, L: np.ndarray | None, ranges: dic
             "bootstrap_correlation": corr,
             "best_single_mu": None if single is None else float(P[single, 1]),
             "criterion_gain_over_single": None if single is None else float(y.max() - y[single])}
-    return {"estimate": {n: round(float(est[i]), 6) for i, n in enumerate(PAIR)},
+    model_error = {"residual_sd_loglik": None if var is None else math.sqrt(var), "dof": dof,
+                   "note": "the surface's residual scatter, added to every resample (no replicate builds)"}
+    return {"model_error": model_error, "estimate": {n: round(float(est[i]), 6) for i, n in enumerate(PAIR)},
             "estimate_tuple": tuple(float(v) for v in est), "interval": interval, "profile": profile,
             "at_edge": bool(at_edge),
             "trials_needed": {"half_width_90": needed.get(worst, {}),

@@ -33,6 +33,22 @@ def add_camera_noise(result, sigma_mm: float, sigma_deg: float, seed: int):
     return replace(result, poses=p)
 
 
+def _camera_text(cam: dict) -> str:
+    if cam.get("identifiable") is False:
+        tol = cam["model_tolerance"]
+        return (f"the camera noise is not identifiable below the models' {tol['mm']:g} mm / {tol['deg']:g} degree "
+                f"tolerance (best candidate {cam['mm']:g} mm)")
+    return f"camera noise {'estimated at' if cam.get('estimated') else 'given as'} {cam['mm']:g} mm"
+
+
+def _dominant_text(fit: dict) -> str:
+    need = fit.get("trials_needed") or {}
+    if need.get("dominated_by") == "model":
+        return (f" The interval is dominated by the models' own error (sd of the estimate {need['model_sd']:.4f} "
+                f"from the builds, {need['bootstrap_sd']:.4f} from the log's trials): more trials would not narrow it.")
+    return ""
+
+
 @dataclass(frozen=True)
 class TrayLogStudy:
     """Outcome of :func:`tray_log_study`."""
@@ -62,8 +78,8 @@ class TrayLogStudy:
                  f"A log made by direct simulation of the key: {self.trials} trials of one random "
                  f"{len(self.sequence)}-tilt sequence, camera noise {self.camera[0]:g} mm / {self.camera[1]:g} degree, "
                  f"at a floor coefficient drawn from the report's seed and not told to the fit: mu = {self.truth:.3f}.",
-                 "", f"`kruskal fit` estimates mu = {est:.3f}, {ivt}{covered}; camera noise estimated at "
-                 f"{f['camera_noise']['mm']:g} mm; {len(f['models'])} models.", ""]
+                 "", f"`kruskal fit` estimates mu = {est:.3f}, {ivt}{covered}; {_camera_text(f['camera_noise'])}; "
+                 f"{len(f['models'])} models.{_dominant_text(f)}", ""]
         if self.answers:
             lines.append("Answers over the fitted interval (models at " + ", ".join(self.interval_models) + "):")
             lines.append("")

@@ -439,28 +439,59 @@ def test_figure_and_study_pieces(scene, tmp_path):
     assert study.to_dict()["truth"] == 0.3
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(reason="measured 2026-11-26 (beside the report): estimate 0.389 for mu = 0.33, error 0.059 "
-                          "> 0.05 on these coarse builds (2 mm, 300 starts, no recentring); docs/fit.md",
-                   strict=False)
-def test_physics_log_recovered_end_to_end(tmp_path, monkeypatch, capsys):
-    """A rectangle's log by direct simulation at mu = 0.33, fitted by the command line on coarse builds."""
+@pytest.fixture(scope="module")
+def physics_fit(tmp_path_factory):
+    """A rectangle's log by direct simulation at mu = 0.33 (200 trials x 12 tilts, camera noise 0.5 mm /
+    0.5 degree), fitted by the command line on coarse builds (2 mm, 300 starts, no recentring, 4
+    models over 0.2..0.5, refined once, 3 replicates): the JSON."""
+    import contextlib
+    import io
     import json
+    import os
 
     from analysis.fit.study import add_camera_noise
     from analysis.montecarlo import run_direct, write_poses_csv
 
-    monkeypatch.setenv("KRUSKAL_CACHE", str(tmp_path / "cache"))
-    shape = "rectangle:60x20"
-    sc = scene_from_options(shape, friction_spec=0.33)
-    seq = ",".join(np.array(sc.actions)[np.random.default_rng(11).integers(0, 8, 12)])
-    res = add_camera_noise(run_direct(sc, seq, 200, seed=11, workers=2), 0.5, 0.5, 11)
-    log = write_poses_csv(tmp_path / "log.csv", res)
-    assert main(["fit", "--poses", log, "--shape", shape, "--sequence", seq, "--range", "0.2..0.5",
-                 "--points", "4", "--resolution", "2,2", "--start-samples", "300", "--recenter-rounds", "0",
-                 "--workers", "2", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert abs(out["estimate"]["mu"] - 0.33) < 0.05
+    d = tmp_path_factory.mktemp("physics_fit")
+    old = os.environ.get("KRUSKAL_CACHE")
+    os.environ["KRUSKAL_CACHE"] = str(d / "cache")
+    try:
+        shape = "rectangle:60x20"
+        sc = scene_from_options(shape, friction_spec=0.33)
+        seq = ",".join(np.array(sc.actions)[np.random.default_rng(11).integers(0, 8, 12)])
+        res = add_camera_noise(run_direct(sc, seq, 200, seed=11, workers=2), 0.5, 0.5, 11)
+        log = write_poses_csv(d / "log.csv", res)
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf):
+            assert main(["fit", "--poses", log, "--shape", shape, "--sequence", seq, "--range", "0.2..0.5",
+                         "--points", "4", "--resolution", "2,2", "--start-samples", "300", "--recenter-rounds",
+                         "0", "--workers", "2", "--json"]) == 0
+    finally:
+        if old is None:
+            os.environ.pop("KRUSKAL_CACHE", None)
+        else:
+            os.environ["KRUSKAL_CACHE"] = old
+    return json.loads(buf.getvalue())
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(reason="measured 2026-11-26: estimate 0.384 for mu = 0.33 (0.389 before the model-error "
+                          "term's weighted vertex), error 0.054 > 0.05 on these coarse builds (2 mm, 300 starts, "
+                          "no recentring); the best grid point is 0.35; docs/fit.md", strict=False)
+def test_physics_log_recovered_end_to_end(physics_fit):
+    """The estimate within 0.05 of the truth: a fit is no better than its models (see the next test)."""
+    assert abs(physics_fit["estimate"]["mu"] - 0.33) < 0.05
+
+
+@pytest.mark.slow
+def test_physics_log_interval_carries_the_model_error(physics_fit):
+    """The same fit's 90% interval covers the truth and says that the models' error, not the log's
+    size, limits it (measured 2026-11-26: 0.266..0.479, dominated by the model term)."""
+    lo, hi = physics_fit["interval_90"]["mu"]
+    assert lo <= 0.33 <= hi
+    need = physics_fit["trials_needed"]
+    assert need["dominated_by"] != "trials" and need["half_width_90"]["0.02"] is None
+    assert physics_fit["camera_noise"]["identifiable"] is (physics_fit["camera_noise"]["mm"] > 2.0)
 
 
 @pytest.mark.slow
