@@ -88,13 +88,19 @@ class TrayLogStudy:
         if self.plan.get("word") is not None:
             lines += ["", f"Robust one-cell plan over the interval: {','.join(self.plan['word'])} "
                           f"(length {self.plan['length']}, success probability per model "
-                          f"{self.plan['success_probability']})."]
+                          f"{_probabilities_text(self.plan['success_probability'])})."]
         return "\n".join(lines) + "\n"
 
     def figures(self, directory) -> list:
         from analysis.fit.figure import fit_figure
 
         return [fit_figure(self.fit, os.path.join(directory, "fig_tray_log.png"), truth=self.truth)]
+
+
+def _probabilities_text(p) -> str:
+    """``0.999, 1.000`` for a list (or one number) of probabilities, three decimals each."""
+    values = p if isinstance(p, (list, tuple)) else [p]
+    return ", ".join(f"{float(v):.3f}" for v in values)
 
 
 def tray_log_study(scene, seed: int, *, trials: int = 500, tilts: int = 50, camera=(0.5, 0.5), fit_settings=None,
