@@ -121,3 +121,23 @@ def test_bad_check_options_exit_2(extra, words, monkeypatch, scene, tmp_path, ca
     assert main(["plan", "--friction", "0.2..0.3", "--shape", SHAPE, "--range-points", "2", *extra]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and words in err
+
+
+def test_rank_builds_the_fit_grid_models_with_the_fit_grid_settings():
+    """``rank --resolution 1,1 --start-samples 2000`` asks for the very models of a friction range's
+    default grid (one build key), so a fitted interval's models serve the ranking too."""
+    from analysis.cli import build_parser
+    from analysis.commands.rank import scenes_and_settings
+    from transition_builder.builder import BuildSettings, build_key
+    from transition_builder.friction import parse_friction
+
+    args = build_parser().parse_args(["rank", "--shapes", "allen-key", SHAPE, "--friction", "0.2", "--resolution",
+                                      "1,1", "--start-samples", "2000", "--recenter-rounds", "1"])
+    scenes, settings = scenes_and_settings(args)
+    fit_grid = BuildSettings(tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, start_samples=2000)
+    for spec, sc in scenes.items():
+        from dataclasses import replace
+
+        ours = replace(scene_from_options(spec), friction=parse_friction("0.2"))
+        assert build_key(sc, settings) == build_key(ours, fit_grid)
+    assert build_key(scenes["allen-key"], settings) != build_key(scenes[SHAPE], settings)

@@ -1,0 +1,92 @@
+"""The ranking's stability over a friction interval, in resumable pieces (docs/ranges.md).
+
+``kruskal rank --shapes <the report's 19 parts> --friction 0.2..0.4 --range-points 2`` builds 38
+models; this module builds them one at a time with exactly ``rank``'s scenes and settings
+(:func:`analysis.commands.rank.scenes_and_settings`), so that the final ``rank`` call finds every
+model in the cache, and records each build's time.
+
+Usage (``PYTHONPATH=. KRUSKAL_CACHE=...``)::
+
+    python -m benchmarks.bench_ranges status [RANK OPTIONS]           # which models are cached
+    python -m benchmarks.bench_ranges build SPEC MU [RANK OPTIONS]    # one model (resumes a checkpoint)
+    python -m benchmarks.bench_ranges next MU [RANK OPTIONS]          # the first missing part at MU
+
+RANK OPTIONS are ``rank``'s build options (default :data:`OPTIONS`); build times are appended to
+``benchmarks/results/ranges/builds.jsonl``.
+"""
+from __future__ import annotations
+
+import json
+import pathlib
+import sys
+import time
+
+#: the report's ranking (reports/full/ranking.md): the key, 15 random triangles, a square, an
+#: equilateral triangle and a U
+PARTS = ("allen-key", *(f"triangle:{i}" for i in range(1, 16)), "rectangle:40x40",
+         "polygon:0,0;50,0;25,43.30127", "polygon:0,0;60,0;60,40;45,40;45,15;15,15;15,40;0,40")
+#: the build options of the ranking over 0.2..0.4 (docs/ranges.md says why not the report's)
+OPTIONS = ("--resolution", "1,1", "--recenter-rounds", "1", "--start-samples", "2000", "--seed", "0")
+OUT = pathlib.Path(__file__).parent / "results" / "ranges"
+
+
+def _scenes(mu: str, options=OPTIONS, parts=PARTS):
+    from analysis.cli import build_parser
+    from analysis.commands.rank import scenes_and_settings
+
+    args = build_parser().parse_args(["rank", "--shapes", *parts, "--friction", str(mu), *options])
+    return scenes_and_settings(args)
+
+
+def status(options=OPTIONS, mus=("0.2", "0.4")) -> dict:
+    """Per friction: which of the parts' models are in the cache (by ``rank``'s build key)."""
+    import os
+
+    from transition_builder.builder import build_key
+    from transition_builder.cache import cache_dir
+
+    out = {}
+    for mu in mus:
+        scenes, settings = _scenes(mu, options)
+        out[mu] = {spec: os.path.exists(os.path.join(cache_dir(), f"{build_key(sc, settings)}.npz"))
+                   for spec, sc in scenes.items()}
+    return out
+
+
+def build(spec: str, mu: str, options=OPTIONS, workers: int = 2) -> dict:
+    """Build (or find) one part's model at ``mu`` with ``rank``'s settings; its time is recorded."""
+    from transition_builder.cache import cached_build
+
+    scenes, settings = _scenes(mu, options, parts=(spec,))
+    t = time.perf_counter()
+    res, path, cached = cached_build(scenes[spec], settings, workers=workers)
+    row = {"shape": spec, "mu": mu, "options": list(options), "cached": cached, "states": res.model.n_states,
+           "wall_seconds": round(time.perf_counter() - t, 1), "path": path,
+           "recorded_build_seconds": res.stats.get("seconds", res.stats.get("build_seconds"))}
+    OUT.mkdir(parents=True, exist_ok=True)
+    with open(OUT / "builds.jsonl", "a") as f:
+        f.write(json.dumps(row) + "\n")
+    return row
+
+
+def main(argv) -> None:
+    part, rest = argv[0], argv[1:]
+    if part == "status":
+        st = status(tuple(rest) or OPTIONS)
+        print(json.dumps({mu: [s for s, ok in v.items() if not ok] for mu, v in st.items()}))
+        print({mu: f"{sum(v.values())}/{len(v)} cached" for mu, v in st.items()})
+    elif part == "build":
+        print(json.dumps(build(rest[0], rest[1], tuple(rest[2:]) or OPTIONS)), flush=True)
+    elif part == "next":
+        mu, opts = rest[0], tuple(rest[1:]) or OPTIONS
+        missing = [s for s, ok in status(opts, (mu,))[mu].items() if not ok]
+        if missing:
+            print(json.dumps(build(missing[0], mu, opts)), flush=True)
+        else:
+            print("none missing", flush=True)
+    else:
+        raise SystemExit(f"unknown part {part!r}: status, build or next")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
