@@ -10,6 +10,7 @@ Usage (``PYTHONPATH=. KRUSKAL_CACHE=...``)::
     python -m benchmarks.bench_ranges status [RANK OPTIONS]           # which models are cached
     python -m benchmarks.bench_ranges build SPEC MU [RANK OPTIONS]    # one model (resumes a checkpoint)
     python -m benchmarks.bench_ranges next MU [RANK OPTIONS]          # the first missing part at MU
+    python -m benchmarks.bench_ranges plan-models                     # the two plans under the key's models
 
 RANK OPTIONS are ``rank``'s build options (default :data:`OPTIONS`); build times are appended to
 ``benchmarks/results/ranges/builds.jsonl``.
@@ -69,6 +70,34 @@ def build(spec: str, mu: str, options=OPTIONS, workers: int = 2) -> dict:
     return row
 
 
+def plan_on_models(interval: str = "0.2..0.4", points: int = 5, single: str = "0.3") -> dict:
+    """The key's robust plan over ``interval`` and the single-mu optimum at ``single`` (``plan``'s
+    search and defaults, target ``cell``), each propagated through every model of the interval:
+    the mass in the plan's own cell, and the best cell and its mass (models cached: seconds)."""
+    import numpy as np
+
+    from analysis.friction_range import models_over_range, parse_friction_range, plan_cell
+    from kruskal_markov.entropy import propagate
+    from kruskal_markov.sync.plan import shortest_plan
+    from kruskal_markov.sync.targets import parse_target
+    from transition_builder.scene import scene_from_options
+
+    models = models_over_range(scene_from_options("allen-key"), parse_friction_range(interval), points)
+    at = [m for spec, m, _ in models if float(spec) == float(single)]
+    out = {}
+    for name, ms in ((f"robust {interval}", [m for _, m, _ in models]), (f"single mu {single}", at)):
+        res = shortest_plan(ms, parse_target("cell")).to_dict()
+        cell = plan_cell(res["final_cell"])
+        rows = {}
+        for spec, m, _ in models:
+            mass = np.bincount(np.asarray(m.partition), weights=propagate(m, res["word"])[-1], minlength=m.n_cells)
+            rows[spec] = {"states": m.n_states, "mass_in_plan_cell": round(float(mass[cell]), 4),
+                          "best_cell": int(mass.argmax()), "mass_in_best_cell": round(float(mass.max()), 4)}
+        out[name] = {"word": res["word"], "length": res["length"], "exact": res["exact"], "cell": cell,
+                     "on_models": rows}
+    return out
+
+
 def main(argv) -> None:
     part, rest = argv[0], argv[1:]
     if part == "status":
@@ -84,8 +113,10 @@ def main(argv) -> None:
             print(json.dumps(build(missing[0], mu, opts)), flush=True)
         else:
             print("none missing", flush=True)
+    elif part == "plan-models":
+        print(json.dumps(plan_on_models(), indent=1))
     else:
-        raise SystemExit(f"unknown part {part!r}: status, build or next")
+        raise SystemExit(f"unknown part {part!r}: status, build, next or plan-models")
 
 
 if __name__ == "__main__":
