@@ -11,6 +11,7 @@ Usage (``PYTHONPATH=. KRUSKAL_CACHE=...``)::
     python -m benchmarks.bench_ranges build SPEC MU [RANK OPTIONS]    # one model (resumes a checkpoint)
     python -m benchmarks.bench_ranges next MU [RANK OPTIONS]          # the first missing part at MU
     python -m benchmarks.bench_ranges plan-models                     # the two plans under the key's models
+    python -m benchmarks.bench_ranges summarise                       # results/ranges -> data/ranges + tables
 
 RANK OPTIONS are ``rank``'s build options (default :data:`OPTIONS`); build times are appended to
 ``benchmarks/results/ranges/builds.jsonl``.
@@ -98,6 +99,70 @@ def plan_on_models(interval: str = "0.2..0.4", points: int = 5, single: str = "0
     return out
 
 
+def _load(path):
+    try:
+        return json.loads(pathlib.Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def summarise_replay(results=OUT) -> list:
+    """The replay's rows (``plan_{robust,single}_{MU}.json`` of the driver, one coefficient each)."""
+    rows = []
+    for f in sorted(pathlib.Path(results).glob("plan_*_*.json")):
+        d = _load(f)
+        if not d:
+            continue
+        plan = f.stem.split("_")[1]
+        for r in d["friction_range"].get("between_points", []):
+            rows.append({"plan": plan, "word": d["word"], "length": d["length"], "exact": d["exact"], **r})
+    return sorted(rows, key=lambda r: (r["mu"], r["plan"]))
+
+
+def summarise_rank(results=OUT, ends=("0.2", "0.4")) -> dict | None:
+    """``rank --friction LO..HI --range-points 2``'s summary from the two ends' rankings."""
+    from analysis.friction_range import rankings_over_range
+
+    outs = [_load(pathlib.Path(results) / f"rank_{mu}.json") for mu in ends]
+    if not all(outs):
+        return None
+    summary = rankings_over_range(list(ends), [o["ranking"] for o in outs])
+    summary["rankings"] = {mu: o["ranking"] for mu, o in zip(ends, outs)}
+    return summary
+
+
+def _tilts(row) -> str:
+    from analysis.orientability import random_tilts_text
+
+    return random_tilts_text(row)
+
+
+def summarise(results=OUT, data=pathlib.Path(__file__).parent / "data" / "ranges") -> None:
+    """Copy the small results to ``benchmarks/data/ranges/`` and print the doc's tables."""
+    data.mkdir(parents=True, exist_ok=True)
+    replay = summarise_replay(results)
+    if replay:
+        (data / "replay.json").write_text(json.dumps(replay, indent=1))
+        print("| mu | plan | in cell / M | share | Wilson 95% | faulted | modal cell (share) |")
+        print("|---|---|---|---|---|---|---|")
+        for r in replay:
+            ci = r["share_in_cell_ci95"]
+            print(f"| {r['mu']:g} | {r['plan']} ({r['length']}) | {r['in_cell']} / {r['trials']} | "
+                  f"{r['share_in_cell']:.3f} | {ci[0]:.3f}-{ci[1]:.3f} | {r['faulted']} | "
+                  f"{r['modal_cell']} ({r['share_in_modal_cell']:.3f}) |")
+    rank = summarise_rank(results)
+    if rank:
+        (data / "rank.json").write_text(json.dumps(rank, indent=1))
+        print(f"Kendall tau {rank['kendall_tau_ends']:.3f}; {len(rank['orders_that_hold'])} orders hold, "
+              f"{len(rank['orders_that_flip'])} flip")
+        lo, hi = (dict((r["shape"], r) for r in rank["rankings"][mu]) for mu in ("0.2", "0.4"))
+        print("| part | rank at 0.2 | rank at 0.4 | expected random tilts 0.2 / 0.4 | converging 0.2 / 0.4 |")
+        print("|---|---|---|---|---|")
+        for s in sorted(rank["rank_range"], key=lambda k: (lo[k]["rank"], k)):
+            print(f"| {s} | {lo[s]['rank']} | {hi[s]['rank']} | {_tilts(lo[s])} / {_tilts(hi[s])} | "
+                  f"{lo[s]['converging_share_50']:.0%} / {hi[s]['converging_share_50']:.0%} |")
+
+
 def main(argv) -> None:
     part, rest = argv[0], argv[1:]
     if part == "status":
@@ -113,6 +178,8 @@ def main(argv) -> None:
             print(json.dumps(build(missing[0], mu, opts)), flush=True)
         else:
             print("none missing", flush=True)
+    elif part == "summarise":
+        summarise()
     elif part == "plan-models":
         print(json.dumps(plan_on_models(), indent=1))
     else:
