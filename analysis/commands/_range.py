@@ -78,7 +78,8 @@ def range_models(args):
 
 def run_over_range(args, run_one) -> dict:
     """Run a single-model command at every point of the range; the middle point's keys plus
-    ``friction_range`` (every answer's range)."""
+    ``friction_range``: every answer's range, and ``at_points`` (each point's single numbers, so
+    that a range's ends can be told apart)."""
     from analysis.friction_range import answers_over_range
 
     fr, _, models = range_models(args)
@@ -86,8 +87,14 @@ def run_over_range(args, run_one) -> dict:
             for _, _, path in models]
     out = dict(outs[len(outs) // 2])
     out["friction_range"] = {**answers_over_range([s for s, _, _ in models], outs), "interval": str(fr),
-                             "models": [p for _, _, p in models], "middle": models[len(models) // 2][0]}
+                             "models": [p for _, _, p in models], "middle": models[len(models) // 2][0],
+                             "at_points": {s: {k: v for k, v in o.items() if _is_number(v)}
+                                           for (s, _, _), o in zip(models, outs)}}
     return out
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _check_coefficients(args):

@@ -141,3 +141,46 @@ def test_rank_builds_the_fit_grid_models_with_the_fit_grid_settings():
         ours = replace(scene_from_options(spec), friction=parse_friction("0.2"))
         assert build_key(sc, settings) == build_key(ours, fit_grid)
     assert build_key(scenes["allen-key"], settings) != build_key(scenes[SHAPE], settings)
+
+
+def _two_way_models(scene, tmp_path):
+    """Stand-in for the range's builds: every tilt sends every state to rest state A with
+    probability 1 - mu and to B with mu (the answers move with mu)."""
+    grid = report_grid_for(scene)
+    n_start = grid.n_voxels
+    n = n_start + 2
+    poses = np.full((n, 3), np.nan)
+    poses[n_start:] = [(50.0, 50.0, 0.0), (150.0, 150.0, 0.0)]
+    partition = np.concatenate([np.arange(n_start), grid.voxel_index(poses[n_start:])])
+    initial = np.concatenate([np.full(n_start, 1.0 / n_start), [0.0, 0.0]])
+
+    def models(sc, frange, points, build_settings=None, **kw):
+        out = []
+        for spec in frange.points(points):
+            mu = float(spec)
+            P = np.zeros((n, n))
+            P[:, n_start], P[:, n_start + 1] = 1 - mu, mu
+            m = TransitionModel(scene.actions, [P] * len(scene.actions), initial=initial, partition=partition,
+                                n_cells=grid.n_voxels, metadata={"build_settings": {"tol_mm": 0.0, "tol_deg": 0.0}},
+                                extras={"state_poses": poses})
+            path = str(tmp_path / f"w{spec}.npz")
+            m.save(path)
+            out.append((spec, m, path))
+        return out
+
+    return models
+
+
+def test_ensemble_over_a_range_gives_each_points_answers(monkeypatch, scene, tmp_path, capsys):
+    import analysis.friction_range as fr_mod
+
+    monkeypatch.setattr(fr_mod, "models_over_range", _two_way_models(scene, tmp_path))
+    assert main(["ensemble", "--friction", "0.0..0.4", "--shape", SHAPE, "--count", "10", "--length", "4",
+                 "--range-points", "3", "--draws", "0", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    r = out["friction_range"]
+    at = r["at_points"]
+    assert list(at) == ["0", "0.2", "0.4"]
+    # mu = 0 converges on the first tilt, mu > 0 never does: which end is which is in at_points
+    assert at["0"]["converged"] == 10 and at["0.2"]["converged"] == at["0.4"]["converged"] == 0
+    assert r["range"]["converged"] == [0, 10] and out["converged"] == at["0.2"]["converged"]
