@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FrictionRange", "is_friction_range", "parse_friction_range"]
+__all__ = ["FrictionRange", "answers_over_range", "between_points", "check_plan_between", "is_friction_range",
+           "models_over_range", "parse_friction_range", "plan_cell", "rankings_over_range"]
 
 _SEP = ".."
 
@@ -229,27 +230,94 @@ def rankings_over_range(frictions, rankings: list) -> dict:
             "orders_that_flip": flip, "kendall_tau_ends": tau}
 
 
-def check_plan_between(scene, word, final_cell, frange: FrictionRange, points: int, trials: int, seed: int,
-                       grid="4x4x4", workers=None) -> list:
-    """Replay a plan by direct simulation at the coefficients halfway between the model points.
+def plan_cell(final_cell):
+    """The one report cell a plan promises: ``final_cell`` of a plan over one model, or the common
+    entry of a robust plan's per-model cells; None when the models end it in different cells (the
+    plan then promises no one cell across the interval) or when there is none.
 
-    Returns, per coefficient, the share of ``trials`` uniform random starts that end in the plan's
-    report cell ``final_cell`` (the robust plan's promise, checked where no model was built).
+    >>> plan_cell(62), plan_cell([62, 62, 62]), plan_cell([0, 62]), plan_cell(None)
+    (62, 62, None, None)
+    """
+    if final_cell is None:
+        return None
+    if isinstance(final_cell, (list, tuple, np.ndarray)):
+        cells = {int(c) for c in final_cell if c is not None}
+        return cells.pop() if len(cells) == 1 and None not in list(final_cell) else None
+    return int(final_cell)
+
+
+def between_points(frange: FrictionRange, points: int) -> list[float]:
+    """The coefficients halfway between consecutive model points of ``frange`` (``points`` models).
+
+    >>> between_points(parse_friction_range("0.2..0.4"), 5)
+    [0.225, 0.275, 0.325, 0.375]
+    """
+    mus = frange.values(points)[:, 0]
+    return [float(round(m, 10)) for m in (mus[:-1] + mus[1:]) / 2]
+
+
+def check_plan_between(scene, word, final_cell, frange: FrictionRange | None, points: int, trials: int, seed: int,
+                       grid="4x4x4", workers=None, *, coefficients=None, simulator_factory=None) -> list:
+    """Replay a plan by direct simulation at coefficients where no model was built.
+
+    Parameters
+    ----------
+    scene : transition_builder.scene.Scene
+        The scene the models were built for (its friction is replaced).
+    word : sequence of str
+        The plan.
+    final_cell : int, list of int or None
+        The plan's ``final_cell`` (a robust plan's list: one per model; see :func:`plan_cell`).
+    frange : FrictionRange or None
+        With ``points``: the default coefficients, halfway between the model points.
+    points : int
+    trials : int
+        Uniform random starts per coefficient.
+    seed : int
+        Coefficient ``i`` (in the order given) draws its starts with seed ``seed + i``; a second
+        plan replayed with the same seed starts from the same poses (a paired comparison).
+    grid : str
+        The report grid of the plan's cells.
+    workers : int, optional
+    coefficients : sequence of float, optional
+        Replay at these coefficients instead of halfway between the points.
+    simulator_factory : callable, optional
+        Passed to :func:`transition_builder.tilting.run_direct` (tests).
+
+    Returns
+    -------
+    list of dict
+        Per coefficient: ``mu``, ``seed``, ``trials``, ``cell`` (the promised cell, None when the
+        models disagree), ``in_cell`` and ``share_in_cell`` (trials ending in it; faulted trials
+        count as misses) with its Wilson 95% interval ``share_in_cell_ci95``, ``faulted``, and
+        ``modal_cell`` / ``share_in_modal_cell`` (the most common end cell: whether the plan
+        gathers the part at all).
     """
     from dataclasses import replace
 
     from analysis.montecarlo import report_grid_for, run_direct
+    from kruskal_markov.answers import wilson_interval
     from transition_builder.friction import parse_friction
     from transition_builder.status import OK
 
-    mus = frange.values(points)[:, 0]
+    mus = [float(m) for m in coefficients] if coefficients is not None else between_points(frange, points)
+    cell = plan_cell(final_cell)
     out = []
-    for i, mu in enumerate((mus[:-1] + mus[1:]) / 2):
-        sc = replace(scene, friction=parse_friction(float(mu)))
-        res = run_direct(sc, list(word), trials, seed=seed + i, workers=workers, grid=grid)
+    for i, mu in enumerate(mus):
+        sc = replace(scene, friction=parse_friction(mu))
+        res = run_direct(sc, list(word), trials, seed=seed + i, workers=workers, grid=grid,
+                         simulator_factory=simulator_factory)
         g = report_grid_for(sc, grid)
         ok = res.status[:, -1] == OK
         cells = g.voxel_index(res.poses[ok, -1]) if ok.any() else np.zeros(0, dtype=np.int64)
-        out.append({"mu": float(round(mu, 10)), "trials": int(trials),
-                    "share_in_cell": float(np.sum(cells == final_cell) / trials) if final_cell is not None else None})
+        counts = np.bincount(cells, minlength=1) if cells.size else np.zeros(1, dtype=np.int64)
+        row = {"mu": float(round(mu, 10)), "seed": int(seed + i), "trials": int(trials), "cell": cell,
+               "faulted": int(trials - ok.sum()), "modal_cell": int(np.argmax(counts)) if cells.size else None,
+               "share_in_modal_cell": float(counts.max() / trials)}
+        if cell is not None:
+            hit = int(np.sum(cells == cell))
+            row.update(in_cell=hit, share_in_cell=hit / trials, share_in_cell_ci95=list(wilson_interval(hit, trials)))
+        else:
+            row.update(in_cell=None, share_in_cell=None, share_in_cell_ci95=None)
+        out.append(row)
     return out

@@ -30,7 +30,15 @@ def add_range_options(parser: argparse.ArgumentParser, *, friction: bool = True,
     if check:
         parser.add_argument("--check-trials", type=int, default=0, metavar="M",
                             help="with --friction LO..HI: replay the plan by direct simulation of M trials "
-                                 "halfway between the range's points")
+                                 "halfway between the range's points (or at --check-at)")
+        parser.add_argument("--check-at", default=None, metavar="MU[,MU...]",
+                            help="with --check-trials: replay at these coefficients instead (coefficient i "
+                                 "draws its starts with --seed + i)")
+        parser.add_argument("--seed", type=int, default=0,
+                            help="with --check-trials: seed of the replay's start poses (default 0)")
+        parser.add_argument("--workers", type=int, default=None,
+                            help="with --friction LO..HI: worker processes of the builds and the replay "
+                                 "(default: all cores)")
 
 
 def is_range(args) -> bool:
@@ -70,7 +78,8 @@ def range_models(args):
 
 def run_over_range(args, run_one) -> dict:
     """Run a single-model command at every point of the range; the middle point's keys plus
-    ``friction_range`` (every answer's range)."""
+    ``friction_range``: every answer's range, and ``at_points`` (each point's single numbers, so
+    that a range's ends can be told apart)."""
     from analysis.friction_range import answers_over_range
 
     fr, _, models = range_models(args)
@@ -78,20 +87,54 @@ def run_over_range(args, run_one) -> dict:
             for _, _, path in models]
     out = dict(outs[len(outs) // 2])
     out["friction_range"] = {**answers_over_range([s for s, _, _ in models], outs), "interval": str(fr),
-                             "models": [p for _, _, p in models], "middle": models[len(models) // 2][0]}
+                             "models": [p for _, _, p in models], "middle": models[len(models) // 2][0],
+                             "at_points": {s: {k: v for k, v in o.items() if _is_number(v)}
+                                           for (s, _, _), o in zip(models, outs)}}
     return out
 
 
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _check_coefficients(args):
+    """The coefficients of ``--check-at`` (None: halfway between the range's points)."""
+    text = getattr(args, "check_at", None)
+    if text is None:
+        return None
+    from transition_builder.friction import parse_friction
+
+    mus = []
+    for part in str(text).split(","):
+        try:
+            spec = parse_friction(part.strip())
+        except ValueError as exc:
+            raise InputError(f"--check-at: {exc}") from None
+        if getattr(spec, "kind", "uniform") != "uniform" or getattr(spec, "mu_s", None) not in (None, spec.mu):
+            raise InputError(f"--check-at takes plain coefficients, got {part.strip()!r}")
+        mus.append(float(spec.mu))
+    return mus
+
+
 def plan_over_range(args, run_one) -> dict:
-    """The robust plan over the range's models, replayed between them when asked."""
+    """The robust plan over the range's models, replayed by direct simulation when asked
+    (``--check-trials M``: halfway between the points, or at ``--check-at``)."""
     from analysis.friction_range import check_plan_between
 
+    if args.check_trials < 0:
+        raise InputError(f"--check-trials must be non-negative, got {args.check_trials}")
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers must be a positive integer, got {args.workers}")
+    coefficients = _check_coefficients(args)
+    if coefficients is not None and not args.check_trials:
+        raise InputError("--check-at needs --check-trials M")
     fr, scene, models = range_models(args)
     out = run_one(argparse.Namespace(**{**vars(args), "model": [p for _, _, p in models], "friction": None}))
     out["friction_range"] = {"interval": str(fr), "friction": [s for s, _, _ in models]}
     if args.check_trials and out.get("word"):
         out["friction_range"]["between_points"] = check_plan_between(
-            scene, out["word"], out.get("final_cell"), fr, args.range_points, args.check_trials, args.seed)
+            scene, out["word"], out.get("final_cell"), fr, args.range_points, args.check_trials, args.seed,
+            workers=getattr(args, "workers", None), coefficients=coefficients)
     return out
 
 

@@ -53,12 +53,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict:
-    from analysis.commands.build import scene_for
     from analysis.experiments.context import direct_summary
     from analysis.orientability import part_metrics, rank_parts
     from analysis.sequences import random_sequences_for
     from kruskal_markov.entropy import entropy_trajectory
-    from transition_builder.builder import BuildSettings
     from transition_builder.cache import cached_build
 
     if is_range(args):
@@ -67,21 +65,9 @@ def run(args: argparse.Namespace) -> dict:
         raise InputError("--count >= 1, --runs >= 2, --check-trials >= 0 and --recenter-rounds >= 0 required")
     if not args.sync_time_budget > 0:
         raise InputError("--sync-time-budget must be positive")
-    if len(set(args.shapes)) != len(args.shapes):
-        raise InputError("--shapes lists a shape twice")
+    scenes, settings = scenes_and_settings(args)
     check_writable_file(args.markdown, "--markdown")
-    mm, deg = parse_resolution(args.resolution)
-    scenes = {}
-    for spec in args.shapes:   # every shape checked before the first (long) build
-        try:
-            scenes[spec] = scene_for(argparse.Namespace(**{**vars(args), "shape": spec}))
-        except ValueError as exc:
-            raise InputError(f"--shapes {spec!r}: {exc}") from None
-    try:
-        settings = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=args.recenter_rounds, seed=args.seed,
-                                 start_samples=args.start_samples)
-    except ValueError as exc:
-        raise InputError(str(exc)) from None
+    mm, deg = settings.tol_mm, settings.tol_deg
     metrics, checks, models = {}, {}, {}
     first = scenes[args.shapes[0]]
     seq = random_sequences_for(len(first.actions), 1, 50, args.seed)[0]
@@ -114,6 +100,29 @@ def run(args: argparse.Namespace) -> dict:
         atomic_write_text(args.markdown, markdown_table(out, _command_line(args)))
         out["markdown"] = args.markdown
     return out
+
+
+def scenes_and_settings(args: argparse.Namespace):
+    """The scene of every ``--shapes`` entry and the build settings of ``rank`` (every shape checked
+    before the first, long, build); a build with these hits ``rank``'s cache (benchmarks/bench_ranges.py)."""
+    from analysis.commands.build import scene_for
+    from transition_builder.builder import BuildSettings
+
+    if len(set(args.shapes)) != len(args.shapes):
+        raise InputError("--shapes lists a shape twice")
+    mm, deg = parse_resolution(args.resolution)
+    scenes = {}
+    for spec in args.shapes:
+        try:
+            scenes[spec] = scene_for(argparse.Namespace(**{**vars(args), "shape": spec}))
+        except ValueError as exc:
+            raise InputError(f"--shapes {spec!r}: {exc}") from None
+    try:
+        settings = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=args.recenter_rounds, seed=args.seed,
+                                 start_samples=args.start_samples)
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+    return scenes, settings
 
 
 def _command_line(args) -> str:
