@@ -312,13 +312,15 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline):
     return None, generated
 
 
-def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node_budget=None, upper=None):
+def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node_budget=None, upper=None,
+                  strict=False):
     """Bidirectional BFS, then (when memory runs out) a depth-first phase.
 
     Returns ``(word | None, status, explored, lower_bound)`` with status 'found', 'none' (proven:
     no word), 'upper' (proven: no word shorter than ``upper``) or 'budget' (time or node budget;
     ``lower_bound`` proven). ``time_budget`` None: no time limit; ``node_budget`` counts the subsets
-    generated (the same budget gives the same answer on any machine).
+    generated (the same budget gives the same answer on any machine); ``strict``: stop before a
+    level whose expansion could pass it (the small-search fast path), not after.
     """
     t0 = time.perf_counter()
     deadline = None if time_budget is None else t0 + time_budget
@@ -396,6 +398,8 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         store = fwd if forward else bwd
         # predicted cost of the next level (expansion + meet test); stop before the budget is blown
         lo, hi = store.levels[-1]
+        if strict and node_budget is not None and fwd.count + bwd.count + aut.k * (hi - lo) > node_budget:
+            return None, "budget", fwd.count + bwd.count, total + 1
         growth = aut.k if len(store.levels) < 2 else \
             max(1.0, (hi - lo) / max(1, store.levels[-2][1] - store.levels[-2][0]))
         new_rows = (hi - lo) * min(growth, aut.k)
@@ -689,7 +693,8 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     if _FAST_NODES and node_budget is None and greedy is not None:
         # small searches first: an exact search capped at ``_FAST_NODES`` sets, below the greedy
         # word, answers small automata before the beam would have run (the beam is most of their time)
-        word, status, spent, lower = _exact_search(aut, s, time_budget, memory_budget_mb, _FAST_NODES, len(greedy))
+        word, status, spent, lower = _exact_search(aut, s, time_budget, memory_budget_mb, _FAST_NODES, len(greedy),
+                                                   strict=True)
         best, from_beam = greedy, False
     if status == "budget":
         best, from_beam = _beam_upper(aut, s, greedy, memory_budget_mb,
