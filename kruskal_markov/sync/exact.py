@@ -89,6 +89,8 @@ _DFS_CHECK_WEIGHT = 1.0
 #: sets per slice
 _LAST_UNHASHED = True
 _LAST_SLICE = 1 << 21
+#: the direction of the last level: None (the step rule's), "forward" or "backward" (experiments)
+_LAST_SIDE = None
 #: sets the exact search may generate below the greedy word before the beam runs (None: the beam
 #: first): small automata are answered without it (Cerny C_16: 13 ms -> 3 ms of CPU; contracting
 #: 8 x 256: 64 ms -> 5 ms); larger ones lose at most this many sets (a few milliseconds)
@@ -389,6 +391,8 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
                     (node_budget is None or fwd.count + bwd.count + aut.k * (
                         (fwd if forward else bwd).levels[-1][1] - (fwd if forward else bwd).levels[-1][0])
                      <= node_budget):
+                if _LAST_SIDE is not None:
+                    forward = _LAST_SIDE == "forward"
                 word, generated = _last_level(aut, fwd, bwd, forward, cache, deadline)
                 if generated < 0:
                     return None, "budget", fwd.count + bwd.count, total + 1
