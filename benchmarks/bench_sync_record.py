@@ -16,7 +16,10 @@ times (its own per-algorithm timers, JIT compilation excluded) and lengths are s
 
 ``python -m benchmarks sync_record`` (all rows) or ``python -m benchmarks.bench_sync_record
 --only random-2-200,cerny`` (key prefixes, comma-separated; ``--max-budget S`` caps every time
-budget at S s). Results go to ``benchmarks/data/sync_record.json``.
+budget at S s). Results go to ``benchmarks/data/sync_record.json``. ``--side-by-side PATH CONFIG``
+runs synchrowords and ours alternately, instance by instance, in one process, and prints the
+ratios of wall clock and of CPU time (both files updated). There is no ``--help``: the
+arguments are read from ``sys.argv`` as above.
 """
 from __future__ import annotations
 
@@ -98,11 +101,21 @@ def _run_capped(cmd, timeout):
         raise
 
 
-def run_synchrowords(binary: str, config: str, only: tuple = ()) -> dict:
+def _child_cpu() -> float:
+    """CPU seconds (user + system) of the finished child processes so far."""
+    import resource
+
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run_synchrowords(binary: str, config: str, only: tuple = (), instances=None) -> dict:
     """Run synchrowords on every instance (or those whose key starts with one of ``only``;
-    ``SW_LIMIT`` seconds each) and return ``{key: row}``."""
+    ``SW_LIMIT`` seconds each) and return ``{key: row}``: its own timers' sum (``seconds``), the
+    wall clock of the process (``wall``) and its CPU time (``cpu``, user + system of the process
+    and its threads, start-up included)."""
     out = {}
-    for inst in INSTANCES:
+    for inst in INSTANCES if instances is None else instances:
         if only and not key(inst).startswith(only):
             continue
         t = instance_table(*inst)
@@ -118,9 +131,11 @@ def run_synchrowords(binary: str, config: str, only: tuple = ()) -> dict:
             except subprocess.TimeoutExpired:
                 pass
             t0 = time.perf_counter()
+            c0 = _child_cpu()
             try:
                 _run_capped(cmd, SW_LIMIT + 30)
                 wall = time.perf_counter() - t0
+                cpu = _child_cpu() - c0
                 line = open(res).read().strip() if os.path.exists(res) else ""
             except subprocess.TimeoutExpired:
                 out[key(inst)] = {"length": None, "exact": False, "seconds": None, "wall": None,
@@ -134,22 +149,33 @@ def run_synchrowords(binary: str, config: str, only: tuple = ()) -> dict:
         lo, hi = int(m.group(1)), int(m.group(2))
         ms = sum(int(x) for x in re.findall(r", (\d+)\)", m.group(3)))
         out[key(inst)] = {"length": hi, "lower": lo, "exact": lo == hi, "seconds": ms / 1000, "wall": wall,
-                          "raw": line}
+                          "cpu": round(cpu, 3), "raw": line}
         print(key(inst), out[key(inst)], flush=True)
     return out
 
 
 def _warm_up():
+    """Compile every Numba kernel before the timed runs: small automata (the fast path), then, past
+    the fast path (a node budget skips it), the beam, the cost model's steps and the last level on
+    automata of over 64 states (two-word bitsets; tuning seed 0, not a benchmark row)."""
     a = SyncAutomaton.from_table(generators.random_table(40, 2, 0))
     shortest_synchronizing_word(a, time_budget=None)
     shortest_synchronizing_word(SyncAutomaton.from_table(generators.random_table(40, 8, 0)), time_budget=None)
+    for n, k in ((80, 8), (100, 2)):
+        shortest_synchronizing_word(SyncAutomaton.from_table(generators.random_table(n, k, 0)), time_budget=None,
+                                    node_budget=10 ** 9)
 
 
-def run_ours(only: tuple = (), max_budget: float | None = None) -> dict:
-    sw_all = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
-    _warm_up()
+def run_ours(only: tuple = (), max_budget: float | None = None, instances=None, sw_all=None, warm=True) -> dict:
+    """Our solver on the instances (budgets: :func:`_time_budget`, capped at ``max_budget``), beside
+    synchrowords' rows ``sw_all`` (default: the stored file); wall clock and CPU time (``cpu``: this
+    process, every thread) of each solve."""
+    if sw_all is None:
+        sw_all = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
+    if warm:
+        _warm_up()
     rows = {}
-    for inst in INSTANCES:
+    for inst in INSTANCES if instances is None else instances:
         if only and not key(inst).startswith(only):
             continue
         t = instance_table(*inst)
@@ -157,24 +183,62 @@ def run_ours(only: tuple = (), max_budget: float | None = None) -> dict:
         sw = sw_all.get(key(inst))
         budget = _time_budget(inst, sw) if max_budget is None else min(max_budget, _time_budget(inst, sw))
         t0 = time.perf_counter()
+        c0 = time.process_time()
         r = shortest_synchronizing_word(aut, time_budget=budget, memory_budget_mb=MEMORY_MB)
         sec = time.perf_counter() - t0
+        cpu = time.process_time() - c0
         ok = r.word is not None and is_synchronizing_word(aut, r.word)
         rows[key(inst)] = {"length": r.length, "exact": r.exact, "lower_bound": r.lower_bound, "method": r.method,
-                           "seconds": round(sec, 2), "time_budget": budget, "word_checked": ok,
+                           "seconds": round(sec, 3), "cpu": round(cpu, 3), "time_budget": budget, "word_checked": ok,
                            "subsets": r.states_explored}
         swl = "-" if sw is None else f"{sw.get('length')} {'exact' if sw.get('exact') else ''} {sw.get('seconds')} s"
         target = sw is not None and sw.get("exact") and sw["seconds"] <= SW_LIMIT
         met = (r.exact and r.length == sw["length"] and sec <= 3 * sw["seconds"]) if target else None
         rows[key(inst)]["target_met"] = met
-        print(f"{key(inst):24s} ours {r.length} exact={r.exact} lb={r.lower_bound} {sec:7.2f} s {r.method:24s}"
-              f" | synchrowords {swl} | target met: {met}", flush=True)
+        print(f"{key(inst):24s} ours {r.length} exact={r.exact} lb={r.lower_bound} {sec:7.2f} s cpu {cpu:7.2f} s "
+              f"{r.method:24s} | synchrowords {swl} | target met: {met}", flush=True)
     return rows
+
+
+def _save(path, rows):
+    old = json.loads(path.read_text()) if path.exists() else {}
+    old.update(rows)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(old, indent=1, sort_keys=True) + "\n")
+    tmp.replace(path)
+
+
+def run_side_by_side(binary: str, config: str, only: tuple = (), max_budget: float | None = None) -> None:
+    """synchrowords, then ours, instance by instance in one process (both slowed alike by whatever
+    else runs); ratios of wall clock (ours against synchrowords' own timers) and of CPU time. Both
+    files are updated, synchrowords' rows with ``conditions: side by side``."""
+    _warm_up()
+    # in the order of ``only`` (the rows that matter first, in case the job is cut short)
+    order = [i for p in only for i in INSTANCES if key(i).startswith(p)] if only else INSTANCES
+    for inst in dict.fromkeys(order):
+        load = os.getloadavg()[0]
+        sw = run_synchrowords(binary, config, instances=[inst])
+        for row in sw.values():
+            row["conditions"] = f"side by side with ours, {time.strftime('%Y-%m-%d %H:%M', time.gmtime())} UTC, " \
+                                f"load {load:.2f}"
+        _save(SW_FILE, sw)
+        ours = run_ours(max_budget=max_budget, instances=[inst], sw_all=sw, warm=False)
+        _save(OUT_FILE, ours)
+        a, b = ours[key(inst)], sw[key(inst)]
+        if b.get("seconds") and b.get("cpu"):
+            print(f"{key(inst):24s} ratio wall {a['seconds'] / b['seconds']:.2f} (ours {a['seconds']:.3f} s, theirs "
+                  f"{b['seconds']:.3f} s) cpu {a['cpu'] / b['cpu']:.2f} (ours {a['cpu']:.3f} s, theirs {b['cpu']:.3f} s) "
+                  f"load {load:.2f}", flush=True)
 
 
 def main(argv=()) -> None:
     argv = list(argv)
     only = tuple(argv[argv.index("--only") + 1].split(",")) if "--only" in argv else ()
+    cap = float(argv[argv.index("--max-budget") + 1]) if "--max-budget" in argv else None
+    if "--side-by-side" in argv:
+        i = argv.index("--side-by-side")
+        run_side_by_side(argv[i + 1], argv[i + 2], only, cap)
+        return
     if "--synchrowords" in argv:
         i = argv.index("--synchrowords")
         res = run_synchrowords(argv[i + 1], argv[i + 2], only)
@@ -186,7 +250,6 @@ def main(argv=()) -> None:
         return
     load = os.getloadavg()[0]
     print(f"(1-minute load average at start {load:.2f} on {os.cpu_count()} cores; wall-clock times)")
-    cap = float(argv[argv.index("--max-budget") + 1]) if "--max-budget" in argv else None
     rows = run_ours(only, cap)
     old = json.loads(OUT_FILE.read_text()) if OUT_FILE.exists() else {}
     old.update(rows)

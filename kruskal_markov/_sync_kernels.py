@@ -142,6 +142,46 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
     return count
 
 
+@njit(cache=True)
+def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
+    """The images (``forward``) or preimages of rows ``lo..hi-1`` under every letter, unhashed:
+    row ``(i - lo) k + a`` of the result is the image of row ``i`` under letter ``a`` (an empty
+    preimage is a zero row). The last level of a search, which is only tested, never expanded
+    again, needs no duplicate removal (same arithmetic as :func:`expand_level`)."""
+    k = delta.shape[0]
+    n = delta.shape[1]
+    W = rows.shape[1]
+    out = np.zeros(((hi - lo) * k, W), dtype=np.uint64)
+    cnt = np.zeros(n, dtype=np.int64)
+    elems = np.empty(n, dtype=np.int64)
+    for i in range(lo, hi):
+        m = _members(rows, i, elems)
+        for a in range(k):
+            o = (i - lo) * k + a
+            if forward:
+                for t in range(m):
+                    q = elems[t]
+                    if det:
+                        r = delta[a, q]
+                        out[o, r >> 6] |= _ONE << np.uint64(r & 63)
+                    else:
+                        for v in range(W):
+                            out[o, v] |= sup[a, q, v]
+            else:
+                for t in range(m):
+                    r = elems[t]
+                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                        q = inv_idx[e]
+                        cnt[q] += 1
+                        if cnt[q] == supcount[a, q]:
+                            out[o, q >> 6] |= _ONE << np.uint64(q & 63)
+                for t in range(m):
+                    r = elems[t]
+                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                        cnt[inv_idx[e]] = 0
+    return out
+
+
 @njit(cache=True, inline="always")
 def _members(rows, i, elems):
     """The states of bitset row ``i`` into ``elems[:m]``, in increasing order; returns ``m``."""

@@ -26,14 +26,15 @@ __all__ = ["inverse_beam_word", "beam_width_schedule"]
 
 
 def beam_width_schedule(n: int, k: int, bound: int | None) -> int:
-    """The second beam's width: synchrowords' dynamic rule, ``1%`` of the cost ``2 k^((L+1)/2)`` of
-    a bidirectional exact search to the first beam's length ``L``, per level, clamped to
-    ``[n log2 n, n^2 log2 n]``."""
+    """The second beam's width: synchrowords' dynamic rule, ``1%`` of the cost ``2 k^floor((L+1)/2)``
+    of a bidirectional exact search to the first beam's length ``L``, per level, clamped to
+    ``[n log2 n, n^2 log2 n]`` (the exponent is an integer division in synchrowords'
+    ``beam.hpp``, ``(bound + 1) / 2`` on an unsigned ``bound``)."""
     lo = max(16, int(n * math.log2(max(n, 2))))
     hi = max(lo, int(n * n * math.log2(max(n, 2))))
     if bound is None:
         return lo
-    exact_cost = 2.0 * float(k) ** ((bound + 1) / 2)
+    exact_cost = 2.0 * float(k) ** ((bound + 1) // 2)
     return int(min(hi, max(lo, round(exact_cost * 0.01 / max(bound, 1)))))
 
 

@@ -63,14 +63,18 @@ def test_answers_equal_brute_force_and_exact_means_shortest():
     assert exact >= 60
 
 
-def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not():
+def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not(monkeypatch):
     """Random binary automata of 30-40 states where Eppstein's greedy word is longer than the
     optimum: the inverse beam's word has the shortest length, and the exact search only proves that
     no word is shorter (method ``beam+lower-bound``, ``lower_bound`` equal to the length, the greedy
-    length kept); ``_exact_search`` given that bound returns 'upper' with it."""
+    length kept); ``_exact_search`` given that bound returns 'upper' with it. (The small-search
+    fast path, which answers these before the beam runs, is switched off.)"""
+    import kruskal_markov.sync.exact as exact_mod
     from kruskal_markov._subsets import as_start
     from kruskal_markov.sync import greedy_synchronizing_word
     from kruskal_markov.sync.exact import _exact_search
+
+    monkeypatch.setattr(exact_mod, "_FAST_NODES", None)
 
     checked = 0
     for seed in range(4310, 4318):
@@ -108,11 +112,11 @@ def test_inverse_beam_of_unbounded_width_is_a_shortest_word(seed):
 
 
 def test_beam_width_schedule_follows_the_dynamic_rule():
-    """``n log2 n`` without a length; 1% of ``2 k^((L+1)/2) / L`` clamped to [n log2 n, n^2 log2 n]."""
+    """``n log2 n`` without a length; 1% of ``2 k^floor((L+1)/2) / L`` clamped to [n log2 n, n^2 log2 n]."""
     assert beam_width_schedule(256, 2, None) == 256 * 8
-    assert beam_width_schedule(256, 2, 10) == 256 * 8                    # 2 * 2^5.5 / 1000: tiny
+    assert beam_width_schedule(256, 2, 10) == 256 * 8                    # 2 * 2^5 / 1000: tiny
     assert beam_width_schedule(16, 8, 15) == 16 * 16 * 4                  # clamped above
-    assert beam_width_schedule(100, 8, 14) == round(2 * 8 ** 7.5 * 0.01 / 14)
+    assert beam_width_schedule(100, 8, 14) == round(2 * 8 ** 7 * 0.01 / 14)       # 2,996, as synchrowords logs
 
 
 def test_cerny_automata_are_exact_with_the_cerny_length():
@@ -195,3 +199,36 @@ def test_backward_dominance_keeps_the_answers(monkeypatch):
         r = shortest_synchronizing_word(aut, time_budget=None)
         want = brute(table)
         assert r.length == want and (want is None or is_synchronizing_word(aut, r.word))
+
+
+def test_small_automata_are_answered_before_the_beam(monkeypatch):
+    """The small-search fast path: an exact search capped at ``_FAST_NODES`` sets below the greedy
+    word answers small automata without the beam (method ``bidirectional-bfs`` or
+    ``greedy-eppstein+lower-bound``, the brute-force length); past the cap the beam and the full
+    search answer the same length, with the fast path's sets counted in ``states_explored``."""
+    import kruskal_markov.sync.exact as exact_mod
+
+    calls = []
+    real = exact_mod._beam_upper
+
+    def spy(*args, **kw):
+        calls.append(1)
+        return real(*args, **kw)
+    monkeypatch.setattr(exact_mod, "_beam_upper", spy)
+    for seed in range(4330, 4336):
+        table = generators.random_table(12 + seed % 5, 2 + seed % 2, seed)
+        aut = SyncAutomaton.from_table(table)
+        want = brute(table)
+        r = shortest_synchronizing_word(aut, time_budget=None)
+        assert r.exact and r.length == want and (want is None or is_synchronizing_word(aut, r.word))
+        if want is not None:
+            assert r.method in ("bidirectional-bfs", "greedy-eppstein+lower-bound")
+    assert not calls
+    monkeypatch.setattr(exact_mod, "_FAST_NODES", 2)         # every fast search stops at its cap
+    table = generators.random_table(30, 2, 4340)
+    aut = SyncAutomaton.from_table(table)
+    capped = shortest_synchronizing_word(aut, time_budget=None)
+    assert calls and capped.exact and capped.length == brute(table)
+    monkeypatch.setattr(exact_mod, "_FAST_NODES", None)
+    plain = shortest_synchronizing_word(aut, time_budget=None)
+    assert plain.length == capped.length and capped.states_explored > plain.states_explored
