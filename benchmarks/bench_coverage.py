@@ -7,7 +7,8 @@ seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps 
 
 ``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ... [--calibration=FILE,FILE,...]`` prints the
 coverage of kept runs under the relative rule at 0.105 and at the model's own term, and, with
-``--calibration``, under the relative and the flow rule calibrated on those runs.
+``--calibration``, under the relative and the flow rule calibrated on those runs; its last row is a 95%
+interval of the pooled coverage that resamples whole sequences (:func:`sequence_bootstrap_interval`).
 ``python -m benchmarks.bench_coverage loro --model=PATH FILE ...`` holds each kept run out in turn and
 calibrates both rules on the others (the tuning evidence on the flow rule, docs/uncertainty.md).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
