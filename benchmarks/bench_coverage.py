@@ -7,7 +7,8 @@ seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps 
 
 ``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ... [--calibration=FILE,FILE,...]`` prints the
 coverage of kept runs under the relative rule at 0.105 and at the model's own term, and, with
-``--calibration``, under the relative and the flow rule calibrated on those runs.
+``--calibration``, under the relative and the flow rule calibrated on those runs; its last row is a 95%
+interval of the pooled coverage that resamples whole sequences (:func:`sequence_bootstrap_interval`).
 ``python -m benchmarks.bench_coverage loro --model=PATH FILE ...`` holds each kept run out in turn and
 calibrates both rules on the others (the tuning evidence on the flow rule, docs/uncertainty.md).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
@@ -141,6 +142,36 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     return q
 
 
+def sequence_bootstrap_interval(per_sequence: list[np.ndarray], resamples: int = 10_000,
+                                seed: int = 0) -> tuple[float, float]:
+    """A 95% interval of the pooled coverage that takes the sequence, not the step, as the unit.
+
+    Steps of one sequence are correlated (a chunk error persists to the sequence's end), so the
+    Wilson interval over steps is too narrow. This resamples whole sequences with replacement
+    (Efron and Tibshirani 1993, ch. 6: the bootstrap of a ratio of sums) ``resamples`` times and
+    returns the 2.5% and 97.5% quantiles of the resampled pooled coverage
+    (steps inside / steps), seeded by ``numpy.random.default_rng(seed)``.
+
+    Parameters
+    ----------
+    per_sequence : list of numpy.ndarray
+        One boolean array per sequence: whether each of its steps is inside the band.
+    """
+    if not per_sequence:
+        raise ValueError("no sequences")
+    hits = np.array([float(np.sum(x)) for x in per_sequence])
+    steps = np.array([float(len(x)) for x in per_sequence])
+    pick = np.random.default_rng(seed).integers(0, len(hits), size=(resamples, len(hits)))
+    share = hits[pick].sum(axis=1) / steps[pick].sum(axis=1)
+    return float(np.quantile(share, 0.025)), float(np.quantile(share, 0.975))
+
+
+def _split(res: dict, inside: np.ndarray) -> list[np.ndarray]:
+    """``inside`` (steps 1..N of every sequence of a kept run, concatenated) cut back into sequences."""
+    ends = np.cumsum([len(s["reference"]) - 1 for s in res["per_sequence"]])
+    return np.split(inside, ends[:-1])
+
+
 def evaluate(files: list[str], model_path: str, calibration: list[str] | None = None) -> None:
     """Coverage of kept runs on ``model_path``, each with its Wilson interval, per run and pooled: the
     Dirichlet band alone, the relative rule at delta 0.105 (before issue 45) and at the model's own term.
@@ -159,6 +190,7 @@ def evaluate(files: list[str], model_path: str, calibration: list[str] | None = 
         cols += [(f"relative, calibrated {d_rel:.4g}", d_rel, "relative"),
                  (f"flow, calibrated {d_flow:.4g}", d_flow, "flow")]
     pooled = {k: [] for k, _, _ in cols}
+    sequences = {k: [] for k, _, _ in cols}
 
     def cell(x):
         lo, hi = wilson_interval(int(x.sum()), len(x))
@@ -171,10 +203,14 @@ def evaluate(files: list[str], model_path: str, calibration: list[str] | None = 
         for k, d, rule in cols:
             ins = _steps(res, d, model, rule)[0]
             pooled[k].append(ins)
+            sequences[k].extend(_split(res, ins))
             row.append(cell(ins))
         print(f"| {pathlib.Path(f).stem} | {len(ins)} | " + " | ".join(row) + " |")
     print(f"| pooled | {sum(len(x) for x in pooled[cols[0][0]])} | "
           + " | ".join(cell(np.concatenate(pooled[k])) for k, _, _ in cols) + " |")
+    boot = [sequence_bootstrap_interval(sequences[k]) for k, _, _ in cols]
+    print(f"| pooled, 95% by sequence ({len(sequences[cols[0][0]])} sequences resampled) | | "
+          + " | ".join(f"{100 * lo:.0f}-{100 * hi:.0f}" for lo, hi in boot) + " |")
 
 
 def leave_one_run_out(files: list[str], model_path: str) -> dict:
