@@ -124,7 +124,7 @@ def shortest_word(source, target: str = "state", *, method: str = "auto", start:
     >>> cerny4 = model_from_automaton({"states": 4, "actions": {"a": [1, 2, 3, 0], "b": [0, 1, 2, 0]}})
     >>> r = shortest_word(cerny4)
     >>> r.length, r.exact, "".join(r.word), r.method
-    (9, True, 'baaabaaab', 'beam+lower-bound')
+    (9, True, 'baaabaaab', 'bidirectional-bfs')
     >>> shortest_word(cerny4, method="plan").length
     9
     """

@@ -176,7 +176,7 @@ def test_same_result_for_any_number_of_workers(scene):
 
 
 def test_simulator_built_once_per_process(scene):
-    from transition_builder.executors import _sim_cache
+    from transition_builder.simulators import _sim_cache
 
     _sim_cache().clear()
     FakeSimulator.builds = 0
