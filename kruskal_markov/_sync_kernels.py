@@ -109,31 +109,7 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
                 return -1
             for w in range(W):
                 store[count, w] = _ZERO
-            empty = True
-            if forward:
-                for t in range(m):
-                    q = elems[t]
-                    if det:
-                        r = delta[a, q]
-                        store[count, r >> 6] |= _ONE << np.uint64(r & 63)
-                    else:
-                        for v in range(W):
-                            store[count, v] |= sup[a, q, v]
-                empty = False
-            else:
-                for t in range(m):
-                    r = elems[t]
-                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                        q = inv_idx[e]
-                        cnt[q] += 1
-                        if cnt[q] == supcount[a, q]:
-                            store[count, q >> 6] |= _ONE << np.uint64(q & 63)
-                            empty = False
-                for t in range(m):          # reset the counters touched above
-                    r = elems[t]
-                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                        cnt[inv_idx[e]] = 0
-            if empty:
+            if _image_row(store, count, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
                 continue
             if _insert_last(store, count, table):
                 parent[count] = i
@@ -157,29 +133,39 @@ def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supco
     for i in range(lo, hi):
         m = _members(rows, i, elems)
         for a in range(k):
-            o = (i - lo) * k + a
-            if forward:
-                for t in range(m):
-                    q = elems[t]
-                    if det:
-                        r = delta[a, q]
-                        out[o, r >> 6] |= _ONE << np.uint64(r & 63)
-                    else:
-                        for v in range(W):
-                            out[o, v] |= sup[a, q, v]
-            else:
-                for t in range(m):
-                    r = elems[t]
-                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                        q = inv_idx[e]
-                        cnt[q] += 1
-                        if cnt[q] == supcount[a, q]:
-                            out[o, q >> 6] |= _ONE << np.uint64(q & 63)
-                for t in range(m):
-                    r = elems[t]
-                    for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
-                        cnt[inv_idx[e]] = 0
+            _image_row(out, (i - lo) * k + a, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt)
     return out
+
+
+@njit(cache=True, inline="always")
+def _image_row(out, o, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
+    """OR into the (zeroed) bitset row ``out[o]`` the image (``forward``) or preimage under letter
+    ``a`` of the set ``elems[:m]``; returns whether it is empty (an image of a non-empty set never is).
+    A preimage counts, per state ``q``, its successors inside the set (``cnt``, left all zero)."""
+    if forward:
+        for t in range(m):
+            q = elems[t]
+            if det:
+                r = delta[a, q]
+                out[o, r >> 6] |= _ONE << np.uint64(r & 63)
+            else:
+                for v in range(out.shape[1]):
+                    out[o, v] |= sup[a, q, v]
+        return False
+    empty = True
+    for t in range(m):
+        r = elems[t]
+        for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+            q = inv_idx[e]
+            cnt[q] += 1
+            if cnt[q] == supcount[a, q]:
+                out[o, q >> 6] |= _ONE << np.uint64(q & 63)
+                empty = False
+    for t in range(m):          # reset the counters touched above
+        r = elems[t]
+        for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+            cnt[inv_idx[e]] = 0
+    return empty
 
 
 @njit(cache=True, inline="always")
