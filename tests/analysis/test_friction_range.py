@@ -65,26 +65,23 @@ def test_robust_plan_replayed_at_named_coefficients(scene):
     assert split["share_in_modal_cell"] == 1.0
 
 
-def _one_tilt_models(scene, tmp_path):
-    """Stand-in for the range's builds: under every tilt every state goes to one rest state."""
+def _range_models(scene, tmp_path, rest_poses, matrix):
+    """Stand-in for the range's builds: the report grid's start states plus ``rest_poses``; every
+    tilt's matrix at coefficient ``mu`` is ``matrix(mu, n_start, n)``; models saved under ``tmp_path``."""
     grid = report_grid_for(scene)
     n_start = grid.n_voxels
-    n = n_start + 1
-    mats = []
-    for _ in scene.actions:
-        P = np.zeros((n, n))
-        P[:, n_start] = 1.0
-        mats.append(P)
+    n = n_start + len(rest_poses)
     poses = np.full((n, 3), np.nan)
-    poses[n_start] = (100.0, 100.0, 0.0)
+    poses[n_start:] = rest_poses
     partition = np.concatenate([np.arange(n_start), grid.voxel_index(poses[n_start:])])
-    initial = np.concatenate([np.full(n_start, 1.0 / n_start), [0.0]])
+    initial = np.concatenate([np.full(n_start, 1.0 / n_start), np.zeros(len(rest_poses))])
 
     def models(sc, frange, points, build_settings=None, **kw):
         out = []
         for spec in frange.points(points):
-            m = TransitionModel(scene.actions, mats, initial=initial, partition=partition, n_cells=grid.n_voxels,
-                                metadata={"build_settings": {"tol_mm": 0.0, "tol_deg": 0.0}},
+            P = matrix(float(spec), n_start, n)
+            m = TransitionModel(scene.actions, [P] * len(scene.actions), initial=initial, partition=partition,
+                                n_cells=grid.n_voxels, metadata={"build_settings": {"tol_mm": 0.0, "tol_deg": 0.0}},
                                 extras={"state_poses": poses})
             path = str(tmp_path / f"m{spec}.npz")
             m.save(path)
@@ -92,6 +89,16 @@ def _one_tilt_models(scene, tmp_path):
         return out
 
     return models
+
+
+def _one_tilt_models(scene, tmp_path):
+    """Under every tilt every state goes to one rest state."""
+    def matrix(mu, n_start, n):
+        P = np.zeros((n, n))
+        P[:, n_start] = 1.0
+        return P
+
+    return _range_models(scene, tmp_path, [(100.0, 100.0, 0.0)], matrix)
 
 
 def test_plan_command_replays_its_robust_plan(monkeypatch, scene, tmp_path, capsys):
@@ -144,31 +151,14 @@ def test_rank_builds_the_fit_grid_models_with_the_fit_grid_settings():
 
 
 def _two_way_models(scene, tmp_path):
-    """Stand-in for the range's builds: every tilt sends every state to rest state A with
-    probability 1 - mu and to B with mu (the answers move with mu)."""
-    grid = report_grid_for(scene)
-    n_start = grid.n_voxels
-    n = n_start + 2
-    poses = np.full((n, 3), np.nan)
-    poses[n_start:] = [(50.0, 50.0, 0.0), (150.0, 150.0, 0.0)]
-    partition = np.concatenate([np.arange(n_start), grid.voxel_index(poses[n_start:])])
-    initial = np.concatenate([np.full(n_start, 1.0 / n_start), [0.0, 0.0]])
+    """Every tilt sends every state to rest state A with probability 1 - mu and to B with mu (the
+    answers move with mu)."""
+    def matrix(mu, n_start, n):
+        P = np.zeros((n, n))
+        P[:, n_start], P[:, n_start + 1] = 1 - mu, mu
+        return P
 
-    def models(sc, frange, points, build_settings=None, **kw):
-        out = []
-        for spec in frange.points(points):
-            mu = float(spec)
-            P = np.zeros((n, n))
-            P[:, n_start], P[:, n_start + 1] = 1 - mu, mu
-            m = TransitionModel(scene.actions, [P] * len(scene.actions), initial=initial, partition=partition,
-                                n_cells=grid.n_voxels, metadata={"build_settings": {"tol_mm": 0.0, "tol_deg": 0.0}},
-                                extras={"state_poses": poses})
-            path = str(tmp_path / f"w{spec}.npz")
-            m.save(path)
-            out.append((spec, m, path))
-        return out
-
-    return models
+    return _range_models(scene, tmp_path, [(50.0, 50.0, 0.0), (150.0, 150.0, 0.0)], matrix)
 
 
 def test_ensemble_over_a_range_gives_each_points_answers(monkeypatch, scene, tmp_path, capsys):
