@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
-from analysis.fit.hmm import EmissionSettings, _model_tolerance, trial_loglik
+from analysis.fit.hmm import EmissionSettings, model_tolerance, trial_loglik
 from analysis.fit.model_error import model_error, replicate_indices, resample_vertices, trials_needed, weighted_vertex
 from analysis.fit.pair import PAIR, pair_axes, pair_grid, pair_refinement, pair_summary
 
@@ -309,7 +309,7 @@ def _camera_report(em: EmissionSettings, estimated: bool, model) -> dict:
     ``hypot(camera, tolerance)`` (:mod:`analysis.fit.hmm`), so below the models' snapping tolerance
     the camera's share of the blur is small (at most 1 - 1/sqrt(2) = 29% of it) and confounded with
     how well a model's states stand for the physics' rest poses."""
-    tol_mm, tol_deg = _model_tolerance(model)
+    tol_mm, tol_deg = model_tolerance(model)
     out = {"mm": em.sigma_mm, "deg": em.sigma_deg, "estimated": estimated,
            "model_tolerance": {"mm": tol_mm, "deg": tol_deg}}
     if estimated:

@@ -26,7 +26,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["EmissionSettings", "trial_loglik"]
+__all__ = ["EmissionSettings", "model_tolerance", "trial_loglik"]
 
 
 class EmissionSettings:
@@ -54,7 +54,9 @@ class EmissionSettings:
         return f"EmissionSettings({self.sigma_mm:g} mm, {self.sigma_deg:g} deg, outlier {self.outlier:g})"
 
 
-def _model_tolerance(model) -> tuple[float, float]:
+def model_tolerance(model) -> tuple[float, float]:
+    """The snapping tolerance ``(mm, deg)`` a model was built with (0 when not recorded): the spread
+    of a state's members, which the emission adds to the camera noise."""
     bs = (model.metadata or {}).get("build_settings", {})
     return float(bs.get("tol_mm") or 0.0), float(bs.get("tol_deg") or 0.0)
 
@@ -63,7 +65,7 @@ def _neighbours(model, obs_flat, em: EmissionSettings, period: float):
     """CSR lists of the rest states near every observation and their log emission densities."""
     from scipy.spatial import cKDTree
 
-    tol_mm, tol_deg = _model_tolerance(model)
+    tol_mm, tol_deg = model_tolerance(model)
     s_xy = math.hypot(em.sigma_mm, tol_mm)
     s_th = math.radians(math.hypot(em.sigma_deg, tol_deg))
     poses = np.asarray(model.extras["state_poses"], dtype=np.float64)
