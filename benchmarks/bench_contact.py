@@ -33,7 +33,11 @@ VARIANTS = {"coulomb": {"contact": "coulomb"},
             "sphere-240": {"contact": "sphere", "time_step_s": 1.0 / 240.0, "substeps": 4},
             "coulomb-240": {"contact": "coulomb", "time_step_s": 1.0 / 240.0, "substeps": 4, "friction_substeps": 1,
                             "free_flight_step_factor": 1},
-            "coulomb-needed": {"contact": "coulomb", "contact_pairs": "needed"}}
+            "coulomb-needed": {"contact": "coulomb", "contact_pairs": "needed"},
+            "coulomb-steady": {"contact": "coulomb", "long_steps": "free+steady"},
+            "coulomb-needed-steady": {"contact": "coulomb", "contact_pairs": "needed", "long_steps": "free+steady"},
+            "coulomb-needed-hold": {"contact": "coulomb", "contact_pairs": "needed", "long_steps": "free+steady-hold"},
+            "coulomb-needed-stick": {"contact": "coulomb", "contact_pairs": "needed", "long_steps": "free+stick"}}
 MODELS = os.environ.get("KRUSKAL_BENCH_CONTACT_MODELS", "coulomb,sphere-240").split(",")
 REFINE = tuple(int(r) for r in os.environ.get("KRUSKAL_BENCH_CONTACT_REFINE", "1,2,16,32").split(","))
 FLOOR = os.environ.get("KRUSKAL_BENCH_CONTACT_FLOOR", "1") == "1"

@@ -354,6 +354,15 @@ class BulletWorld:
                               (st.time_step_s * k, n_free, st.substeps // (n_free * k)))
             self._cb_mode = 0
             self._cb_free_factor = k
+            # long steps also while the contact is steady (SimSettings.long_steps); both modes must
+            # cover the same simulated time per call for the mode to change between calls
+            self._cb_steady = (k > 1 and st.long_steps != "free"
+                               and st.time_step_s * st.friction_substeps == st.time_step_s * k * n_free)
+            # steady calls of twice the simulated time ("hold": one friction update for two calls)
+            hold = 2 if st.long_steps == "free+steady-hold" else 1
+            self._cb_stick_only = st.long_steps == "free+stick"
+            self._cb_units = (st.friction_substeps, hold * st.friction_substeps, st.substeps)
+            self._cb_modes += ((st.time_step_s * k, hold * n_free, 0),)
             W, H = self.scene.tray_x_mm, self.scene.tray_y_mm
             # clear by twice the distance covered in one interval, plus the contact threshold and 1 mm
             self._cb_walls = (W, H, float(r.max()) / self.mm, 2.0 * st.check_interval_s,
@@ -381,6 +390,7 @@ class BulletWorld:
                 pb.resetJointState(ob, j, 0.0, 0.0, physicsClientId=cid)
         if self.contact.kind == "coulomb":
             self._cb_mem[:] = 0.0           # no previous step: no prediction on the first
+            self._cb_out[:] = np.nan        # no previous update: the first is never steady
         self._after = None
 
     def lift_mm(self) -> float:
@@ -456,11 +466,54 @@ class BulletWorld:
                 dt, n_sub, _ = self._cb_modes[mode]
                 pb.setPhysicsEngineParameter(fixedTimeStep=dt * n_sub, numSubSteps=n_sub, physicsClientId=cid)
                 self._cb_mode = mode
+        if self._cb_steady:
+            self._step_steady(mode, s)
+            return
         for i in range(self._cb_modes[mode][2]):
             if i:                   # the first update uses the state read above
                 s = get_states(ob, joints, physicsClientId=cid)
             sx, sy, _, sw = s
             _contact_update(sx[0], sy[0], sw[0], sx[1], sy[1], sw[1], mem, geom, grid, params, out)
+            caps = (out[0], out[1])
+            if caps != self._cb_caps:
+                change(ob, J_YAW, lateralFriction=caps[0], spinningFriction=caps[1], physicsClientId=cid)
+                self._cb_caps = caps
+            if out[2] != 0.0 or out[3] != 0.0:
+                force(ob, J_YAW, (out[2] * n, out[3] * n, 0.0), (sx[0], sy[0], z), pb.WORLD_FRAME,
+                      physicsClientId=cid)
+            step(physicsClientId=cid)
+        self._after = get_states(ob, joints, physicsClientId=cid)
+
+    def _step_steady(self, free: int, s):
+        """:meth:`_step_coulomb` with ``long_steps="free+steady"``: every call runs in the long-step
+        mode when the part is in free flight (``free``, decided once per interval as by default) or
+        when this call's friction update gave exactly the limits and the explicit force of the one
+        before (the contact is steady: sticking, or sliding in pure translation). Each call covers
+        the same simulated time in either mode, so the friction is updated as often as by default.
+        ``s``: the joint states at the start of the interval."""
+        cid, ob = self.cid, self.body
+        mem, geom, grid, params, out = self._cb_mem, self._cb_geom, self._cb_grid, self._cb_params, self._cb_out
+        n, z = self.normal_force, self._cb_z
+        joints, modes = _JOINTS, self._cb_modes
+        get_states, change, force, step = pb.getJointStates, pb.changeDynamics, pb.applyExternalForce, pb.stepSimulation
+        unit, steady_units, left = self._cb_units
+        stick_only = self._cb_stick_only
+        first = True
+        while left:
+            if not first:
+                s = get_states(ob, joints, physicsClientId=cid)
+            first = False
+            sx, sy, _, sw = s
+            before = (out[0], out[1], out[2], out[3])
+            _contact_update(sx[0], sy[0], sw[0], sx[1], sy[1], sw[1], mem, geom, grid, params, out)
+            mode = 1 if free else 0
+            if before == (out[0], out[1], out[2], out[3]) and (out[1] > 0.0 or not stick_only):
+                mode = 2 if steady_units > unit and left >= steady_units else 1
+            left -= steady_units if mode == 2 else unit
+            if mode != self._cb_mode:
+                dt, n_sub, _ = modes[mode]
+                pb.setPhysicsEngineParameter(fixedTimeStep=dt * n_sub, numSubSteps=n_sub, physicsClientId=cid)
+                self._cb_mode = mode
             caps = (out[0], out[1])
             if caps != self._cb_caps:
                 change(ob, J_YAW, lateralFriction=caps[0], spinningFriction=caps[1], physicsClientId=cid)

@@ -11,7 +11,7 @@ from dataclasses import asdict, dataclass, fields
 
 from kruskal_markov.validation import check_fields
 
-__all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES"]
+__all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES", "LONG_STEPS"]
 
 #: the contact models ``--contact`` accepts (``legs:K`` with an integer K from 2 to 64).
 CONTACT_CHOICES = "coulomb (default), sphere, legs:K"
@@ -25,6 +25,11 @@ CONTACT_CHOICES = "coulomb (default), sphere, legs:K"
 SIMULATOR_VERSION = "planar-chain-4"
 #: values of :attr:`SimSettings.contact_pairs`.
 CONTACT_PAIRS = ("all", "needed")
+#: values of :attr:`SimSettings.long_steps`.
+LONG_STEPS = ("free", "free+steady", "free+steady-hold", "free+stick")
+
+#: the settings that take one of a few names, the first the default (left out of :meth:`SimSettings.to_dict`)
+_CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS}
 
 
 @dataclass(frozen=True)
@@ -135,6 +140,19 @@ class SimSettings:
         inside its outline, so the pairs left out never carry a force; Bullet still made speculative
         contacts for them every step). Recorded in the cache key only when not ``all``
         (docs/builder.md, "Where a build's time goes").
+    long_steps : str
+        ``coulomb`` contact: when physics steps are ``free_flight_step_factor`` times longer.
+        ``free`` (the default): in free flight only. ``free+steady``: also while the contact is
+        steady, i.e. its last friction update gave exactly the limits and the explicit force of the
+        update before (the part sticks, or slides in pure translation: nothing the contact feeds
+        Bullet changes). The friction is still updated once per call of the same simulated length,
+        so a change is seen as soon as before, and the next call runs at the short step again.
+        ``free+steady-hold``: the same, and a steady call runs twice as long (two long steps, one
+        friction update), when the rest-test interval leaves room for it. ``free+stick``: long
+        steps in free flight and while the contact sticks (steady with a non-zero spinning limit),
+        not in pure translation.
+        Recorded in the cache key only when not ``free`` (docs/builder.md, "Longer steps while the
+        contact is steady").
     """
 
     time_step_s: float = 1.0 / 480.0
@@ -157,6 +175,7 @@ class SimSettings:
     escape_tolerance_mm: float = 1.0
     lift_tolerance_mm: float = 2.0
     contact_pairs: str = "all"
+    long_steps: str = "free"
 
     def __post_init__(self):
         for f in fields(self):
@@ -164,9 +183,9 @@ class SimSettings:
             if f.name == "contact":
                 object.__setattr__(self, f.name, str(parse_contact(val)))
                 continue
-            if f.name == "contact_pairs":
-                if val not in CONTACT_PAIRS:
-                    raise ValueError(f"SimSettings.contact_pairs must be one of {', '.join(CONTACT_PAIRS)}, got {val!r}")
+            if f.name in _CHOICES:
+                if val not in _CHOICES[f.name]:
+                    raise ValueError(f"SimSettings.{f.name} must be one of {', '.join(_CHOICES[f.name])}, got {val!r}")
                 continue
             if f.type in ("int", int):
                 if isinstance(val, bool) or not isinstance(val, int) or val < 1:
@@ -188,11 +207,13 @@ class SimSettings:
             raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 
     def to_dict(self) -> dict:
-        """All fields, JSON-able (``contact_pairs`` only when not ``all``: the content hash of
-        every scene simulated before the setting existed stays as it was)."""
+        """All fields, JSON-able (``contact_pairs`` and ``long_steps`` only when not at their
+        defaults: the content hash of every scene simulated before the settings existed stays as it
+        was)."""
         d = asdict(self)
-        if d["contact_pairs"] == "all":
-            del d["contact_pairs"]
+        for name, choices in _CHOICES.items():
+            if d[name] == choices[0]:
+                del d[name]
         return d
 
     @classmethod
