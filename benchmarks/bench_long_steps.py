@@ -10,6 +10,8 @@ Parts (``KRUSKAL_BENCH_LONG_PART``, comma-separated; default ``cpu``):
   those starts under E tilted N, NE, W and SW (a build's tilts start from rest poses, mostly against
   walls); landings within 1 mm / 1 degree of the default's; then a small serial build (8 mm / 8 deg,
   50 starts, seed 5): tilts per CPU second.
+- ``worlds``: CPU per ``stepSimulation`` call of one world holding 1, 2, 4 or 8 keys in as many
+  trays (:func:`worlds`): what stepping several trials in one world would save.
 - ``judges``: the free-sliding judges (:func:`transition_builder.judges.judges_table`, 1/16 of the
   step) of the candidate against :data:`~transition_builder.judges.JUDGE_TARGETS`.
 - ``build:LABEL`` (``default``, ``needed`` or ``candidate``): the key's default model built from
@@ -174,11 +176,52 @@ def validate(trials: int) -> dict:
     return out
 
 
+def worlds(counts=(1, 2, 4, 8), calls: int = 200) -> dict:
+    """CPU per ``stepSimulation`` call (two 1/480 s steps) of one world holding ``N`` keys in ``N``
+    trays one metre apart (``contact_pairs=needed``): with every part at rest against the east wall
+    (tilted E), and with every part released in the open. Does one call serve several trials?"""
+    import pybullet as pb
+
+    from transition_builder._bullet_world import BulletWorld
+    from transition_builder.scene import scene_from_options
+    from transition_builder.sim import TraySimulator
+    sc = scene_from_options("allen-key", contact_pairs="needed")
+    with TraySimulator(sc) as sim:
+        wall_pose = sim.tilt([[100.0, 100.0, 0.0]], "E")[0][0]
+    out = {}
+    for n in counts:
+        w = BulletWorld(sc, sc.downhill_angle(sc.action_index("E")))
+        cid, c0, bodies = w.cid, w.centre.copy(), [w.body]
+        for k in range(1, n):
+            w.centre = c0 - np.array([k * 1000.0, 0.0])     # tray k one metre further along +x
+            w._build_tray(sc, cid)
+            w._build_part(sc, sc.settings, cid)
+            bodies.append(w.body)
+        for label, pose in (("wall", wall_pose), ("open", (100.0, 100.0, 0.3))):
+            for k, b in enumerate(bodies):
+                w.centre = c0 - np.array([k * 1000.0, 0.0])
+                wx, wy = w._world_xy(pose[:2])
+                for j, q in ((0, wx), (1, wy), (2, 0.0), (3, pose[2] - w.phi)):
+                    pb.resetJointState(b, j, float(q), 0.0, physicsClientId=cid)
+            for _ in range(5):
+                pb.stepSimulation(physicsClientId=cid)
+            t = time.process_time()
+            for _ in range(calls):
+                pb.stepSimulation(physicsClientId=cid)
+            us = 1e6 * (time.process_time() - t) / calls
+            out[f"{label}, N={n}"] = {"us_per_call": us, "us_per_part": us / n}
+            print(f"one world, {n} parts, {label}: {us:.0f} us per call, {us / n:.0f} us per part", flush=True)
+        w.close()
+    return out
+
+
 def main():
     from transition_builder.builder import BuildSettings
     for part in os.environ.get("KRUSKAL_BENCH_LONG_PART", "cpu").split(","):
         if part == "cpu":
             cpu_side_by_side()
+        elif part == "worlds":
+            worlds()
         elif part == "judges":
             judges()
         elif part.startswith("build:"):
@@ -189,7 +232,8 @@ def main():
             _, label, mu = part.split(":")
             build(label, BuildSettings(tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, start_samples=2000), float(mu))
         else:
-            raise SystemExit(f"unknown part {part!r}: cpu, judges, build:LABEL, validate, family:LABEL:MU")
+            raise SystemExit(f"unknown part {part!r}: cpu, worlds, judges, build:LABEL, validate, "
+                             "family:LABEL:MU")
 
 
 if __name__ == "__main__":
