@@ -136,10 +136,11 @@ def build(label: str, build_settings=None, friction=None) -> dict:
     for f in [pool.submit(executors._worker_pid) for _ in range(8)]:
         f.result()                                  # every worker up
     pids = list(pool._processes)
-    cpu0, t = _proc_cpu(pids), time.perf_counter()
+    cpu0, par0, t = _proc_cpu(pids), time.process_time(), time.perf_counter()
     r = build_model(sc, build_settings or BuildSettings(), executor=ex)
     out = {"label": label, "friction": friction, "wall_s": time.perf_counter() - t,
-           "workers_cpu_s": _proc_cpu(pids) - cpu0, "tilts": int(r.stats["tilts_simulated"]),
+           "workers_cpu_s": _proc_cpu(pids) - cpu0, "parent_cpu_s": time.process_time() - par0,
+           "tilts": int(r.stats["tilts_simulated"]),
            "states": r.model.n_states, "digest": model_digest(r.model)}
     out["tilts_per_worker_cpu_s"] = out["tilts"] / out["workers_cpu_s"]
     save = os.environ.get("KRUSKAL_BENCH_LONG_SAVE")
