@@ -25,7 +25,7 @@ Parts (``KRUSKAL_BENCH_LONG_PART``, comma-separated; default ``cpu``):
   settings; run MU = 0.2, 0.25, 0.3, 0.35, 0.4 as separate jobs and add the times.
 
 The step convergence is ``python -m benchmarks contact`` with
-``KRUSKAL_BENCH_CONTACT_MODELS=coulomb,coulomb-needed,coulomb-needed-hold``.
+``KRUSKAL_BENCH_CONTACT_MODELS=coulomb,coulomb-needed,coulomb-needed-stick``.
 Run: ``KRUSKAL_BENCH_LONG_PART=cpu,judges python -m benchmarks long_steps``.
 """
 from __future__ import annotations
@@ -42,7 +42,7 @@ ROUNDS = int(os.environ.get("KRUSKAL_BENCH_LONG_ROUNDS", "2"))
 #: the variants compared (SimSettings changes): today's default, the pairs alone, the candidate
 VARIANTS = {"default": {},
             "needed": {"contact_pairs": "needed"},
-            "candidate": {"contact_pairs": "needed", "long_steps": "free+steady-hold"}}
+            "candidate": {"contact_pairs": "needed", "long_steps": "free+stick"}}
 #: the held-out seed of the validation (named in docs/builder.md before its first run)
 VALIDATION_SEED = 6047
 
