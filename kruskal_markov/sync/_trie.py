@@ -210,7 +210,7 @@ _PAR_MIN = 4096
 
 
 def superset_mask(stored: np.ndarray, query: np.ndarray, proper: bool = False, sorted_stored: bool = False,
-                  tasks: int = 8) -> np.ndarray:
+                  tasks: int = 8, min_parallel: int = _PAR_MIN) -> np.ndarray:
     """For each row of ``query``, whether it contains some row of ``stored`` (as bitsets).
 
     Parameters
@@ -224,6 +224,8 @@ def superset_mask(stored: np.ndarray, query: np.ndarray, proper: bool = False, s
         ``stored`` is already in :func:`lex_order`.
     tasks : int
         Query slices walked in parallel (both cores) when there are enough query rows.
+    min_parallel : int
+        Query rows per task below which the queries are walked on one thread.
 
     Returns
     -------
@@ -238,7 +240,7 @@ def superset_mask(stored: np.ndarray, query: np.ndarray, proper: bool = False, s
         return out
     S = stored if sorted_stored else stored[lex_order(stored)]
     cidx = np.arange(query.shape[0], dtype=np.int64)
-    par = query.shape[0] >= _PAR_MIN * 2 and tasks > 1
+    par = query.shape[0] >= min_parallel * 2 and tasks > 1
     nt = tasks if par else 1
     bounds = np.linspace(0, query.shape[0], nt + 1).astype(np.int64)
     (_mask_par if par else _mask_seq)(S, query, cidx, bounds, proper, out)
@@ -254,10 +256,12 @@ def complement(rows: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def subset_mask(stored: np.ndarray, query: np.ndarray, n: int, proper: bool = False, tasks: int = 8) -> np.ndarray:
+def subset_mask(stored: np.ndarray, query: np.ndarray, n: int, proper: bool = False, tasks: int = 8,
+                min_parallel: int = _PAR_MIN) -> np.ndarray:
     """For each row of ``query``, whether it lies inside some row of ``stored`` (a subset of it):
     :func:`superset_mask` on the complements within ``n`` states."""
-    return superset_mask(complement(stored, n), complement(query, n), proper=proper, tasks=tasks)
+    return superset_mask(complement(stored, n), complement(query, n), proper=proper, tasks=tasks,
+                         min_parallel=min_parallel)
 
 
 def first_superset_pair(stored: np.ndarray, query: np.ndarray, tasks: int = 8):

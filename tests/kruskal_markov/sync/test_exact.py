@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from kruskal_markov import generators
-from kruskal_markov.sync import SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
+from kruskal_markov.sync import ExactSearchOptions, SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 
 
@@ -63,18 +63,17 @@ def test_answers_equal_brute_force_and_exact_means_shortest():
     assert exact >= 60
 
 
-def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not(monkeypatch):
+def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not():
     """Random binary automata of 30-40 states where Eppstein's greedy word is longer than the
     optimum: the inverse beam's word has the shortest length, and the exact search only proves that
     no word is shorter (method ``beam+lower-bound``, ``lower_bound`` equal to the length, the greedy
     length kept); ``_exact_search`` given that bound returns 'upper' with it. (The small-search
     fast path, which answers these before the beam runs, is switched off.)"""
-    import kruskal_markov.sync.exact as exact_mod
     from kruskal_markov._subsets import as_start
     from kruskal_markov.sync import greedy_synchronizing_word
     from kruskal_markov.sync.exact import _exact_search
 
-    monkeypatch.setattr(exact_mod, "_FAST_NODES", None)
+    beam_first = ExactSearchOptions(fast_nodes=None)
 
     checked = 0
     for seed in range(4310, 4318):
@@ -85,7 +84,7 @@ def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not(monkeypat
         greedy = greedy_synchronizing_word(aut)
         if want is None or len(greedy) == want:
             continue
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=beam_first)
         assert r.exact and r.length == want == len(r.word) == r.lower_bound and is_synchronizing_word(aut, r.word)
         if r.method == "beam+lower-bound":
             assert r.greedy_length == len(greedy) > want
@@ -187,48 +186,40 @@ def test_subset_dominance_check_agrees_with_brute_force():
     assert flagged > 0
 
 
-def test_backward_dominance_keeps_the_answers(monkeypatch):
+def test_backward_dominance_keeps_the_answers():
     """With the (off by default) backward subset dominance switched on, the shortest lengths on 40
     small random automata are still the brute-force ones."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", True)
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
+    options = ExactSearchOptions(backward_dominance=True, use_beam=False)
     for _, table in small_tables(40, 4350):
         aut = SyncAutomaton.from_table(table)
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
         want = brute(table)
         assert r.length == want and (want is None or is_synchronizing_word(aut, r.word))
 
 
-def test_small_automata_are_answered_before_the_beam(monkeypatch):
-    """The small-search fast path: an exact search capped at ``_FAST_NODES`` sets below the greedy
+def test_small_automata_are_answered_before_the_beam():
+    """The small-search fast path: an exact search capped at ``fast_nodes`` sets below the greedy
     word answers small automata without the beam (method ``bidirectional-bfs`` or
-    ``greedy-eppstein+lower-bound``, the brute-force length); past the cap the beam and the full
-    search answer the same length, with the fast path's sets counted in ``states_explored``."""
-    import kruskal_markov.sync.exact as exact_mod
+    ``greedy-eppstein+lower-bound``, the brute-force length; the search's stages observed through
+    ``ExactSearchOptions.observe``); past the cap the beam and the full search answer the same
+    length, with the fast path's sets counted in ``states_explored``."""
+    events = []
 
-    calls = []
-    real = exact_mod._beam_upper
-
-    def spy(*args, **kw):
-        calls.append(1)
-        return real(*args, **kw)
-    monkeypatch.setattr(exact_mod, "_beam_upper", spy)
+    def observe(event, value):
+        events.append(event)
     for seed in range(4330, 4336):
         table = generators.random_table(12 + seed % 5, 2 + seed % 2, seed)
         aut = SyncAutomaton.from_table(table)
         want = brute(table)
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(observe=observe))
         assert r.exact and r.length == want and (want is None or is_synchronizing_word(aut, r.word))
         if want is not None:
             assert r.method in ("bidirectional-bfs", "greedy-eppstein+lower-bound")
-    assert not calls
-    monkeypatch.setattr(exact_mod, "_FAST_NODES", 2)         # every fast search stops at its cap
+    assert "fast-path" in events and "beam" not in events
     table = generators.random_table(30, 2, 4340)
     aut = SyncAutomaton.from_table(table)
-    capped = shortest_synchronizing_word(aut, time_budget=None)
-    assert calls and capped.exact and capped.length == brute(table)
-    monkeypatch.setattr(exact_mod, "_FAST_NODES", None)
-    plain = shortest_synchronizing_word(aut, time_budget=None)
+    capped = shortest_synchronizing_word(aut, time_budget=None,     # every fast search stops at its cap
+                                         options=ExactSearchOptions(fast_nodes=2, observe=observe))
+    assert "beam" in events and capped.exact and capped.length == brute(table)
+    plain = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(fast_nodes=None))
     assert plain.length == capped.length and capped.states_explored > plain.states_explored
