@@ -119,21 +119,47 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
 
 
 @njit(cache=True)
-def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
-    """The images (``forward``) or preimages of rows ``lo..hi-1`` under every letter, unhashed:
-    row ``(i - lo) k + a`` of the result is the image of row ``i`` under letter ``a`` (an empty
-    preimage is a zero row). The last level of a search, which is only tested, never expanded
-    again, needs no duplicate removal (same arithmetic as :func:`expand_level`)."""
+def _images_into(out, rows, lo, hi, base, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
+    """Rows ``lo..hi-1``'s images into ``out[(i - base) k + a]`` (one thread's share)."""
     k = delta.shape[0]
     n = delta.shape[1]
-    W = rows.shape[1]
-    out = np.zeros(((hi - lo) * k, W), dtype=np.uint64)
     cnt = np.zeros(n, dtype=np.int64)
     elems = np.empty(n, dtype=np.int64)
     for i in range(lo, hi):
         m = _members(rows, i, elems)
         for a in range(k):
-            _image_row(out, (i - lo) * k + a, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt)
+            _image_row(out, (i - base) * k + a, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount,
+                       cnt)
+
+
+@njit(cache=True, parallel=True)
+def _level_images_par(out, rows, lo, hi, tasks, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
+    step = (hi - lo + tasks - 1) // tasks
+    for t in prange(tasks):
+        a = lo + t * step
+        b = min(hi, a + step)
+        if a < b:
+            _images_into(out, rows, a, b, lo, delta, sup, det, forward, inv_ptr, inv_idx, supcount)
+
+
+#: rows per task below which :func:`level_images` runs on one thread
+_IMAGES_PAR_MIN = 8192
+
+
+def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supcount, tasks=8,
+                 min_parallel=_IMAGES_PAR_MIN):
+    """The images (``forward``) or preimages of rows ``lo..hi-1`` under every letter, unhashed:
+    row ``(i - lo) k + a`` of the result is the image of row ``i`` under letter ``a`` (an empty
+    preimage is a zero row). The last level of a search, which is only tested, never expanded
+    again, needs no duplicate removal (same arithmetic as :func:`expand_level`). Rows are split
+    into ``tasks`` slices run on Numba's threads (both cores) when ``hi - lo >= 2 min_parallel``;
+    the result does not depend on the split."""
+    k = delta.shape[0]
+    out = np.zeros(((hi - lo) * k, rows.shape[1]), dtype=np.uint64)
+    if tasks > 1 and hi - lo >= 2 * min_parallel:
+        _level_images_par(out, rows, lo, hi, tasks, delta, sup, det, forward, inv_ptr, inv_idx, supcount)
+    else:
+        _images_into(out, rows, lo, hi, lo, delta, sup, det, forward, inv_ptr, inv_idx, supcount)
     return out
 
 
@@ -141,7 +167,8 @@ def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supco
 def _image_row(out, o, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
     """OR into the (zeroed) bitset row ``out[o]`` the image (``forward``) or preimage under letter
     ``a`` of the set ``elems[:m]``; returns whether it is empty (an image of a non-empty set never is).
-    A preimage counts, per state ``q``, its successors inside the set (``cnt``, left all zero)."""
+    A preimage of a set-valued automaton counts, per state ``q``, its successors inside the set
+    (``cnt``, left all zero); a deterministic one is the union of the members' inverse lists."""
     if forward:
         for t in range(m):
             q = elems[t]
@@ -153,6 +180,14 @@ def _image_row(out, o, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, 
                     out[o, v] |= sup[a, q, v]
         return False
     empty = True
+    if det:     # one successor per state: q is in the preimage when delta[a, q] is, no counting
+        for t in range(m):
+            r = elems[t]
+            for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                q = inv_idx[e]
+                out[o, q >> 6] |= _ONE << np.uint64(q & 63)
+                empty = False
+        return empty
     for t in range(m):
         r = elems[t]
         for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):

@@ -223,3 +223,37 @@ def test_small_automata_are_answered_before_the_beam():
     assert "beam" in events and capped.exact and capped.length == brute(table)
     plain = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(fast_nodes=None))
     assert plain.length == capped.length and capped.states_explored > plain.states_explored
+
+
+@pytest.mark.parametrize("deterministic", [True, False])
+def test_level_images_are_the_images_and_preimages_whatever_the_split(deterministic):
+    """The unhashed level kernel (the last level of a search): row ``(i - lo) k + a`` is the image,
+    or the preimage, of set ``i`` under letter ``a``, judged by plain Python on random sets of a
+    random automaton (deterministic, and set-valued: a preimage holds the states whose every
+    successor is in the set); the same on one thread and split over threads (forced on)."""
+    from kruskal_markov import _sync_kernels as _k
+    from kruskal_markov.sync import support_automaton
+    from tests.kruskal_markov.sync.test_searches import model_from_support
+
+    rng = np.random.default_rng(4370)
+    n, k = 70, 3
+    if deterministic:
+        succ = [[{int(x)} for x in row] for row in generators.random_table(n, k, rng)]
+        aut = SyncAutomaton.from_table([[next(iter(s)) for s in row] for row in succ])
+    else:
+        succ = [[set(rng.choice(n, size=int(rng.integers(1, 3)), replace=False).tolist()) for _ in range(n)]
+                for _ in range(k)]
+        aut = support_automaton(model_from_support([[frozenset(s) for s in row] for row in succ]))
+    assert aut.deterministic == deterministic
+    sets = [set(np.flatnonzero(rng.random(n) < rng.uniform(0.05, 0.6)).tolist()) for _ in range(40)]
+    rows = np.array([aut.bits(sorted(s)) for s in sets])
+    for forward in (True, False):
+        one = _k.level_images(rows, 2, 38, aut.delta, aut.sup, aut.deterministic, forward, *aut.inverse, tasks=1)
+        split = _k.level_images(rows, 2, 38, aut.delta, aut.sup, aut.deterministic, forward, *aut.inverse, tasks=3,
+                                min_parallel=1)
+        assert (one == split).all()
+        for i in range(2, 38):
+            for a in range(k):
+                want = set().union(*(succ[a][q] for q in sets[i])) if forward else \
+                    {q for q in range(n) if succ[a][q] <= sets[i]}
+                assert set(aut.states_of(one[(i - 2) * k + a])) == want
