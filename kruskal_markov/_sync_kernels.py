@@ -119,6 +119,33 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
 
 
 @njit(cache=True)
+def insert_images(store, count, images, first_parent, k, table, parent, letter, max_count):
+    """Append to ``store`` the rows of ``images`` not stored yet (zero rows, empty preimages,
+    skipped), in order; row ``j`` of ``images`` is the image of store row ``first_parent + j // k``
+    under letter ``j % k`` (the layout of :func:`level_images`). Same rows, parents and letters as
+    :func:`expand_level` on those parents. Returns the new count, or ``-1`` if ``max_count`` would
+    be exceeded."""
+    W = store.shape[1]
+    for j in range(images.shape[0]):
+        if count >= max_count:
+            return -1
+        nonzero = False
+        for w in range(W):
+            if images[j, w] != _ZERO:
+                nonzero = True
+                break
+        if not nonzero:
+            continue
+        for w in range(W):
+            store[count, w] = images[j, w]
+        if _insert_last(store, count, table):
+            parent[count] = first_parent + j // k
+            letter[count] = j % k
+            count += 1
+    return count
+
+
+@njit(cache=True)
 def _images_into(out, rows, lo, hi, base, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
     """Rows ``lo..hi-1``'s images into ``out[(i - base) k + a]`` (one thread's share)."""
     k = delta.shape[0]

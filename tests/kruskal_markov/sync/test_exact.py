@@ -257,3 +257,27 @@ def test_level_images_are_the_images_and_preimages_whatever_the_split(determinis
                 want = set().union(*(succ[a][q] for q in sets[i])) if forward else \
                     {q for q in range(n) if succ[a][q] <= sets[i]}
                 assert set(aut.states_of(one[(i - 2) * k + a])) == want
+
+
+def test_a_large_level_expanded_in_two_passes_is_the_one_pass_level():
+    """Levels of 16,384 sets or more are expanded by computing their images on both cores and
+    inserting them on one: the stored rows, parents and letters are those of the one-pass kernel
+    (both directions, random 3-letter automaton of 90 states, a forward level of 20,000 sets)."""
+    from kruskal_markov import _sync_kernels as _k
+    from kruskal_markov._subsets import SubsetStore
+
+    aut = SyncAutomaton.from_table(generators.random_table(90, 3, 4371))
+    rng = np.random.default_rng(4371)
+    roots = [aut.bits(np.flatnonzero(rng.random(90) < 0.3)) for _ in range(20_000)]
+    for forward in (True, False):
+        two, one = SubsetStore(aut.n_words, 1024, 10 ** 6), SubsetStore(aut.n_words, 1024, 10 ** 6)
+        two.add_roots(roots)
+        one.add_roots(roots)
+        assert two.expand(aut, forward) > 0 and two.levels[-2][1] - two.levels[-2][0] >= 2 * _k._IMAGES_PAR_MIN
+        lo, hi = one.levels[-1]
+        one.ensure(one.count + (hi - lo) * aut.k)
+        new = _k.expand_level(one.rows, one.count, lo, hi, aut.delta, aut.sup, True, forward, one.table, one.parent,
+                              one.letter, one.rows.shape[0], *aut.inverse)
+        assert new == two.count
+        for arr in ("rows", "parent", "letter"):
+            assert (getattr(one, arr)[:new] == getattr(two, arr)[:new]).all()
