@@ -82,11 +82,11 @@ class SubsetStore:
         _k.rehash(self.rows, self.count, self.table)
         self.levels.append((lo, self.count))
 
-    def expand(self, aut, forward):
+    def expand(self, aut, forward, tasks=1):
         lo, hi = self.levels[-1]
         self.ensure(self.count + (hi - lo) * aut.k)
         inv_ptr, inv_idx, supcount = aut.inverse
-        if hi - lo >= 2 * _k._IMAGES_PAR_MIN:
+        if tasks > 1 and hi - lo >= 2 * _k._IMAGES_PAR_MIN:
             # a large level: the images computed slice by slice on both cores (level_images), then
             # inserted in the same order on one (the hash table is shared) -- the same rows,
             # parents and letters as expand_level
@@ -94,7 +94,7 @@ class SubsetStore:
             for a in range(lo, hi, _EXPAND_SLICE):
                 b = min(hi, a + _EXPAND_SLICE)
                 images = _k.level_images(self.rows, a, b, aut.delta, aut.sup, aut.deterministic, forward,
-                                         inv_ptr, inv_idx, supcount)
+                                         inv_ptr, inv_idx, supcount, tasks=tasks)
                 new = _k.insert_images(self.rows, new, images, a, aut.k, self.table, self.parent, self.letter,
                                        self.rows.shape[0])
                 if new < 0:

@@ -175,9 +175,9 @@ def _dominance(aut, store, forward, opts):
         return 0
     stored, query = store.rows[ylo:hi], store.rows[lo:hi]
     if forward:
-        dominated = _trie.superset_mask(stored, query, proper=True)
+        dominated = _trie.superset_mask(stored, query, proper=True, tasks=opts.tasks)
     else:
-        dominated = _trie.subset_mask(stored, query, aut.n, proper=True)
+        dominated = _trie.subset_mask(stored, query, aut.n, proper=True, tasks=opts.tasks)
     return store.keep_last(~dominated)
 
 
@@ -209,7 +209,7 @@ def _sorted_forward(fwd, cache):
     return cache["rows"]
 
 
-def _meet_levels(aut, fwd, bwd, total, deadline, cache=None, trie_meet=True, clock=time.perf_counter):
+def _meet_levels(aut, fwd, bwd, total, deadline, cache=None, trie_meet=True, clock=time.perf_counter, tasks=1):
     """The meet test of the newest levels: ``(f, b)`` (store rows, forward set inside backward set),
     ``(-1, -1)`` when none meets, ``(-2, -2)`` when the deadline passed."""
     (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
@@ -217,7 +217,7 @@ def _meet_levels(aut, fwd, bwd, total, deadline, cache=None, trie_meet=True, clo
         if total and deadline is not None and clock() > deadline:
             return -2, -2
         fs = _sorted_forward(fwd, {} if cache is None else cache)
-        hits = np.flatnonzero(_trie.superset_mask(fs, bwd.rows[blo:bhi], sorted_stored=True))
+        hits = np.flatnonzero(_trie.superset_mask(fs, bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks))
         if hits.size == 0:
             return -1, -1
         q = int(hits[0])
@@ -235,7 +235,7 @@ def _meet_levels(aut, fwd, bwd, total, deadline, cache=None, trie_meet=True, clo
     return -1, -1
 
 
-def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter):
+def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter, tasks=1):
     """The last length to test (``total + 1 = upper - 1``): the next level of one direction is
     generated unhashed (:func:`~kruskal_markov._sync_kernels.level_images`), slice by slice, and
     only met against the other direction's newest level -- it is never expanded again, so it needs
@@ -256,11 +256,11 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter
             return None, -1
         b = min(hi, a + step)
         im = _k.level_images(store.rows, a, b, aut.delta, aut.sup, aut.deterministic, forward, inv_ptr, inv_idx,
-                             supcount)
+                             supcount, tasks=tasks)
         generated += im.shape[0]
         if forward:
             order = _trie.lex_order(im)
-            mask = _trie.superset_mask(im[order], bwd.rows[blo:bhi], sorted_stored=True)
+            mask = _trie.superset_mask(im[order], bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks)
             hits = np.flatnonzero(mask)
             if hits.size:
                 q = blo + int(hits[0])
@@ -269,7 +269,7 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter
                 v, _ = bwd.path(q)
                 return u[::-1] + [i % k] + v, generated
         else:
-            hits = np.flatnonzero(_trie.superset_mask(fs, im, sorted_stored=True))
+            hits = np.flatnonzero(_trie.superset_mask(fs, im, sorted_stored=True, tasks=tasks))
             if hits.size:
                 i = int(hits[0])
                 f = flo + int(np.flatnonzero(~np.any(fwd.rows[flo:fhi] & ~im[i], axis=1))[0])
@@ -291,7 +291,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
     design switches (:class:`~kruskal_markov.sync.options.ExactSearchOptions`, default when None);
     ``clock``: the seconds the time budget is measured on.
     """
-    opts = ExactSearchOptions() if options is None else options
+    opts = (ExactSearchOptions() if options is None else options).resolved()
     t0 = clock()
     deadline = None if time_budget is None else t0 + time_budget
     W = aut.n_words
@@ -325,7 +325,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         if tested < total:
             tm = clock()
             # the meet test in slices of the forward level, so that the budget is checked between them
-            f, b = _meet_levels(aut, fwd, bwd, total, deadline, cache, opts.trie_meet, clock)
+            f, b = _meet_levels(aut, fwd, bwd, total, deadline, cache, opts.trie_meet, clock, opts.tasks)
             if f == -2:
                 return None, "budget", fwd.count + bwd.count, total
             pairs = (fhi - flo) * (bhi - blo)
@@ -354,7 +354,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
                      <= node_budget):
                 if opts.last_side is not None:
                     forward = opts.last_side == "forward"
-                word, generated = _last_level(aut, fwd, bwd, forward, cache, deadline, clock)
+                word, generated = _last_level(aut, fwd, bwd, forward, cache, deadline, clock, opts.tasks)
                 if generated < 0:
                     return None, "budget", fwd.count + bwd.count, total + 1
                 if word is not None:
@@ -388,7 +388,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
             return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
                                       block, opts, clock)
         te = clock()
-        grown = store.expand(aut, forward)
+        grown = store.expand(aut, forward, opts.tasks)
         if grown is None:
             full[forward] = True
             continue
@@ -560,7 +560,7 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
             rows, rid, words = rows[keep], rid[keep], words[keep]
         if rows.shape[0] == 0:
             return None
-        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True))
+        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True, tasks=opts.tasks))
         if hit.size:
             q = int(hit[0])
             inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)
@@ -651,7 +651,7 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     (4, True)
     """
     aut, start = as_automaton(aut, start)
-    opts = ExactSearchOptions() if options is None else options
+    opts = (ExactSearchOptions() if options is None else options).resolved()
     if (time_budget is not None and not time_budget > 0) or memory_budget_mb <= 0:
         raise ValueError("time and memory budgets must be positive")
     if node_budget is not None and (int(node_budget) != node_budget or node_budget < 1):

@@ -8,8 +8,9 @@ work done to reach it.
 """
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 __all__ = ["ExactSearchOptions"]
 
@@ -53,6 +54,10 @@ class ExactSearchOptions:
         The last length to test is met without storing its level.
     last_side : {None, "forward", "backward"}, default None
         The direction of that last level (None: the step rule's).
+    parallel : bool or None, default None
+        Split large levels' images and the meet test's trie walks over Numba's threads. None:
+        only when the load average leaves a core idle at the search's start (a split walk costs
+        about 1.45 times the CPU of one batch, so on busy cores it is slower; docs/plans.md).
     observe : callable or None, default None
         Called as ``observe(event, value)`` when the search reaches a stage: ``"fast-path"`` (sets
         generated), ``"beam"`` (the word's length, or -1), ``"inverse-dfs"`` (1 if it found a word,
@@ -82,6 +87,7 @@ class ExactSearchOptions:
     step_by_cost: bool = False
     last_unhashed: bool = True
     last_side: str | None = None
+    parallel: bool | None = None
     observe: Callable[[str, int], None] | None = None
 
     def __post_init__(self):
@@ -93,6 +99,18 @@ class ExactSearchOptions:
             v = getattr(self, name)
             if v is not None and (int(v) != v or v < 1):
                 raise ValueError(f"{name} must be a positive integer or None, got {v!r}")
+
+    @property
+    def tasks(self) -> int:
+        """Slices per parallel kernel call: 8 with :attr:`parallel`, else 1 (one thread)."""
+        return 8 if self.parallel else 1
+
+    def resolved(self) -> ExactSearchOptions:
+        """These options with ``parallel`` decided (None: True when the 1-minute load average is
+        at most the number of CPUs less one)."""
+        if self.parallel is not None:
+            return self
+        return replace(self, parallel=os.getloadavg()[0] <= (os.cpu_count() or 1) - 1)
 
     def emit(self, event: str, value: int) -> None:
         """Pass ``(event, value)`` to :attr:`observe`, if set."""

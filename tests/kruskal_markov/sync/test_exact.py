@@ -281,3 +281,29 @@ def test_a_large_level_expanded_in_two_passes_is_the_one_pass_level():
         assert new == two.count
         for arr in ("rows", "parent", "letter"):
             assert (getattr(one, arr)[:new] == getattr(two, arr)[:new]).all()
+
+
+def test_the_answer_and_its_work_do_not_depend_on_the_threads():
+    """``ExactSearchOptions(parallel=...)`` only splits kernels over threads: on random 8-letter
+    automata of 60 states (93,539 and 291,101 subsets, so the meet test's trie walks pass their
+    split threshold of 8,192 queries), with the beam off (the search must find the word itself),
+    the word's length, ``exact`` and the subsets generated are the same with and without it."""
+    for seed in (4372, 4373):
+        aut = SyncAutomaton.from_table(generators.random_table(60, 8, seed))
+        got = [shortest_synchronizing_word(aut, time_budget=None, node_budget=10 ** 8,
+                                           options=ExactSearchOptions(use_beam=False, parallel=p))
+               for p in (False, True)]
+        assert got[0].exact and got[1].exact and is_synchronizing_word(aut, got[1].word)
+        assert (got[0].length, got[0].states_explored) == (got[1].length, got[1].states_explored)
+
+
+def test_options_are_checked():
+    with pytest.raises(ValueError, match="last_side"):
+        ExactSearchOptions(last_side="sideways")
+    with pytest.raises(ValueError, match="dfs_chunk"):
+        ExactSearchOptions(dfs_chunk=0)
+    with pytest.raises(ValueError, match="fast_nodes"):
+        ExactSearchOptions(fast_nodes=-1)
+    assert ExactSearchOptions(parallel=False).resolved().tasks == 1
+    assert ExactSearchOptions(parallel=True).resolved().tasks == 8
+    assert ExactSearchOptions().resolved().parallel in (True, False)
