@@ -201,11 +201,13 @@ def _backward_roots(aut, start, restrict=True):
 
 def _sorted_forward(fwd, cache):
     """The newest forward level in :func:`~kruskal_markov.sync._trie.lex_order` (the meet test's
-    trie), sorted once per level and kept in ``cache`` while the backward side steps."""
+    trie), sorted once per level and kept in ``cache`` while the backward side steps (with its
+    :class:`~kruskal_markov.sync._trie.SizeSplit`, ``cache["split"]``)."""
     lo, hi = fwd.levels[-1]
     if cache.get("level") != (lo, hi):
         cache["level"] = (lo, hi)
         cache["rows"] = fwd.rows[lo:hi][_trie.lex_order(fwd.rows[lo:hi])]
+        cache["split"] = _trie.SizeSplit(cache["rows"])
     return cache["rows"]
 
 
@@ -216,8 +218,10 @@ def _meet_levels(aut, fwd, bwd, total, deadline, cache=None, trie_meet=True, clo
     if trie_meet:
         if total and deadline is not None and clock() > deadline:
             return -2, -2
-        fs = _sorted_forward(fwd, {} if cache is None else cache)
-        hits = np.flatnonzero(_trie.superset_mask(fs, bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks))
+        cache = {} if cache is None else cache
+        fs = _sorted_forward(fwd, cache)
+        hits = np.flatnonzero(_trie.superset_mask(fs, bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks,
+                                                  split=cache["split"]))
         if hits.size == 0:
             return -1, -1
         q = int(hits[0])
@@ -259,8 +263,9 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter
                              supcount, tasks=tasks)
         generated += im.shape[0]
         if forward:
-            order = _trie.lex_order(im)
-            mask = _trie.superset_mask(im[order], bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks)
+            ims = im[_trie.lex_order(im)]
+            mask = _trie.superset_mask(ims, bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks,
+                                       split=_trie.SizeSplit(ims))
             hits = np.flatnonzero(mask)
             if hits.size:
                 q = blo + int(hits[0])
@@ -269,7 +274,7 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter
                 v, _ = bwd.path(q)
                 return u[::-1] + [i % k] + v, generated
         else:
-            hits = np.flatnonzero(_trie.superset_mask(fs, im, sorted_stored=True, tasks=tasks))
+            hits = np.flatnonzero(_trie.superset_mask(fs, im, sorted_stored=True, tasks=tasks, split=cache["split"]))
             if hits.size:
                 i = int(hits[0])
                 f = flo + int(np.flatnonzero(~np.any(fwd.rows[flo:fhi] & ~im[i], axis=1))[0])
@@ -532,7 +537,9 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
     W = aut.n_words
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
-    fsorted = _sorted_forward(fwd, {} if cache is None else cache)
+    cache = {} if cache is None else cache
+    fsorted = _sorted_forward(fwd, cache)
+    fsplit = cache["split"]
     row_bytes = 8 * W + 8 + 4 + 32
     cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
     used = [fwd.count + bwd.count]
@@ -560,7 +567,7 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
             rows, rid, words = rows[keep], rid[keep], words[keep]
         if rows.shape[0] == 0:
             return None
-        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True, tasks=opts.tasks))
+        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True, tasks=opts.tasks, split=fsplit))
         if hit.size:
             q = int(hit[0])
             inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)

@@ -149,3 +149,23 @@ def test_inverse_depth_first_phase_keeps_every_shortest_length(switch_rows):
             assert is_synchronizing_word(aut, r.word)
         methods.add(r.method)
     assert "bidirectional-bfs+dfs" in methods and any(inverse_found)
+
+
+@pytest.mark.parametrize("max_small", [0, 3, 256])
+def test_the_size_split_answers_as_the_walk(max_small):
+    """``superset_mask`` with a :class:`~kruskal_markov.sync._trie.SizeSplit` of the stored rows
+    (queries smaller than every stored row answered at once, those below the cut scanned against
+    the few small stored rows, the rest walked) flags exactly the queries containing a stored set,
+    on 200 random families (1-200 states, densities and sizes varied, duplicates included)."""
+    rng = np.random.default_rng(4374)
+    for _ in range(200):
+        n = int(rng.integers(1, 200))
+        S = random_family(rng, int(rng.integers(1, 300)), n)
+        Q = np.concatenate([random_family(rng, int(rng.integers(0, 120)), n), S[:int(rng.integers(0, 20))]])
+        want = (S[None, :, :] <= Q[:, None, :]).all(axis=2).any(axis=1)
+        Sb, Qb = pack(S), pack(Q)
+        Ss = Sb[_trie.lex_order(Sb)]
+        split = _trie.SizeSplit(Ss, max_small=max_small)
+        assert split.small.shape[0] <= max_small
+        got = _trie.superset_mask(Ss, Qb, sorted_stored=True, split=split, tasks=1)
+        assert got.tolist() == want.tolist()
