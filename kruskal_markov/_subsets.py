@@ -93,14 +93,14 @@ class SubsetStore:
             new = self.count
             for a in range(lo, hi, _EXPAND_SLICE):
                 b = min(hi, a + _EXPAND_SLICE)
-                images = _k.level_images(self.rows, a, b, aut.delta, aut.sup, aut.deterministic, forward,
+                images = _k.level_images(self.rows, a, b, aut.delta, aut.step_table(forward), aut.deterministic, forward,
                                          inv_ptr, inv_idx, supcount, tasks=tasks)
                 new = _k.insert_images(self.rows, new, images, a, aut.k, self.table, self.parent, self.letter,
                                        self.rows.shape[0])
                 if new < 0:
                     break
         else:
-            new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.sup, aut.deterministic,
+            new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.step_table(forward), aut.deterministic,
                                   forward, self.table, self.parent, self.letter, self.rows.shape[0],
                                   inv_ptr, inv_idx, supcount)
         if new < 0:

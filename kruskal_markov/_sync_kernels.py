@@ -102,14 +102,20 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
     W = store.shape[1]
     cnt = np.zeros(n, dtype=np.int64)
     elems = np.empty(n, dtype=np.int64)
+    tab = det and sup.shape[1] > 1
+    m = 0
     for i in range(lo, hi):
-        m = _members(store, i, elems)
+        if not tab:
+            m = _members(store, i, elems)
         for a in range(k):
             if count >= max_count:
                 return -1
             for w in range(W):
                 store[count, w] = _ZERO
-            if _image_row(store, count, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
+            if tab:
+                if _image_row_tab(store, count, store, i, a, sup):
+                    continue
+            elif _image_row(store, count, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
                 continue
             if _insert_last(store, count, table):
                 parent[count] = i
@@ -152,7 +158,12 @@ def _images_into(out, rows, lo, hi, base, delta, sup, det, forward, inv_ptr, inv
     n = delta.shape[1]
     cnt = np.zeros(n, dtype=np.int64)
     elems = np.empty(n, dtype=np.int64)
+    tab = det and sup.shape[1] > 1
     for i in range(lo, hi):
+        if tab:
+            for a in range(k):
+                _image_row_tab(out, (i - base) * k + a, rows, i, a, sup)
+            continue
         m = _members(rows, i, elems)
         for a in range(k):
             _image_row(out, (i - base) * k + a, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount,
@@ -188,6 +199,27 @@ def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supco
     else:
         _images_into(out, rows, lo, hi, lo, delta, sup, det, forward, inv_ptr, inv_idx, supcount)
     return out
+
+
+@njit(cache=True, inline="always")
+def _image_row_tab(out, o, src, i, a, tab):
+    """OR into the (zeroed) row ``out[o]`` the image or preimage of ``src[i]`` under letter ``a`` by
+    byte tables (``SyncAutomaton.step_table``: ``tab[a, 256 j + v]`` for byte ``j`` of value
+    ``v``), one table row per non-zero byte; returns whether the result is empty."""
+    W = src.shape[1]
+    for w in range(W):
+        x = src[i, w]
+        while x != _ZERO:
+            sh = np.uint64(_ctz(x) & 56)               # the lowest non-zero byte's shift
+            v = (x >> sh) & np.uint64(255)
+            x &= ~(np.uint64(255) << sh)
+            t = (w * 8 + int(sh >> np.uint64(3))) * 256 + int(v)
+            for u in range(W):
+                out[o, u] |= tab[a, t, u]
+    for u in range(W):
+        if out[o, u] != _ZERO:
+            return False
+    return True
 
 
 @njit(cache=True, inline="always")

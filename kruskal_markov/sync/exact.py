@@ -259,7 +259,8 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter
         if deadline is not None and clock() > deadline:
             return None, -1
         b = min(hi, a + step)
-        im = _k.level_images(store.rows, a, b, aut.delta, aut.sup, aut.deterministic, forward, inv_ptr, inv_idx,
+        im = _k.level_images(store.rows, a, b, aut.delta, aut.step_table(forward), aut.deterministic, forward, inv_ptr,
+                             inv_idx,
                              supcount, tasks=tasks)
         generated += im.shape[0]
         if forward:

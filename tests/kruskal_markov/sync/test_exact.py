@@ -230,7 +230,8 @@ def test_level_images_are_the_images_and_preimages_whatever_the_split(determinis
     """The unhashed level kernel (the last level of a search): row ``(i - lo) k + a`` is the image,
     or the preimage, of set ``i`` under letter ``a``, judged by plain Python on random sets of a
     random automaton (deterministic, and set-valued: a preimage holds the states whose every
-    successor is in the set); the same on one thread and split over threads (forced on)."""
+    successor is in the set); the same on one thread, split over threads (forced on) and, for the
+    deterministic one, by byte tables (``SyncAutomaton.step_table``)."""
     from kruskal_markov import _sync_kernels as _k
     from kruskal_markov.sync import support_automaton
     from tests.kruskal_markov.sync.test_searches import model_from_support
@@ -251,7 +252,10 @@ def test_level_images_are_the_images_and_preimages_whatever_the_split(determinis
         one = _k.level_images(rows, 2, 38, aut.delta, aut.sup, aut.deterministic, forward, *aut.inverse, tasks=1)
         split = _k.level_images(rows, 2, 38, aut.delta, aut.sup, aut.deterministic, forward, *aut.inverse, tasks=3,
                                 min_parallel=1)
-        assert (one == split).all()
+        tables = _k.level_images(rows, 2, 38, aut.delta, aut.step_table(forward), aut.deterministic, forward,
+                                 *aut.inverse, tasks=1)     # byte tables (deterministic only)
+        assert (one == split).all() and (one == tables).all()
+        assert (aut.step_table(forward) is not aut.sup) == deterministic
         for i in range(2, 38):
             for a in range(k):
                 want = set().union(*(succ[a][q] for q in sets[i])) if forward else \
