@@ -8,6 +8,9 @@ from kruskal_markov import _sync_kernels as _k
 
 __all__ = ["as_start", "SubsetStore", "pow2", "pair_index", "pair_offsets"]
 
+#: parent sets per slice when a large level is expanded in two passes (:meth:`SubsetStore.expand`)
+_EXPAND_SLICE = 1 << 17
+
 
 def as_start(aut, start) -> np.ndarray:
     """The sorted start states of ``aut`` (all states when ``start`` is None), validated."""
@@ -79,13 +82,27 @@ class SubsetStore:
         _k.rehash(self.rows, self.count, self.table)
         self.levels.append((lo, self.count))
 
-    def expand(self, aut, forward):
+    def expand(self, aut, forward, tasks=1):
         lo, hi = self.levels[-1]
         self.ensure(self.count + (hi - lo) * aut.k)
         inv_ptr, inv_idx, supcount = aut.inverse
-        new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.sup, aut.deterministic,
-                              forward, self.table, self.parent, self.letter, self.rows.shape[0],
-                              inv_ptr, inv_idx, supcount)
+        if tasks > 1 and hi - lo >= 2 * _k._IMAGES_PAR_MIN:
+            # a large level: the images computed slice by slice on both cores (level_images), then
+            # inserted in the same order on one (the hash table is shared) -- the same rows,
+            # parents and letters as expand_level
+            new = self.count
+            for a in range(lo, hi, _EXPAND_SLICE):
+                b = min(hi, a + _EXPAND_SLICE)
+                images = _k.level_images(self.rows, a, b, aut.delta, aut.step_table(forward), aut.deterministic, forward,
+                                         inv_ptr, inv_idx, supcount, tasks=tasks)
+                new = _k.insert_images(self.rows, new, images, a, aut.k, self.table, self.parent, self.letter,
+                                       self.rows.shape[0])
+                if new < 0:
+                    break
+        else:
+            new = _k.expand_level(self.rows, self.count, lo, hi, aut.delta, aut.step_table(forward), aut.deterministic,
+                                  forward, self.table, self.parent, self.letter, self.rows.shape[0],
+                                  inv_ptr, inv_idx, supcount)
         if new < 0:
             _k.rehash(self.rows, self.count, self.table)   # drop the partial level
             return None

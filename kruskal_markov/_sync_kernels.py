@@ -102,14 +102,20 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
     W = store.shape[1]
     cnt = np.zeros(n, dtype=np.int64)
     elems = np.empty(n, dtype=np.int64)
+    tab = det and sup.shape[1] > 1
+    m = 0
     for i in range(lo, hi):
-        m = _members(store, i, elems)
+        if not tab:
+            m = _members(store, i, elems)
         for a in range(k):
             if count >= max_count:
                 return -1
             for w in range(W):
                 store[count, w] = _ZERO
-            if _image_row(store, count, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
+            if tab:
+                if _image_row_tab(store, count, store, i, a, sup):
+                    continue
+            elif _image_row(store, count, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
                 continue
             if _insert_last(store, count, table):
                 parent[count] = i
@@ -119,29 +125,109 @@ def expand_level(store, count, lo, hi, delta, sup, det, forward, table, parent, 
 
 
 @njit(cache=True)
-def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
+def insert_images(store, count, images, first_parent, k, table, parent, letter, max_count):
+    """Append to ``store`` the rows of ``images`` not stored yet (zero rows, empty preimages,
+    skipped), in order; row ``j`` of ``images`` is the image of store row ``first_parent + j // k``
+    under letter ``j % k`` (the layout of :func:`level_images`). Same rows, parents and letters as
+    :func:`expand_level` on those parents. Returns the new count, or ``-1`` if ``max_count`` would
+    be exceeded."""
+    W = store.shape[1]
+    for j in range(images.shape[0]):
+        if count >= max_count:
+            return -1
+        nonzero = False
+        for w in range(W):
+            if images[j, w] != _ZERO:
+                nonzero = True
+                break
+        if not nonzero:
+            continue
+        for w in range(W):
+            store[count, w] = images[j, w]
+        if _insert_last(store, count, table):
+            parent[count] = first_parent + j // k
+            letter[count] = j % k
+            count += 1
+    return count
+
+
+@njit(cache=True)
+def _images_into(out, rows, lo, hi, base, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
+    """Rows ``lo..hi-1``'s images into ``out[(i - base) k + a]`` (one thread's share)."""
+    k = delta.shape[0]
+    n = delta.shape[1]
+    cnt = np.zeros(n, dtype=np.int64)
+    elems = np.empty(n, dtype=np.int64)
+    tab = det and sup.shape[1] > 1
+    for i in range(lo, hi):
+        if tab:
+            for a in range(k):
+                _image_row_tab(out, (i - base) * k + a, rows, i, a, sup)
+            continue
+        m = _members(rows, i, elems)
+        for a in range(k):
+            _image_row(out, (i - base) * k + a, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount,
+                       cnt)
+
+
+@njit(cache=True, parallel=True)
+def _level_images_par(out, rows, lo, hi, tasks, delta, sup, det, forward, inv_ptr, inv_idx, supcount):
+    step = (hi - lo + tasks - 1) // tasks
+    for t in prange(tasks):
+        a = lo + t * step
+        b = min(hi, a + step)
+        if a < b:
+            _images_into(out, rows, a, b, lo, delta, sup, det, forward, inv_ptr, inv_idx, supcount)
+
+
+#: rows per task below which :func:`level_images` runs on one thread
+_IMAGES_PAR_MIN = 8192
+
+
+def level_images(rows, lo, hi, delta, sup, det, forward, inv_ptr, inv_idx, supcount, tasks=8,
+                 min_parallel=_IMAGES_PAR_MIN):
     """The images (``forward``) or preimages of rows ``lo..hi-1`` under every letter, unhashed:
     row ``(i - lo) k + a`` of the result is the image of row ``i`` under letter ``a`` (an empty
     preimage is a zero row). The last level of a search, which is only tested, never expanded
-    again, needs no duplicate removal (same arithmetic as :func:`expand_level`)."""
+    again, needs no duplicate removal (same arithmetic as :func:`expand_level`). Rows are split
+    into ``tasks`` slices run on Numba's threads (both cores) when ``hi - lo >= 2 min_parallel``;
+    the result does not depend on the split."""
     k = delta.shape[0]
-    n = delta.shape[1]
-    W = rows.shape[1]
-    out = np.zeros(((hi - lo) * k, W), dtype=np.uint64)
-    cnt = np.zeros(n, dtype=np.int64)
-    elems = np.empty(n, dtype=np.int64)
-    for i in range(lo, hi):
-        m = _members(rows, i, elems)
-        for a in range(k):
-            _image_row(out, (i - lo) * k + a, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt)
+    out = np.zeros(((hi - lo) * k, rows.shape[1]), dtype=np.uint64)
+    if tasks > 1 and hi - lo >= 2 * min_parallel:
+        _level_images_par(out, rows, lo, hi, tasks, delta, sup, det, forward, inv_ptr, inv_idx, supcount)
+    else:
+        _images_into(out, rows, lo, hi, lo, delta, sup, det, forward, inv_ptr, inv_idx, supcount)
     return out
+
+
+@njit(cache=True, inline="always")
+def _image_row_tab(out, o, src, i, a, tab):
+    """OR into the (zeroed) row ``out[o]`` the image or preimage of ``src[i]`` under letter ``a`` by
+    byte tables (``SyncAutomaton.step_table``: ``tab[a, 256 j + v]`` for byte ``j`` of value
+    ``v``), one table row per non-zero byte; returns whether the result is empty."""
+    W = src.shape[1]
+    for w in range(W):
+        x = src[i, w]
+        while x != _ZERO:
+            sh = np.uint64(_ctz(x) & 56)               # the lowest non-zero byte's shift
+            v = (x >> sh) & np.uint64(255)
+            x &= ~(np.uint64(255) << sh)
+            t = (w * 8 + int(sh >> np.uint64(3))) * 256 + int(v)
+            for u in range(W):
+                out[o, u] |= tab[a, t, u]
+    for u in range(W):
+        if out[o, u] != _ZERO:
+            return False
+    return True
 
 
 @njit(cache=True, inline="always")
 def _image_row(out, o, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, supcount, cnt):
     """OR into the (zeroed) bitset row ``out[o]`` the image (``forward``) or preimage under letter
     ``a`` of the set ``elems[:m]``; returns whether it is empty (an image of a non-empty set never is).
-    A preimage counts, per state ``q``, its successors inside the set (``cnt``, left all zero)."""
+    A preimage of a set-valued automaton counts, per state ``q``, its successors inside the set
+    (``cnt``, left all zero); a deterministic one is the union of the members' inverse lists."""
     if forward:
         for t in range(m):
             q = elems[t]
@@ -153,6 +239,14 @@ def _image_row(out, o, elems, m, a, delta, sup, det, forward, inv_ptr, inv_idx, 
                     out[o, v] |= sup[a, q, v]
         return False
     empty = True
+    if det:     # one successor per state: q is in the preimage when delta[a, q] is, no counting
+        for t in range(m):
+            r = elems[t]
+            for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):
+                q = inv_idx[e]
+                out[o, q >> 6] |= _ONE << np.uint64(q & 63)
+                empty = False
+        return empty
     for t in range(m):
         r = elems[t]
         for e in range(inv_ptr[a, r], inv_ptr[a, r + 1]):

@@ -25,12 +25,15 @@ Algorithms
   with admissible bounds, a transposition table and a beam search for a first upper bound.
 
 The family is one subpackage, one module per method (networkx's ``shortest_paths`` is the pattern):
-``automaton`` (support automata), ``pairs`` (the pair test), ``exact`` (shortest reset words),
-``greedy``, ``epsilon``, ``targets`` and ``plan``. Every public name is importable from here.
+``automaton`` (support automata), ``pairs`` (the pair test), ``exact`` (shortest reset words; its
+design switches in ``options``), ``greedy``, ``epsilon``, ``targets`` and ``plan``. Every public name
+is importable from here.
 """
 from __future__ import annotations
 
-# re-exports: every name the former module sync.py defined stays importable from here
+# re-exports: every public name the former module sync.py defined stays importable from here (its
+# private helpers are not re-exported: tests and callers use the public functions, or the
+# module that defines a helper)
 # ruff: noqa: F401
 from kruskal_markov._subsets import SubsetStore, as_start, pair_index
 from kruskal_markov.sync.automaton import (
@@ -40,26 +43,12 @@ from kruskal_markov.sync.automaton import (
     start_set,
     support_automaton,
 )
-from kruskal_markov.sync.epsilon import _cell_entropy, epsilon_synchronizing_word
-from kruskal_markov.sync.exact import (
-    _BLOCK,
-    _GREEDY_SHARE,
-    _MEET_SLICE,
-    _choose_forward,
-    _exact_search,
-    shortest_synchronizing_word,
-)
-from kruskal_markov.sync.greedy import (
-    _greedy_descent,
-    _merging_word,
-    _pair_merging_greedy,
-    _set_image,
-    greedy_synchronizing_word,
-)
+from kruskal_markov.sync.epsilon import epsilon_synchronizing_word
+from kruskal_markov.sync.exact import shortest_synchronizing_word
+from kruskal_markov.sync.greedy import greedy_synchronizing_word
+from kruskal_markov.sync.options import ExactSearchOptions
 from kruskal_markov.sync.pairs import (
     PAIR_CHECK_BYTES,
-    _eppstein_fits,
-    _reachable_states,
     eppstein_memory_mb,
     pair_check_memory_mb,
     synchronizability,
@@ -70,6 +59,7 @@ from kruskal_markov.sync.shortest import choose_method, shortest_word
 from kruskal_markov.sync.targets import Target, parse_target
 
 __all__ = [
+    "ExactSearchOptions",
     "PlanResult",
     "SyncAutomaton",
     "SyncResult",

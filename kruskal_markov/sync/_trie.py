@@ -210,7 +210,7 @@ _PAR_MIN = 4096
 
 
 def superset_mask(stored: np.ndarray, query: np.ndarray, proper: bool = False, sorted_stored: bool = False,
-                  tasks: int = 8) -> np.ndarray:
+                  tasks: int = 8, min_parallel: int = _PAR_MIN, split: SizeSplit | None = None) -> np.ndarray:
     """For each row of ``query``, whether it contains some row of ``stored`` (as bitsets).
 
     Parameters
@@ -224,6 +224,11 @@ def superset_mask(stored: np.ndarray, query: np.ndarray, proper: bool = False, s
         ``stored`` is already in :func:`lex_order`.
     tasks : int
         Query slices walked in parallel (both cores) when there are enough query rows.
+    min_parallel : int
+        Query rows per task below which the queries are walked on one thread.
+    split : SizeSplit, optional
+        ``stored``'s sizes (:class:`SizeSplit`), to answer small queries without the walk (not
+        with ``proper``).
 
     Returns
     -------
@@ -237,12 +242,78 @@ def superset_mask(stored: np.ndarray, query: np.ndarray, proper: bool = False, s
     if stored.shape[0] == 0 or query.shape[0] == 0:
         return out
     S = stored if sorted_stored else stored[lex_order(stored)]
-    cidx = np.arange(query.shape[0], dtype=np.int64)
-    par = query.shape[0] >= _PAR_MIN * 2 and tasks > 1
+    if split is not None and not proper:
+        qs = _row_sizes(query)
+        mid = np.flatnonzero((qs >= split.min_size) & (qs < split.cut))
+        if mid.size and split.small.shape[0]:
+            _scan_small(split.small, query, mid, out)
+        cidx = np.flatnonzero(qs >= split.cut).astype(np.int64)
+        if cidx.size == 0:
+            return out
+    else:
+        cidx = np.arange(query.shape[0], dtype=np.int64)
+    par = cidx.shape[0] >= min_parallel * 2 and tasks > 1
     nt = tasks if par else 1
-    bounds = np.linspace(0, query.shape[0], nt + 1).astype(np.int64)
+    bounds = np.linspace(0, cidx.shape[0], nt + 1).astype(np.int64)
     (_mask_par if par else _mask_seq)(S, query, cidx, bounds, proper, out)
     return out
+
+
+@njit(cache=True)
+def _row_sizes(rows):
+    out = np.empty(rows.shape[0], dtype=np.int64)
+    for i in range(rows.shape[0]):
+        c = 0
+        for w in range(rows.shape[1]):
+            x = rows[i, w]
+            while x != _ZERO:
+                x &= x - np.uint64(1)
+                c += 1
+        out[i] = c
+    return out
+
+
+@njit(cache=True)
+def _scan_small(small, C, idx, out):
+    """``out[idx[j]]``: whether query row ``C[idx[j]]`` contains a row of ``small`` (a plain scan)."""
+    W = C.shape[1]
+    for j in range(idx.shape[0]):
+        q = idx[j]
+        for s in range(small.shape[0]):
+            inside = True
+            for w in range(W):
+                if small[s, w] & ~C[q, w] != _ZERO:
+                    inside = False
+                    break
+            if inside:
+                out[q] = True
+                break
+
+
+class SizeSplit:
+    """The stored rows' sizes, for :func:`superset_mask`'s filter: a query of ``s`` states can only
+    contain stored rows of at most ``s`` states. Queries smaller than the smallest stored row are
+    answered at once; queries smaller than ``cut`` only against the few stored rows smaller than
+    ``cut`` (at most ``max_small``, a plain scan); the rest walk the trie.
+
+    Parameters
+    ----------
+    stored : ndarray of uint64, shape (m, W)
+        The stored rows (any order).
+    max_small : int, default 256
+        Stored rows a query may be scanned against instead of walking the trie.
+    """
+
+    def __init__(self, stored: np.ndarray, max_small: int = 256):
+        sizes = _row_sizes(np.ascontiguousarray(stored, dtype=np.uint64))
+        self.min_size = int(sizes.min()) if sizes.size else 0
+        counts = np.bincount(sizes) if sizes.size else np.zeros(1, dtype=np.int64)
+        below = np.cumsum(counts)               # below[c]: stored rows of at most c states
+        cut = self.min_size                     # the stored rows of fewer than ``cut`` states number
+        while cut < below.size and below[cut] <= max_small:     # at most max_small
+            cut += 1
+        self.cut = cut
+        self.small = np.ascontiguousarray(stored[sizes < cut], dtype=np.uint64)
 
 
 def complement(rows: np.ndarray, n: int) -> np.ndarray:
@@ -254,10 +325,12 @@ def complement(rows: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def subset_mask(stored: np.ndarray, query: np.ndarray, n: int, proper: bool = False, tasks: int = 8) -> np.ndarray:
+def subset_mask(stored: np.ndarray, query: np.ndarray, n: int, proper: bool = False, tasks: int = 8,
+                min_parallel: int = _PAR_MIN) -> np.ndarray:
     """For each row of ``query``, whether it lies inside some row of ``stored`` (a subset of it):
     :func:`superset_mask` on the complements within ``n`` states."""
-    return superset_mask(complement(stored, n), complement(query, n), proper=proper, tasks=tasks)
+    return superset_mask(complement(stored, n), complement(query, n), proper=proper, tasks=tasks,
+                         min_parallel=min_parallel)
 
 
 def first_superset_pair(stored: np.ndarray, query: np.ndarray, tasks: int = 8):

@@ -99,6 +99,34 @@ class SyncAutomaton:
             self._cache["sup"] = s
         return self._cache["sup"]
 
+    def step_table(self, forward: bool) -> np.ndarray:
+        """The kernels' ``sup`` argument for image (``forward``) or preimage steps: for a deterministic
+        automaton whose tables fit 8 MB, byte tables ``T[a, 256 j + v]`` = the image (preimage) of
+        the states ``8 j + b`` with bit ``b`` set in ``v`` -- a step ORs one table row per non-zero
+        byte of the set instead of a row per member (synchrowords' bit-parallel transition
+        tables); otherwise :attr:`sup` (a set-valued automaton's supports, or a deterministic
+        automaton's dummy)."""
+        key = "step_table_f" if forward else "step_table_b"
+        if key not in self._cache:
+            nbytes = (self.n + 7) // 8
+            W = self.n_words
+            if not self.deterministic or self.k * nbytes * 256 * W * 8 > 8 * 2 ** 20:
+                self._cache[key] = self.sup
+            else:
+                per = np.zeros((self.k, nbytes * 8, W), dtype=np.uint64)    # one state's image / preimage
+                one = np.uint64(1)
+                for a in range(self.k):
+                    d = self.delta[a]
+                    src, dst = (np.arange(self.n), d) if forward else (d, np.arange(self.n))
+                    np.bitwise_or.at(per[a], (src, dst >> 6), one << (dst & 63).astype(np.uint64))
+                tab = np.zeros((self.k, nbytes, 256, W), dtype=np.uint64)
+                per = per.reshape(self.k, nbytes, 8, W)
+                for v in range(1, 256):
+                    low = (v & -v).bit_length() - 1
+                    tab[:, :, v] = tab[:, :, v & (v - 1)] | per[:, :, low]
+                self._cache[key] = tab.reshape(self.k, nbytes * 256, W)
+        return self._cache[key]
+
     @property
     def inverse(self):
         """Inverse adjacency ``(inv_ptr (k, n+1), inv_idx, supcount (k, n))``: the states ``q`` with

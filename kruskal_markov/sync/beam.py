@@ -39,7 +39,7 @@ def beam_width_schedule(n: int, k: int, bound: int | None) -> int:
 
 
 def inverse_beam_word(aut, start_bits: np.ndarray, width: int, max_length: int | None = None,
-                      node_budget: int | None = None, deadline: float | None = None):
+                      node_budget: int | None = None, deadline: float | None = None, *, clock=time.perf_counter):
     """A synchronizing word found by inverse beam search, or None.
 
     Level 0 holds the singletons; level ``i + 1`` the distinct non-empty preimages ``a^-1(B)`` of
@@ -59,7 +59,9 @@ def inverse_beam_word(aut, start_bits: np.ndarray, width: int, max_length: int |
     node_budget : int, optional
         Give up after generating this many sets (``width x k`` a level).
     deadline : float, optional
-        Give up past this ``time.perf_counter()`` reading (checked between levels).
+        Give up past this ``clock()`` reading (checked between levels).
+    clock : callable, default time.perf_counter
+        The clock ``deadline`` is read on.
 
     Returns
     -------
@@ -92,7 +94,7 @@ def inverse_beam_word(aut, start_bits: np.ndarray, width: int, max_length: int |
         if hit >= 0:
             return [int(let[hit])] + [int(a) for a in words[par[hit]]]
         if (node_budget is not None and generated >= node_budget) or \
-                (deadline is not None and time.perf_counter() > deadline):
+                (deadline is not None and clock() > deadline):
             return None
         size = _k._level_sizes(st.rows, lo, hi)
         keep = np.argsort(-size, kind="stable")[:width]

@@ -21,6 +21,7 @@ from kruskal_markov.sync import _trie
 from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 from kruskal_markov.sync.greedy import greedy_synchronizing_word
+from kruskal_markov.sync.options import ExactSearchOptions
 from kruskal_markov.sync.pairs import _eppstein_fits, eppstein_memory_mb, pair_check_memory_mb, synchronizability
 from kruskal_markov.sync.result import SyncResult
 
@@ -36,77 +37,33 @@ _MEET_SLICE = 2048
 #: groups of forward sets (by rarest member) per call of the breadth-first meet test (the time
 #: budget is checked between calls)
 _MEET_GROUPS = 32
-#: forward sets of the newest level per chunk of the depth-first phase
-_DFS_CHUNK = 4096
 #: automata up to this many states get the pair-distance pruning (the pair table has n^2 / 2 entries)
 _PRUNE_MAX_N = 2048
-#: subset dominance (Kisielewicz, Kowalski and Szykula 2015; synchrowords' reductions): a new
-#: forward set containing another forward set, or a new backward set inside another backward set,
-#: of its level or an earlier one, is dropped (it cannot lie on a shortest word that the other does
-#: not shorten or equal). Checked with the implicit subset trie of :mod:`kruskal_markov.sync._trie`.
-#: Off: on the tuning instances (random 2 x 200 and 8 x 100, seed 0) it keeps 10-35% fewer subsets
-#: but the check costs more time than it saves (docs/plans.md, issue 43).
-_FORWARD_DOMINANCE = False
-_BACKWARD_DOMINANCE = False
-#: check new sets against the earlier levels of their direction too (not only their own level),
-#: forward / backward
-_DOMINANCE_VISITED = True
-_BACKWARD_VISITED = True
-#: meet test by the implicit subset trie (forward level stored, backward level queried) instead of
-#: the rarest-member index (``_sync_kernels.RarestMeetIndex``): random 2 x 200 seed 1, meet tests
-#: 4.6 s -> 1.9 s (docs/plans.md)
-_TRIE_MEET = True
-#: backward roots: only the singletons a letter merges two states into (:func:`_backward_roots`)
-_RESTRICT_ROOTS = True
-#: a dominance check runs only while the sets it is checked against number at most this many (its
-#: cost grows like queries x stored^0.5..0.8; docs/plans.md, issue 43)
+#: a dominance check (:class:`~kruskal_markov.sync.options.ExactSearchOptions`, off by default) runs
+#: only while the sets it is checked against number at most this many (its cost grows like
+#: queries x stored^0.5..0.8; docs/plans.md, issue 43)
 _DOMINANCE_MAX_ROWS = 50_000
-#: the depth-first phase from the backward side when the newest forward level is the larger
-#: (:func:`_inverse_depth_first_phase`)
-_INVERSE_DFS = True
-#: enter the depth-first phase once the next breadth-first level would hold more sets than this
-#: (None: only when memory or time run out)
-_DFS_SWITCH_ROWS = None
-#: choose each breadth-first step, and the switch to the inverse depth-first phase, by synchrowords'
-#: cost model (:func:`_decide`; Szykula and Zyzik 2022, ``MeetInTheMiddle::calculate_decision``)
-#: instead of "expand the smaller newest level, go depth-first only when memory or time run out"
-_COST_MODEL = True
 #: cost units of the model (about half a nanosecond: one node of a trie walk, synchrowords'
 #: ``get_trie_evn``): a generated set (images or preimages, hashed), a forward set sorted for the
 #: meet test's trie. synchrowords uses 512 for a set (no sorting term: its lists stay sorted);
 #: ours measured: about 0.3 us a generated set, 0.1 us a sorted row (random 8 x 100, seed 1)
 _SET_COST = 512.0
 _SORT_COST = 200.0
-#: the breadth-first step by the model's cheaper step (synchrowords' greedy rule) instead of the
-#: smaller newest level; off: the model only decides the switch to the inverse depth-first phase
-#: (random 2 x 150 seed 1: 540,000 -> 350,000 sets, 0.92 -> 0.86 s of CPU; random 8 x 100 seed 1:
-#: the same steps either way)
-_STEP_BY_COST = False
 #: the inverse depth-first phase's sets and meet queries, relative to the breadth-first ones
 _DFS_SET_WEIGHT = 1.0
 _DFS_CHECK_WEIGHT = 1.0
-#: the last length to test is met without storing its level (:func:`_last_level`), generated
-#: sets per slice
-_LAST_UNHASHED = True
+#: the last level's generated sets per slice (:func:`_last_level`)
 _LAST_SLICE = 1 << 21
-#: the direction of the last level: None (the step rule's), "forward" or "backward" (experiments)
-_LAST_SIDE = None
-#: sets the exact search may generate below the greedy word before the beam runs (None: the beam
-#: first): small automata are answered without it (Cerny C_16: 13 ms -> 3 ms of CPU; contracting
-#: 8 x 256: 64 ms -> 5 ms); larger ones lose at most this many sets (a few milliseconds)
-_FAST_NODES = 1 << 15
-#: run the inverse beam search for a short first word (tests of the depth-first phase switch it off)
-_USE_BEAM = True
 #: share of the memory budget the beam's level store may use
 _BEAM_MEMORY_SHARE = 0.25
 
 
-def _beam_upper(aut, s, best, memory_budget_mb, deadline, node_budget):
+def _beam_upper(aut, s, best, memory_budget_mb, deadline, node_budget, opts, clock):
     """The shorter of ``best`` (the greedy word, or None) and the words of two inverse beam searches
     (:func:`~kruskal_markov.sync.beam.inverse_beam_word`): width ``n log2 n``, then synchrowords'
     dynamic width for the length found, capped so that a level fits a quarter of the memory budget.
     Returns ``(word, from_beam)``."""
-    if not _USE_BEAM or best is None:       # without a first word the beam has no length to stop at
+    if not opts.use_beam or best is None:       # without a first word the beam has no length to stop at
         return best, False
     sbits = aut.bits(s)
     row_bytes = 8 * aut.n_words + 60
@@ -117,7 +74,8 @@ def _beam_upper(aut, s, best, memory_budget_mb, deadline, node_budget):
         limit = None if best is None else len(best) - 1
         if limit is not None and limit < 1:
             break
-        w = inverse_beam_word(aut, sbits, width, limit, node_budget, deadline)
+        w = inverse_beam_word(aut, sbits, width, limit, node_budget, deadline, clock=clock)
+        opts.emit("beam", -1 if w is None else len(w))
         if w is not None and (best is None or len(w) < len(best)):
             best, from_beam = w, True
         wider = min(cap, beam_width_schedule(aut.n, aut.k, None if best is None else len(best)))
@@ -173,7 +131,7 @@ def _dfs_factor(b, depth):
     return b * (b ** depth - 1.0) / (b - 1.0)
 
 
-def _decide(aut, fwd, bwd, total, upper):
+def _decide(aut, fwd, bwd, total, upper, step_by_cost=False):
     """The next step: ``"forward"``, ``"backward"`` (a breadth-first level) or ``"idfs"`` (the
     inverse depth-first phase to the end), by synchrowords' cost model
     (``MeetInTheMiddle::calculate_decision``, Szykula and Zyzik 2022; our own code and units):
@@ -201,35 +159,35 @@ def _decide(aut, fwd, bwd, total, upper):
     pred_d = B * _dfs_factor(b_dfs, rem) * (dset + _DFS_CHECK_WEIGHT * ev_now)
     if pred_d < min(pred_f, pred_b):
         return "idfs"
-    if not _STEP_BY_COST:
+    if not step_by_cost:
         return "forward" if F <= B else "backward"
     return "backward" if cost_b < cost_f else "forward"
 
 
-def _dominance(aut, store, forward):
+def _dominance(aut, store, forward, opts):
     """Drop the newest level's sets that a stored set dominates (forward: a proper subset is stored;
-    backward: a proper superset), within the level and, with ``_DOMINANCE_VISITED``, the earlier
-    levels. Returns how many were dropped."""
+    backward: a proper superset), within the level and, with ``opts.forward_visited``
+    (``opts.backward_visited``), the earlier levels. Returns how many were dropped."""
     lo, hi = store.levels[-1]
-    visited = _DOMINANCE_VISITED if forward else _BACKWARD_VISITED
+    visited = opts.forward_visited if forward else opts.backward_visited
     ylo = 0 if visited and hi <= _DOMINANCE_MAX_ROWS else lo
     if hi - ylo < 2 or hi - ylo > _DOMINANCE_MAX_ROWS:
         return 0
     stored, query = store.rows[ylo:hi], store.rows[lo:hi]
     if forward:
-        dominated = _trie.superset_mask(stored, query, proper=True)
+        dominated = _trie.superset_mask(stored, query, proper=True, tasks=opts.tasks)
     else:
-        dominated = _trie.subset_mask(stored, query, aut.n, proper=True)
+        dominated = _trie.subset_mask(stored, query, aut.n, proper=True, tasks=opts.tasks)
     return store.keep_last(~dominated)
 
 
-def _backward_roots(aut, start):
+def _backward_roots(aut, start, restrict=True):
     """The states a shortest word can end in: with a start set of two states or more, the last
     letter ``a`` merges at least two states into the final state ``q``, so ``a^-1({q})`` holds
     two states or more for some letter (synchrowords' initial inverse list, Szykula and Zyzik
-    2022). Every state for a start set of one state (the empty word), or when ``_RESTRICT_ROOTS``
+    2022). Every state for a start set of one state (the empty word), or when ``restrict``
     is off."""
-    if not _RESTRICT_ROOTS or len(start) < 2:
+    if not restrict or len(start) < 2:
         return range(aut.n)
     keep = np.zeros(aut.n, dtype=bool)
     for a in range(aut.k):
@@ -243,23 +201,27 @@ def _backward_roots(aut, start):
 
 def _sorted_forward(fwd, cache):
     """The newest forward level in :func:`~kruskal_markov.sync._trie.lex_order` (the meet test's
-    trie), sorted once per level and kept in ``cache`` while the backward side steps."""
+    trie), sorted once per level and kept in ``cache`` while the backward side steps (with its
+    :class:`~kruskal_markov.sync._trie.SizeSplit`, ``cache["split"]``)."""
     lo, hi = fwd.levels[-1]
     if cache.get("level") != (lo, hi):
         cache["level"] = (lo, hi)
         cache["rows"] = fwd.rows[lo:hi][_trie.lex_order(fwd.rows[lo:hi])]
+        cache["split"] = _trie.SizeSplit(cache["rows"])
     return cache["rows"]
 
 
-def _meet_levels(aut, fwd, bwd, total, deadline, cache=None):
+def _meet_levels(aut, fwd, bwd, total, deadline, cache=None, trie_meet=True, clock=time.perf_counter, tasks=1):
     """The meet test of the newest levels: ``(f, b)`` (store rows, forward set inside backward set),
     ``(-1, -1)`` when none meets, ``(-2, -2)`` when the deadline passed."""
     (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
-    if _TRIE_MEET:
-        if total and deadline is not None and time.perf_counter() > deadline:
+    if trie_meet:
+        if total and deadline is not None and clock() > deadline:
             return -2, -2
-        fs = _sorted_forward(fwd, {} if cache is None else cache)
-        hits = np.flatnonzero(_trie.superset_mask(fs, bwd.rows[blo:bhi], sorted_stored=True))
+        cache = {} if cache is None else cache
+        fs = _sorted_forward(fwd, cache)
+        hits = np.flatnonzero(_trie.superset_mask(fs, bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks,
+                                                  split=cache["split"]))
         if hits.size == 0:
             return -1, -1
         q = int(hits[0])
@@ -269,7 +231,7 @@ def _meet_levels(aut, fwd, bwd, total, deadline, cache=None):
     grouped = index.groups(fwd.rows, flo, fhi)
     ng = grouped[2].shape[0]
     for g in range(0, max(ng, 1), _MEET_GROUPS):
-        if total and deadline is not None and time.perf_counter() > deadline:
+        if total and deadline is not None and clock() > deadline:
             return -2, -2
         f, b = index.query_groups(fwd.rows, grouped, g, min(ng, g + _MEET_GROUPS))
         if f >= 0:
@@ -277,7 +239,7 @@ def _meet_levels(aut, fwd, bwd, total, deadline, cache=None):
     return -1, -1
 
 
-def _last_level(aut, fwd, bwd, forward, cache, deadline):
+def _last_level(aut, fwd, bwd, forward, cache, deadline, clock=time.perf_counter, tasks=1):
     """The last length to test (``total + 1 = upper - 1``): the next level of one direction is
     generated unhashed (:func:`~kruskal_markov._sync_kernels.level_images`), slice by slice, and
     only met against the other direction's newest level -- it is never expanded again, so it needs
@@ -294,15 +256,17 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline):
     fs = None if forward else _sorted_forward(fwd, cache)
     generated = 0
     for a in range(lo, hi, step):
-        if deadline is not None and time.perf_counter() > deadline:
+        if deadline is not None and clock() > deadline:
             return None, -1
         b = min(hi, a + step)
-        im = _k.level_images(store.rows, a, b, aut.delta, aut.sup, aut.deterministic, forward, inv_ptr, inv_idx,
-                             supcount)
+        im = _k.level_images(store.rows, a, b, aut.delta, aut.step_table(forward), aut.deterministic, forward, inv_ptr,
+                             inv_idx,
+                             supcount, tasks=tasks)
         generated += im.shape[0]
         if forward:
-            order = _trie.lex_order(im)
-            mask = _trie.superset_mask(im[order], bwd.rows[blo:bhi], sorted_stored=True)
+            ims = im[_trie.lex_order(im)]
+            mask = _trie.superset_mask(ims, bwd.rows[blo:bhi], sorted_stored=True, tasks=tasks,
+                                       split=_trie.SizeSplit(ims))
             hits = np.flatnonzero(mask)
             if hits.size:
                 q = blo + int(hits[0])
@@ -311,7 +275,7 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline):
                 v, _ = bwd.path(q)
                 return u[::-1] + [i % k] + v, generated
         else:
-            hits = np.flatnonzero(_trie.superset_mask(fs, im, sorted_stored=True))
+            hits = np.flatnonzero(_trie.superset_mask(fs, im, sorted_stored=True, tasks=tasks, split=cache["split"]))
             if hits.size:
                 i = int(hits[0])
                 f = flo + int(np.flatnonzero(~np.any(fwd.rows[flo:fhi] & ~im[i], axis=1))[0])
@@ -322,16 +286,19 @@ def _last_level(aut, fwd, bwd, forward, cache, deadline):
 
 
 def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node_budget=None, upper=None,
-                  strict=False):
+                  strict=False, options: ExactSearchOptions | None = None, clock=time.perf_counter):
     """Bidirectional BFS, then (when memory runs out) a depth-first phase.
 
     Returns ``(word | None, status, explored, lower_bound)`` with status 'found', 'none' (proven:
     no word), 'upper' (proven: no word shorter than ``upper``) or 'budget' (time or node budget;
     ``lower_bound`` proven). ``time_budget`` None: no time limit; ``node_budget`` counts the subsets
     generated (the same budget gives the same answer on any machine); ``strict``: stop before a
-    level whose expansion could pass it (the small-search fast path), not after.
+    level whose expansion could pass it (the small-search fast path), not after. ``options``: the
+    design switches (:class:`~kruskal_markov.sync.options.ExactSearchOptions`, default when None);
+    ``clock``: the seconds the time budget is measured on.
     """
-    t0 = time.perf_counter()
+    opts = (ExactSearchOptions() if options is None else options).resolved()
+    t0 = clock()
     deadline = None if time_budget is None else t0 + time_budget
     W = aut.n_words
     row_bytes = 8 * W + 8 + 4 + 16 * 2      # rows + parent + letter + hash table (load <= 1/2, x2 growth)
@@ -343,7 +310,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
     bwd = SubsetStore(W, max(1024, aut.n), max_rows)
     fwd.add_roots([aut.bits(start)])
     singletons = []
-    for q in _backward_roots(aut, start):
+    for q in _backward_roots(aut, start, opts.restrict_roots):
         b = np.zeros(W, dtype=np.uint64)
         b[q >> 6] = np.uint64(1) << np.uint64(q & 63)
         singletons.append(b)
@@ -362,14 +329,14 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
     while True:
         (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
         if tested < total:
-            tm = time.perf_counter()
+            tm = clock()
             # the meet test in slices of the forward level, so that the budget is checked between them
-            f, b = _meet_levels(aut, fwd, bwd, total, deadline, cache)
+            f, b = _meet_levels(aut, fwd, bwd, total, deadline, cache, opts.trie_meet, clock, opts.tasks)
             if f == -2:
                 return None, "budget", fwd.count + bwd.count, total
             pairs = (fhi - flo) * (bhi - blo)
             if pairs > 10_000_000:
-                rate_pair = (time.perf_counter() - tm) / pairs
+                rate_pair = (clock() - tm) / pairs
             if f >= 0:
                 u, _ = fwd.path(f)
                 v, _ = bwd.path(b)
@@ -381,19 +348,19 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
             return None, "budget", fwd.count + bwd.count, total + 1
         # expand the side with the smaller newest level (inverse steps cost ~ n per set), or the one
         # synchrowords' cost model picks, unless full
-        if _COST_MODEL and _INVERSE_DFS and upper is not None and not any(full.values()):
-            step = _decide(aut, fwd, bwd, total, upper)
+        if opts.cost_model and opts.inverse_dfs and upper is not None and not any(full.values()):
+            step = _decide(aut, fwd, bwd, total, upper, opts.step_by_cost)
             if step == "idfs":
                 return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper,
-                                                  memory_budget_mb / 4, cache)
+                                                  memory_budget_mb / 4, opts, clock, cache)
             forward = step == "forward"
-            if _LAST_UNHASHED and total + 2 == upper and not full[forward] and \
+            if opts.last_unhashed and total + 2 == upper and not full[forward] and \
                     (node_budget is None or fwd.count + bwd.count + aut.k * (
                         (fwd if forward else bwd).levels[-1][1] - (fwd if forward else bwd).levels[-1][0])
                      <= node_budget):
-                if _LAST_SIDE is not None:
-                    forward = _LAST_SIDE == "forward"
-                word, generated = _last_level(aut, fwd, bwd, forward, cache, deadline)
+                if opts.last_side is not None:
+                    forward = opts.last_side == "forward"
+                word, generated = _last_level(aut, fwd, bwd, forward, cache, deadline, clock, opts.tasks)
                 if generated < 0:
                     return None, "budget", fwd.count + bwd.count, total + 1
                 if word is not None:
@@ -405,7 +372,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
             forward = not forward
         if full[forward]:
             return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
-                                      block)
+                                      block, opts, clock)
         store = fwd if forward else bwd
         # predicted cost of the next level (expansion + meet test); stop before the budget is blown
         lo, hi = store.levels[-1]
@@ -416,30 +383,30 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
         new_rows = (hi - lo) * min(growth, aut.k)
         other = (bhi - blo) if forward else (fhi - flo)
         predicted = new_rows * rate_row + new_rows * other * rate_pair
-        if _DFS_SWITCH_ROWS is not None and upper is not None and new_rows > _DFS_SWITCH_ROWS:
+        if opts.dfs_switch_rows is not None and upper is not None and new_rows > opts.dfs_switch_rows:
             return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
-                                      block)
-        if deadline is not None and time.perf_counter() + predicted > deadline:
+                                      block, opts, clock)
+        if deadline is not None and clock() + predicted > deadline:
             if upper is None and not aut.deterministic:     # no bound on the streaming phase's length
                 return None, "budget", fwd.count + bwd.count, total + 1
             # the next level would not be done in time: test it (and the following ones) streaming,
             # chunk by chunk, so that a word at it is still found before the deadline
             return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
-                                      block)
-        te = time.perf_counter()
-        grown = store.expand(aut, forward)
+                                      block, opts, clock)
+        te = clock()
+        grown = store.expand(aut, forward, opts.tasks)
         if grown is None:
             full[forward] = True
             continue
         if grown > 10_000:
-            rate_row = max(1e-9, (time.perf_counter() - te) / grown)
+            rate_row = max(1e-9, (clock() - te) / grown)
         if grown == 0:      # a direction exhausted: no word (shorter than ``upper``, once sets were pruned)
             if upper is not None:
                 return None, "upper", fwd.count + bwd.count, upper
             return None, "none", fwd.count + bwd.count, total
         total += 1
-        if _FORWARD_DOMINANCE if forward else _BACKWARD_DOMINANCE:
-            pruned += _dominance(aut, store, forward)
+        if opts.forward_dominance if forward else opts.backward_dominance:
+            pruned += _dominance(aut, store, forward, opts)
         if forward and dist is not None and upper - 1 - (len(fwd.levels) - 1) < dmax:
             # a forward set at depth i whose largest pair-merging distance exceeds upper - 1 - i
             # cannot start a word shorter than ``upper``: dropped (admissible)
@@ -451,7 +418,7 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
                 return None, "upper", fwd.count + bwd.count, upper
 
 
-def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block):
+def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block, opts, clock):
     """Both stores are full: words of length ``t = total + 1, total + 2, ...`` are tested by expanding
     the forward frontier ``t - total`` more levels chunk by chunk (depth-first over chunks, memory
     bounded) and meeting the newest backward level, as synchrowords does after its breadth-first
@@ -460,8 +427,8 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     W = aut.n_words
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
-    if _INVERSE_DFS and upper is not None and fhi - flo >= bhi - blo:
-        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb)
+    if opts.inverse_dfs and upper is not None and fhi - flo >= bhi - blo:
+        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock)
     i_b = len(bwd.levels) - 1
     row_bytes = 8 * W + 8 + 4 + 32
     cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
@@ -478,7 +445,7 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
 
     def over_budget():
         return (node_budget is not None and used[0] >= node_budget) or \
-            (deadline is not None and time.perf_counter() > deadline)
+            (deadline is not None and clock() > deadline)
 
     def rec(rows, rid, words, x):
         """Rows (forward sets ``x`` levels above the meet depth), their frontier rows and extra letters."""
@@ -500,14 +467,14 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
                 if over_budget():
                     return "budget"
             return None
-        return _descend(rec, aut, cap, True, used, rows, rid, words, x)
+        return _descend(rec, aut, cap, True, used, rows, rid, words, x, emit=opts.emit)
 
     t = total + 1
     while upper is None or t < upper:
         x = t - total
         res = None
-        for lo in range(flo, fhi, _DFS_CHUNK):
-            hi = min(fhi, lo + _DFS_CHUNK)
+        for lo in range(flo, fhi, opts.dfs_chunk):
+            hi = min(fhi, lo + opts.dfs_chunk)
             res = rec(fwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
             if res is not None:
                 break
@@ -522,12 +489,13 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     return None, "upper", used[0], upper
 
 
-def _descend(rec, aut, cap, forward, used, rows, rid, words, x, split=None, x_child=None):
+def _descend(rec, aut, cap, forward, used, rows, rid, words, x, split=None, x_child=None, emit=None):
     """One step down a depth-first phase: ``rows`` (with the frontier rows ``rid`` they grew from and
     their letters ``words``) expanded by one level of images (``forward``) or preimages in a fresh
     store, and ``rec`` called on the new level at ``x_child`` (default ``x - 1``); a chunk whose
     expansion would pass ``cap`` rows is split in halves first, each half passed to ``split``
-    (default ``rec``) at ``x`` (memory bounded). ``used[0]`` counts the sets generated.
+    (default ``rec``) at ``x`` (memory bounded). ``used[0]`` counts the sets generated; ``emit``
+    (if given) is told ``("dfs-batch", sets expanded together)``.
     Returns ``rec``'s first answer that is not None (None when nothing new grows)."""
     m = rows.shape[0]
     if m * aut.k > cap and m > 1:
@@ -536,6 +504,8 @@ def _descend(rec, aut, cap, forward, used, rows, rid, words, x, split=None, x_ch
             if r is not None:
                 return r
         return None
+    if emit is not None:
+        emit("dfs-batch", m)
     st = SubsetStore(aut.n_words, m * aut.k + m, m * aut.k + m)
     st.add_roots(list(rows))
     grown = st.expand(aut, forward)
@@ -551,7 +521,8 @@ def _descend(rec, aut, cap, forward, used, rows, rid, words, x, split=None, x_ch
     return rec(nrows, nrid, nwords, x - 1 if x_child is None else x_child)
 
 
-def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, cache=None):
+def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock,
+                               cache=None):
     """The depth-first phase from the backward side (synchrowords' inverse DFS, Szykula and Zyzik
     2022): the newest backward level is extended by preimages, chunk by chunk and depth-first
     (memory bounded), up to ``upper - 1 - total`` more levels, and every generated level asks the
@@ -567,7 +538,9 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
     W = aut.n_words
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
-    fsorted = _sorted_forward(fwd, {} if cache is None else cache)
+    cache = {} if cache is None else cache
+    fsorted = _sorted_forward(fwd, cache)
+    fsplit = cache["split"]
     row_bytes = 8 * W + 8 + 4 + 32
     cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
     used = [fwd.count + bwd.count]
@@ -576,13 +549,13 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
 
     def over_budget():
         return (node_budget is not None and used[0] >= node_budget) or \
-            (deadline is not None and time.perf_counter() > deadline)
+            (deadline is not None and clock() > deadline)
 
     def grow(rows, rid, words, x):
         """Extend sets at depth ``x`` by one level (or split them), unless ``x`` is the limit."""
         if x >= limit[0]:
             return None
-        return _descend(rec, aut, cap, False, used, rows, rid, words, x, split=grow, x_child=x + 1)
+        return _descend(rec, aut, cap, False, used, rows, rid, words, x, split=grow, x_child=x + 1, emit=opts.emit)
 
     def rec(rows, rid, words, x):
         """Backward sets ``x`` levels below the newest backward level, the rows they grew from and
@@ -595,7 +568,7 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
             rows, rid, words = rows[keep], rid[keep], words[keep]
         if rows.shape[0] == 0:
             return None
-        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True))
+        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True, tasks=opts.tasks, split=fsplit))
         if hit.size:
             q = int(hit[0])
             inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)
@@ -605,8 +578,8 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
         return grow(rows, rid, words, x)
 
     res = None
-    for lo in range(blo, bhi, _DFS_CHUNK):
-        hi = min(bhi, lo + _DFS_CHUNK)
+    for lo in range(blo, bhi, opts.dfs_chunk):
+        hi = min(bhi, lo + opts.dfs_chunk)
         res = grow(bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
         if res is not None or limit[0] < 1:
             break
@@ -616,6 +589,7 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
         u, _ = fwd.path(f)
         v, _ = bwd.path(b)
         word = u[::-1] + extra + v
+    opts.emit("inverse-dfs", word is not None)
     if res == "budget":
         return word, "budget", used[0], total + 1
     if word is not None:
@@ -624,7 +598,8 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
 
 
 def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, time_budget: float | None = 60.0,
-                                memory_budget_mb: float = 2048.0, node_budget: int | None = None) -> SyncResult:
+                                memory_budget_mb: float = 2048.0, node_budget: int | None = None, *,
+                                options: ExactSearchOptions | None = None, clock=time.perf_counter) -> SyncResult:
     """The shortest word synchronizing ``start`` (default: all states).
 
     Exact bidirectional subset search (Kisielewicz, Kowalski and Szykula 2015): forward images of
@@ -658,6 +633,11 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
         Memory of the subset stores.
     node_budget : int or None, default None
         Subsets generated before the search stops (None: no limit).
+    options : ExactSearchOptions, optional
+        The search's design switches (:class:`~kruskal_markov.sync.options.ExactSearchOptions`;
+        None: the defaults, the measured best). They change the work done, never a proven answer.
+    clock : callable, default time.perf_counter
+        Seconds for the time budget and ``seconds`` (tests pass a fake clock).
 
     Returns
     -------
@@ -679,40 +659,44 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
     (4, True)
     """
     aut, start = as_automaton(aut, start)
+    opts = (ExactSearchOptions() if options is None else options).resolved()
     if (time_budget is not None and not time_budget > 0) or memory_budget_mb <= 0:
         raise ValueError("time and memory budgets must be positive")
     if node_budget is not None and (int(node_budget) != node_budget or node_budget < 1):
         raise ValueError(f"node_budget must be a positive integer, got {node_budget!r}")
-    t0 = time.perf_counter()
+    t0 = clock()
     s = as_start(aut, start)
     if s.size == 1:
-        return SyncResult([], 0, True, "trivial", seconds=time.perf_counter() - t0)
+        return SyncResult([], 0, True, "trivial", seconds=clock() - t0)
     # a greedy word first (within a share of the time): it answers if the exact search stops, and
     # it proves synchronizability, so the quadratic pair-graph check runs only without one (to
     # find a witness that no word exists); the exact search then has the rest of the time
     eppstein = _eppstein_fits(aut, memory_budget_mb)
     greedy = greedy_synchronizing_word(aut, s, memory_budget_mb=memory_budget_mb,
-                                       deadline=None if time_budget is None else t0 + _GREEDY_SHARE * time_budget)
+                                       deadline=None if time_budget is None else t0 + _GREEDY_SHARE * time_budget,
+                                       clock=clock)
     pair_mb = pair_check_memory_mb(aut.n)
     skipped = greedy is None and pair_mb > 0.5 * memory_budget_mb
     if greedy is None and not skipped:
         check = synchronizability(aut, s)
         if check["synchronizing"] is False:
             return SyncResult(None, None, True, "pair-graph", witness=check["witness"],
-                              seconds=time.perf_counter() - t0)
+                              seconds=clock() - t0)
     status, spent = "budget", 0
-    if _FAST_NODES and node_budget is None and greedy is not None:
-        # small searches first: an exact search capped at ``_FAST_NODES`` sets, below the greedy
+    if opts.fast_nodes and node_budget is None and greedy is not None:
+        # small searches first: an exact search capped at ``opts.fast_nodes`` sets, below the greedy
         # word, answers small automata before the beam would have run (the beam is most of their time)
-        word, status, spent, lower = _exact_search(aut, s, time_budget, memory_budget_mb, _FAST_NODES, len(greedy),
-                                                   strict=True)
+        word, status, spent, lower = _exact_search(aut, s, time_budget, memory_budget_mb, opts.fast_nodes, len(greedy),
+                                                   strict=True, options=opts, clock=clock)
+        opts.emit("fast-path", spent)
         best, from_beam = greedy, False
     if status == "budget":
         best, from_beam = _beam_upper(aut, s, greedy, memory_budget_mb,
-                                      None if time_budget is None else t0 + _GREEDY_SHARE * time_budget, node_budget)
-        remaining = None if time_budget is None else max(time_budget - (time.perf_counter() - t0), 1e-3)
+                                      None if time_budget is None else t0 + _GREEDY_SHARE * time_budget, node_budget,
+                                      opts, clock)
+        remaining = None if time_budget is None else max(time_budget - (clock() - t0), 1e-3)
         word, status, explored, lower = _exact_search(aut, s, remaining, memory_budget_mb, node_budget,
-                                                      None if best is None else len(best))
+                                                      None if best is None else len(best), options=opts, clock=clock)
         explored += spent
     else:
         explored = spent
@@ -721,20 +705,20 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
             raise AssertionError("internal error: exact search returned a non-synchronizing word")
         return SyncResult(word, len(word), True,
                           "bidirectional-bfs" + ("+dfs" if status == "found-dfs" else ""), states_explored=explored,
-                          lower_bound=len(word), seconds=time.perf_counter() - t0)
+                          lower_bound=len(word), seconds=clock() - t0)
     if status == "none":
         return SyncResult(None, None, True, "bidirectional-bfs", states_explored=explored,
                           witness={"kind": "exhaustive", "subsets_explored": explored,
                                    "reason": "exhaustive subset search: no image of the start set "
                                              "is a single state"},
-                          seconds=time.perf_counter() - t0)
+                          seconds=clock() - t0)
     method = "beam" if from_beam else "greedy-eppstein" if eppstein else "greedy"
     if status == "budget" and word is not None and (best is None or len(word) < len(best)):
         best, method = word, "bidirectional-bfs+dfs"   # a word the inverse depth-first phase found, unproven
     if status == "upper":       # proven: nothing shorter than the beam's or the greedy word
         return SyncResult(best, len(best), True, method + "+lower-bound", lower_bound=len(best),
                           states_explored=explored, greedy_length=None if greedy is None else len(greedy),
-                          seconds=time.perf_counter() - t0)
+                          seconds=clock() - t0)
     notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
     if skipped:
         notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
@@ -749,4 +733,4 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                       method + "+lower-bound" if meets_bound else method,
                       lower_bound=lower, states_explored=explored,
                       greedy_length=None if greedy is None else len(greedy),
-                      seconds=time.perf_counter() - t0, notes=notes)
+                      seconds=clock() - t0, notes=notes)

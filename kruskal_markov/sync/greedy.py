@@ -22,8 +22,13 @@ if TYPE_CHECKING:
 __all__ = ["greedy_synchronizing_word"]
 
 
+#: the greedy stages, in the order they are tried
+GREEDY_STAGES = ("eppstein", "pairs", "descent")
+
+
 def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, node_budget: int = 200_000,
-                              memory_budget_mb: float | None = None, deadline: float | None = None):
+                              memory_budget_mb: float | None = None, deadline: float | None = None, *,
+                              stages=GREEDY_STAGES, clock=time.perf_counter):
     """A synchronizing word, not necessarily shortest, or None if none was found.
 
     Deterministic automata: Eppstein's (1990) greedy pair merging (``O(k n^2)`` pair BFS plus
@@ -33,8 +38,8 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
     breadth-first in the pair graph from each pair, no tables); if that fails, greedy descent,
     repeatedly running a breadth-first
     search of at most ``node_budget`` subsets (fewer if ``memory_budget_mb`` says so) from the
-    current set to the nearest strictly smaller image, until ``deadline`` (a
-    ``time.perf_counter()`` value; None if it passes). The returned word is verified.
+    current set to the nearest strictly smaller image, until ``deadline`` (a ``clock()``
+    reading; None if it passes). The returned word is verified.
 
     Parameters
     ----------
@@ -47,7 +52,12 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
     memory_budget_mb : float or None, default None
         Memory the tables may take (None: no limit).
     deadline : float or None, default None
-        A ``time.perf_counter()`` value after which the search gives up.
+        A ``clock()`` reading after which the search gives up.
+    stages : tuple of str, default ("eppstein", "pairs", "descent")
+        Which of the three stages may run (always in that order): Eppstein's tables, pair merging
+        without tables, greedy descent.
+    clock : callable, default time.perf_counter
+        The clock ``deadline`` is read on.
 
     Returns
     -------
@@ -65,6 +75,9 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
     True
     """
     aut, start = as_automaton(aut, start)
+    unknown = set(stages) - set(GREEDY_STAGES)
+    if unknown:
+        raise ValueError(f"unknown greedy stages {sorted(unknown)}; known: {', '.join(GREEDY_STAGES)}")
     s = as_start(aut, start)
     if s.size == 1:
         return []
@@ -72,18 +85,18 @@ def greedy_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, 
     if memory_budget_mb is not None:
         row_bytes = 8 * aut.n_words + 8 + 4 + 32
         node_budget = max(1024, min(node_budget, int(memory_budget_mb * 2 ** 20 / row_bytes)))
-    if _eppstein_fits(aut, memory_budget_mb):
+    if "eppstein" in stages and _eppstein_fits(aut, memory_budget_mb):
         dist, nxt = aut.pair_distances()
         out = np.empty(max(16, aut.n ** 3 // 6 + aut.n), dtype=np.int32) if aut.n <= 256 else \
             np.empty(4 * aut.n * aut.n, dtype=np.int32)
         length = _k.eppstein_greedy(aut.delta, s.astype(np.int64), dist, nxt, out)
         if length >= 0:
             word = [int(x) for x in out[:length]]
-    if word is None:
+    if word is None and "pairs" in stages:
         max_pairs = None if memory_budget_mb is None else max(1 << 16, int(memory_budget_mb * 2 ** 20 / 64))
-        word = _pair_merging_greedy(aut, s, deadline, max_pairs)
-    if word is None:
-        word = _greedy_descent(aut, s, node_budget, deadline)
+        word = _pair_merging_greedy(aut, s, deadline, max_pairs, clock)
+    if word is None and "descent" in stages:
+        word = _greedy_descent(aut, s, node_budget, deadline, clock)
     if word is not None and not is_synchronizing_word(aut, word, s):
         raise AssertionError("internal error: greedy word does not synchronize")
     return word
@@ -99,7 +112,7 @@ def _set_image(aut, states, a):
     return np.unique(aut.indices[idx].astype(np.int64))
 
 
-def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None):
+def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None, clock=time.perf_counter):
     """Greedy pair merging without Eppstein's tables: while the current set has two or more
     states, search breadth-first in the pair graph from two of its states for the shortest word
     that merges them, and apply it to the whole set. The search follows single-valued rows only (a
@@ -122,7 +135,7 @@ def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None):
     states = np.unique(np.asarray(s, dtype=np.int64))
     word = []
     while states.size > 1:
-        if deadline is not None and time.perf_counter() > deadline:
+        if deadline is not None and clock() > deadline:
             return None
         if multi[states].any():
             images = [_set_image(aut, states, a) for a in range(k)]
@@ -132,7 +145,7 @@ def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None):
             if len(word) > 4 * n:
                 return None
             continue
-        u = _merging_word(single, n, int(states[0]), int(states[1]), deadline, max_pairs)
+        u = _merging_word(single, n, int(states[0]), int(states[1]), deadline, max_pairs, clock)
         if u is None:
             return None
         word += u
@@ -143,14 +156,14 @@ def _pair_merging_greedy(aut, s, deadline=None, max_pairs=None):
     return word
 
 
-def _merging_word(single, n, p, q, deadline, max_pairs):
+def _merging_word(single, n, p, q, deadline, max_pairs, clock=time.perf_counter):
     """Shortest word merging states ``p`` and ``q`` along single-valued rows (breadth-first in the
     pair graph, level by level in numpy); None if there is none within the limits."""
     level_keys = [np.array([min(p, q) * n + max(p, q)], dtype=np.int64)]
     parents, letters = [np.array([-1])], [np.array([-1])]
     seen = level_keys[0]
     while True:
-        if deadline is not None and time.perf_counter() > deadline:
+        if deadline is not None and clock() > deadline:
             return None
         keys = level_keys[-1]
         if keys.size == 0:
@@ -185,7 +198,7 @@ def _merging_word(single, n, p, q, deadline, max_pairs):
         letters.append(np.concatenate(nlet)[first])
 
 
-def _greedy_descent(aut, s, node_budget, deadline=None):
+def _greedy_descent(aut, s, node_budget, deadline=None, clock=time.perf_counter):
     """Greedy descent: apply the letter whose image of the current set is smallest while one
     shrinks it (deterministic automata), else search breadth-first for the nearest smaller image."""
     W = aut.n_words
@@ -193,7 +206,7 @@ def _greedy_descent(aut, s, node_budget, deadline=None):
     if aut.deterministic:
         states = np.unique(np.asarray(s, dtype=np.int64))
         while states.size > 1:
-            if deadline is not None and time.perf_counter() > deadline:
+            if deadline is not None and clock() > deadline:
                 return None
             images = [np.unique(aut.delta[a][states]) for a in range(aut.k)]
             best = min(range(aut.k), key=lambda a: images[a].size)
@@ -207,13 +220,13 @@ def _greedy_descent(aut, s, node_budget, deadline=None):
         size = len(aut.states_of(cur))
         if size == 1:
             return word
-        if deadline is not None and time.perf_counter() > deadline:
+        if deadline is not None and clock() > deadline:
             return None
         st = SubsetStore(W, 1024, node_budget)
         st.add_roots([cur])
         found = None
         while found is None:
-            if deadline is not None and time.perf_counter() > deadline:
+            if deadline is not None and clock() > deadline:
                 return None
             grown = st.expand(aut, True)
             if not grown:

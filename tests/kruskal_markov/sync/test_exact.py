@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from kruskal_markov import generators
-from kruskal_markov.sync import SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
+from kruskal_markov.sync import ExactSearchOptions, SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 
 
@@ -63,18 +63,17 @@ def test_answers_equal_brute_force_and_exact_means_shortest():
     assert exact >= 60
 
 
-def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not(monkeypatch):
+def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not():
     """Random binary automata of 30-40 states where Eppstein's greedy word is longer than the
     optimum: the inverse beam's word has the shortest length, and the exact search only proves that
     no word is shorter (method ``beam+lower-bound``, ``lower_bound`` equal to the length, the greedy
     length kept); ``_exact_search`` given that bound returns 'upper' with it. (The small-search
     fast path, which answers these before the beam runs, is switched off.)"""
-    import kruskal_markov.sync.exact as exact_mod
     from kruskal_markov._subsets import as_start
     from kruskal_markov.sync import greedy_synchronizing_word
     from kruskal_markov.sync.exact import _exact_search
 
-    monkeypatch.setattr(exact_mod, "_FAST_NODES", None)
+    beam_first = ExactSearchOptions(fast_nodes=None)
 
     checked = 0
     for seed in range(4310, 4318):
@@ -85,7 +84,7 @@ def test_the_beam_word_is_proven_shortest_where_the_greedy_word_is_not(monkeypat
         greedy = greedy_synchronizing_word(aut)
         if want is None or len(greedy) == want:
             continue
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=beam_first)
         assert r.exact and r.length == want == len(r.word) == r.lower_bound and is_synchronizing_word(aut, r.word)
         if r.method == "beam+lower-bound":
             assert r.greedy_length == len(greedy) > want
@@ -187,48 +186,128 @@ def test_subset_dominance_check_agrees_with_brute_force():
     assert flagged > 0
 
 
-def test_backward_dominance_keeps_the_answers(monkeypatch):
+def test_backward_dominance_keeps_the_answers():
     """With the (off by default) backward subset dominance switched on, the shortest lengths on 40
     small random automata are still the brute-force ones."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", True)
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
+    options = ExactSearchOptions(backward_dominance=True, use_beam=False)
     for _, table in small_tables(40, 4350):
         aut = SyncAutomaton.from_table(table)
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
         want = brute(table)
         assert r.length == want and (want is None or is_synchronizing_word(aut, r.word))
 
 
-def test_small_automata_are_answered_before_the_beam(monkeypatch):
-    """The small-search fast path: an exact search capped at ``_FAST_NODES`` sets below the greedy
+def test_small_automata_are_answered_before_the_beam():
+    """The small-search fast path: an exact search capped at ``fast_nodes`` sets below the greedy
     word answers small automata without the beam (method ``bidirectional-bfs`` or
-    ``greedy-eppstein+lower-bound``, the brute-force length); past the cap the beam and the full
-    search answer the same length, with the fast path's sets counted in ``states_explored``."""
-    import kruskal_markov.sync.exact as exact_mod
+    ``greedy-eppstein+lower-bound``, the brute-force length; the search's stages observed through
+    ``ExactSearchOptions.observe``); past the cap the beam and the full search answer the same
+    length, with the fast path's sets counted in ``states_explored``."""
+    events = []
 
-    calls = []
-    real = exact_mod._beam_upper
-
-    def spy(*args, **kw):
-        calls.append(1)
-        return real(*args, **kw)
-    monkeypatch.setattr(exact_mod, "_beam_upper", spy)
+    def observe(event, value):
+        events.append(event)
     for seed in range(4330, 4336):
         table = generators.random_table(12 + seed % 5, 2 + seed % 2, seed)
         aut = SyncAutomaton.from_table(table)
         want = brute(table)
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(observe=observe))
         assert r.exact and r.length == want and (want is None or is_synchronizing_word(aut, r.word))
         if want is not None:
             assert r.method in ("bidirectional-bfs", "greedy-eppstein+lower-bound")
-    assert not calls
-    monkeypatch.setattr(exact_mod, "_FAST_NODES", 2)         # every fast search stops at its cap
+    assert "fast-path" in events and "beam" not in events
     table = generators.random_table(30, 2, 4340)
     aut = SyncAutomaton.from_table(table)
-    capped = shortest_synchronizing_word(aut, time_budget=None)
-    assert calls and capped.exact and capped.length == brute(table)
-    monkeypatch.setattr(exact_mod, "_FAST_NODES", None)
-    plain = shortest_synchronizing_word(aut, time_budget=None)
+    capped = shortest_synchronizing_word(aut, time_budget=None,     # every fast search stops at its cap
+                                         options=ExactSearchOptions(fast_nodes=2, observe=observe))
+    assert "beam" in events and capped.exact and capped.length == brute(table)
+    plain = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(fast_nodes=None))
     assert plain.length == capped.length and capped.states_explored > plain.states_explored
+
+
+@pytest.mark.parametrize("deterministic", [True, False])
+def test_level_images_are_the_images_and_preimages_whatever_the_split(deterministic):
+    """The unhashed level kernel (the last level of a search): row ``(i - lo) k + a`` is the image,
+    or the preimage, of set ``i`` under letter ``a``, judged by plain Python on random sets of a
+    random automaton (deterministic, and set-valued: a preimage holds the states whose every
+    successor is in the set); the same on one thread, split over threads (forced on) and, for the
+    deterministic one, by byte tables (``SyncAutomaton.step_table``)."""
+    from kruskal_markov import _sync_kernels as _k
+    from kruskal_markov.sync import support_automaton
+    from tests.kruskal_markov.sync.test_searches import model_from_support
+
+    rng = np.random.default_rng(4370)
+    n, k = 70, 3
+    if deterministic:
+        succ = [[{int(x)} for x in row] for row in generators.random_table(n, k, rng)]
+        aut = SyncAutomaton.from_table([[next(iter(s)) for s in row] for row in succ])
+    else:
+        succ = [[set(rng.choice(n, size=int(rng.integers(1, 3)), replace=False).tolist()) for _ in range(n)]
+                for _ in range(k)]
+        aut = support_automaton(model_from_support([[frozenset(s) for s in row] for row in succ]))
+    assert aut.deterministic == deterministic
+    sets = [set(np.flatnonzero(rng.random(n) < rng.uniform(0.05, 0.6)).tolist()) for _ in range(40)]
+    rows = np.array([aut.bits(sorted(s)) for s in sets])
+    for forward in (True, False):
+        one = _k.level_images(rows, 2, 38, aut.delta, aut.sup, aut.deterministic, forward, *aut.inverse, tasks=1)
+        split = _k.level_images(rows, 2, 38, aut.delta, aut.sup, aut.deterministic, forward, *aut.inverse, tasks=3,
+                                min_parallel=1)
+        tables = _k.level_images(rows, 2, 38, aut.delta, aut.step_table(forward), aut.deterministic, forward,
+                                 *aut.inverse, tasks=1)     # byte tables (deterministic only)
+        assert (one == split).all() and (one == tables).all()
+        assert (aut.step_table(forward) is not aut.sup) == deterministic
+        for i in range(2, 38):
+            for a in range(k):
+                want = set().union(*(succ[a][q] for q in sets[i])) if forward else \
+                    {q for q in range(n) if succ[a][q] <= sets[i]}
+                assert set(aut.states_of(one[(i - 2) * k + a])) == want
+
+
+def test_a_large_level_expanded_in_two_passes_is_the_one_pass_level():
+    """Levels of 16,384 sets or more are expanded by computing their images on both cores and
+    inserting them on one: the stored rows, parents and letters are those of the one-pass kernel
+    (both directions, random 3-letter automaton of 90 states, a forward level of 20,000 sets)."""
+    from kruskal_markov import _sync_kernels as _k
+    from kruskal_markov._subsets import SubsetStore
+
+    aut = SyncAutomaton.from_table(generators.random_table(90, 3, 4371))
+    rng = np.random.default_rng(4371)
+    roots = [aut.bits(np.flatnonzero(rng.random(90) < 0.3)) for _ in range(20_000)]
+    for forward in (True, False):
+        two, one = SubsetStore(aut.n_words, 1024, 10 ** 6), SubsetStore(aut.n_words, 1024, 10 ** 6)
+        two.add_roots(roots)
+        one.add_roots(roots)
+        assert two.expand(aut, forward) > 0 and two.levels[-2][1] - two.levels[-2][0] >= 2 * _k._IMAGES_PAR_MIN
+        lo, hi = one.levels[-1]
+        one.ensure(one.count + (hi - lo) * aut.k)
+        new = _k.expand_level(one.rows, one.count, lo, hi, aut.delta, aut.sup, True, forward, one.table, one.parent,
+                              one.letter, one.rows.shape[0], *aut.inverse)
+        assert new == two.count
+        for arr in ("rows", "parent", "letter"):
+            assert (getattr(one, arr)[:new] == getattr(two, arr)[:new]).all()
+
+
+def test_the_answer_and_its_work_do_not_depend_on_the_threads():
+    """``ExactSearchOptions(parallel=...)`` only splits kernels over threads: on random 8-letter
+    automata of 60 states (93,539 and 291,101 subsets, so the meet test's trie walks pass their
+    split threshold of 8,192 queries), with the beam off (the search must find the word itself),
+    the word's length, ``exact`` and the subsets generated are the same with and without it."""
+    for seed in (4372, 4373):
+        aut = SyncAutomaton.from_table(generators.random_table(60, 8, seed))
+        got = [shortest_synchronizing_word(aut, time_budget=None, node_budget=10 ** 8,
+                                           options=ExactSearchOptions(use_beam=False, parallel=p))
+               for p in (False, True)]
+        assert got[0].exact and got[1].exact and is_synchronizing_word(aut, got[1].word)
+        assert (got[0].length, got[0].states_explored) == (got[1].length, got[1].states_explored)
+
+
+def test_options_are_checked():
+    with pytest.raises(ValueError, match="last_side"):
+        ExactSearchOptions(last_side="sideways")
+    with pytest.raises(ValueError, match="dfs_chunk"):
+        ExactSearchOptions(dfs_chunk=0)
+    with pytest.raises(ValueError, match="fast_nodes"):
+        ExactSearchOptions(fast_nodes=-1)
+    assert ExactSearchOptions(parallel=False).resolved().tasks == 1
+    assert ExactSearchOptions(parallel=True).resolved().tasks == 8
+    assert ExactSearchOptions().resolved().parallel in (True, False)

@@ -232,21 +232,20 @@ def test_cli_plan_bad_input_exit_2(capsys, cerny_file, argv):
 
 
 @pytest.mark.parametrize("seed", [1, 2])
-def test_sync_memory_bound_switches_to_depth_first_and_stays_exact(seed, monkeypatch):
+def test_sync_memory_bound_switches_to_depth_first_and_stays_exact(seed):
     """A memory budget too small for the breadth-first stores: the search goes depth-first and still
     proves the same shortest length as an unconstrained run (the beam's first word switched off, or
     it would be proven shortest before either phase has to find a word)."""
-    import kruskal_markov.sync.exact as exact_mod
-    from kruskal_markov.sync import SyncAutomaton
+    from kruskal_markov.sync import ExactSearchOptions, SyncAutomaton
 
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
-
+    no_beam = ExactSearchOptions(use_beam=False)
     rng = np.random.default_rng(seed)
     n = 60
     table = rng.integers(0, n, size=(2, n))
     aut = SyncAutomaton.from_table(table)
-    free = shortest_synchronizing_word(aut, time_budget=None, node_budget=10**7)
-    tight = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=10**8)
+    free = shortest_synchronizing_word(aut, time_budget=None, node_budget=10**7, options=no_beam)
+    tight = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=10**8,
+                                        options=no_beam)
     assert free.method == "bidirectional-bfs" and tight.method == "bidirectional-bfs+dfs"
     assert free.exact and tight.exact and free.length == tight.length
     assert len({_apply(table, q, tight.word) for q in range(n)}) == 1

@@ -13,6 +13,7 @@ from kruskal_markov.generators import cerny_table as cerny
 from kruskal_markov.generators import random_table as _random_table
 from kruskal_markov.model import TransitionModel
 from kruskal_markov.sync import (
+    ExactSearchOptions,
     SyncAutomaton,
     epsilon_synchronizing_word,
     greedy_synchronizing_word,
@@ -468,15 +469,13 @@ def test_functions_take_a_model_or_its_support_automaton_alike():
 def test_pair_by_pair_greedy_when_eppstein_does_not_fit():
     """Without room for Eppstein's tables the greedy word comes from merging one pair at a time,
     also through set-valued start rows (a model's uniform first tilt): the word must synchronize."""
-    from kruskal_markov.sync import _pair_merging_greedy
-
     rng = np.random.default_rng(4)
     n = 60
     table = np.array([[min(q + 1, n - 1) for q in range(n)],            # slide right, stop at the wall
                       [max(q - 1, 0) for q in range(n)],
                       list(rng.integers(0, n, size=n))])
     aut = SyncAutomaton.from_table(table)
-    word = _pair_merging_greedy(aut, np.arange(n))
+    word = greedy_synchronizing_word(aut, np.arange(n), stages=("pairs",))
     assert word is not None and is_synchronizing_word(aut, word, np.arange(n))
     assert greedy_synchronizing_word(aut, memory_budget_mb=1e-6) is not None
     # a start state n with set-valued rows (to every state) in front of the deterministic part
@@ -486,15 +485,13 @@ def test_pair_by_pair_greedy_when_eppstein_does_not_fit():
     model = TransitionModel(["a", "b", "c"], mats, initial=np.eye(n + 1)[n])
     set_valued = support_automaton(model, 0.0)
     assert not set_valued.deterministic
-    word = _pair_merging_greedy(set_valued, np.array([n]))
+    word = greedy_synchronizing_word(set_valued, np.array([n]), stages=("pairs",))
     assert word is not None and is_synchronizing_word(set_valued, word, np.array([n]))
 
 
 def test_pair_by_pair_greedy_through_rows_spread_under_one_letter():
     """Rows that member probes spread (set-valued under one letter, single under the others) do
     not stop the pair merging: the pair searches go around them and the word synchronizes."""
-    from kruskal_markov.sync import _pair_merging_greedy
-
     n = 40
     table = np.array([[min(q + 1, n - 1) for q in range(n)],            # slide right, stop at the wall
                       [max(q - 1, 0) for q in range(n)]])
@@ -505,7 +502,7 @@ def test_pair_by_pair_greedy_through_rows_spread_under_one_letter():
     model = TransitionModel(["right", "left"], [m.tocsr() for m in mats], initial=np.full(n, 1.0 / n))
     aut = support_automaton(model, 0.0)
     assert not aut.deterministic
-    word = _pair_merging_greedy(aut, np.arange(n))
+    word = greedy_synchronizing_word(aut, np.arange(n), stages=("pairs",))
     assert word is not None and is_synchronizing_word(aut, word, np.arange(n))
 
 
@@ -580,26 +577,22 @@ def test_lower_bound_never_above_brute_force_and_exact_means_shortest():
         assert res.exact is False and res.lower_bound <= (n - 1) ** 2 < res.length
 
 
-def test_lower_bound_after_a_time_budget_stop_never_above_brute_force(monkeypatch):
+def test_lower_bound_after_a_time_budget_stop_never_above_brute_force():
     """The time-budget branches of the exact search, made deterministic by a fake clock that
     advances one 'second' per reading: stopped at every point a budget can stop it, the proven
     lower bound never exceeds the true shortest length and ``exact`` holds only at equality."""
-    import types
-
-    import kruskal_markov.sync.exact as sync_module
-
     clock = {"t": 0.0}
 
     def tick():
         clock["t"] += 1.0
         return clock["t"]
-    monkeypatch.setattr(sync_module, "time", types.SimpleNamespace(perf_counter=tick))
     stopped = 0
     for rng, n, table in random_tables(99, 120, (4, 11)):
         truth = brute_det(table)
         if truth is None:
             continue
-        res = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=float(rng.integers(2, 40)))
+        res = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=float(rng.integers(2, 40)),
+                                          clock=tick)
         if res.word is not None:
             assert len(plain_image(table, range(n), res.word)) == 1 and res.length >= truth
         if res.lower_bound is not None:
@@ -698,27 +691,22 @@ def test_pair_table_memory_by_hand():
 
 
 # ----------------------------------------------------------------------------- the exact search: budgets and answers, whole
-def _fake_clock(monkeypatch, *modules, start=10.0 ** 6):
+def _fake_clock(start=10.0 ** 6):
     """A clock far from zero (like a real monotonic one) that advances one second per reading."""
-    import types
-
     clock = itertools.count(start)
-    fake = types.SimpleNamespace(perf_counter=lambda: float(next(clock)))
-    for m in modules:
-        monkeypatch.setattr(m, "time", fake)
+    return lambda: float(next(clock))
 
 
-def test_every_result_kind_reports_its_seconds_and_work(monkeypatch):
+def test_every_result_kind_reports_its_seconds_and_work():
     """Trivial, pair-graph, found, exhaustive none, upper (the greedy word proven shortest) and
     budget answers, whole where they are fixed, on a fake clock (seconds: a few readings, never
     the clock's own value)."""
-    import kruskal_markov.sync.exact as exact_mod
+    clock = _fake_clock()
+    beam_first = ExactSearchOptions(fast_nodes=None)        # the beam first, as the methods below say
 
-    _fake_clock(monkeypatch, exact_mod)
-    monkeypatch.setattr(exact_mod, "_FAST_NODES", None)     # the beam first, as the methods below say
-
-    def run(table, **kw):
-        return shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, **kw)
+    def run(table, options=beam_first, **kw):
+        return shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, options=options,
+                                           clock=clock, **kw)
 
     trivial = run(cerny(3), start=[1])
     assert (trivial.word, trivial.length, trivial.exact, trivial.method) == ([], 0, True, "trivial")
@@ -729,14 +717,14 @@ def test_every_result_kind_reports_its_seconds_and_work(monkeypatch):
     assert run(swaps, start=[2, 3]).witness["states"] == [2, 3]          # the start's own pair
     found = run(cerny(5))                                   # the beam's word (16 letters) proven shortest
     assert (found.length, found.exact, found.method, found.lower_bound) == (16, True, "beam+lower-bound", 16)
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
-    found = run(cerny(5))
+    no_beam = ExactSearchOptions(fast_nodes=None, use_beam=False)
+    found = run(cerny(5), no_beam)
     assert (found.length, found.exact, found.method, found.lower_bound) == (16, True, "bidirectional-bfs", 16)
-    upper = run(cerny(3))                                    # Eppstein's word (4 letters) is shortest
+    upper = run(cerny(3), no_beam)                                    # Eppstein's word (4 letters) is shortest
     assert (upper.length, upper.exact, upper.method, upper.lower_bound, upper.greedy_length, upper.notes) == \
         (4, True, "greedy-eppstein+lower-bound", 4, 4, ())
     assert upper.states_explored > 0
-    budget = run(cerny(6), node_budget=5)
+    budget = run(cerny(6), no_beam, node_budget=5)
     assert not budget.exact and budget.method == "greedy-eppstein"
     assert budget.greedy_length == len(budget.word) == budget.length
     assert budget.notes[0] == f"exact search stopped by its budget; no synchronizing word is shorter than " \
@@ -745,17 +733,15 @@ def test_every_result_kind_reports_its_seconds_and_work(monkeypatch):
         assert 0 < r.seconds < 1000
 
 
-def test_exhaustive_none_when_the_pair_check_does_not_fit(monkeypatch):
+def test_exhaustive_none_when_the_pair_check_does_not_fit():
     """Two swapped pairs on 20 states: the pair table (190 pairs, 0.0072 MB) needs more than half of
     a 0.01 MB budget, so the pair check is skipped and the exhaustive search answers; with room
     for it the pair check does."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    _fake_clock(monkeypatch, exact_mod)
+    clock = _fake_clock()
     n = 20
     table = [[(q + 1) % 10 + 10 * (q >= 10) for q in range(n)], list(range(n))]     # two 10-cycles
     aut = SyncAutomaton.from_table(table)
-    r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.01)
+    r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.01, clock=clock)
     assert (r.word, r.length, r.exact, r.method) == (None, None, True, "bidirectional-bfs")
     assert r.witness == {"kind": "exhaustive", "subsets_explored": r.states_explored,
                          "reason": "exhaustive subset search: no image of the start set is a single state"}
@@ -772,30 +758,25 @@ def test_without_room_for_eppsteins_tables_the_method_and_notes_say_so():
                        "tables would need about 0 MB (over the memory budget)")
 
 
-def test_greedy_gets_forty_percent_of_the_time_budget(monkeypatch):
+def test_greedy_gets_forty_percent_of_the_time_budget():
     """Set-valued rows: the greedy word comes from pair merging, which checks its deadline (t0 + 40%
     of the budget) on every step; on a fake clock with 1,000 readings of budget it finishes."""
-    import kruskal_markov.sync.exact as exact_mod
-    import kruskal_markov.sync.greedy as greedy_mod
-
-    _fake_clock(monkeypatch, exact_mod, greedy_mod)
     sup = [[frozenset({1}), frozenset({2}), frozenset({0, 3}), frozenset({3})],
            [frozenset({0}), frozenset({1}), frozenset({3}), frozenset({0})]]
     aut = support_automaton(model_from_support(sup))
     assert not aut.deterministic
-    r = shortest_synchronizing_word(aut, time_budget=1000.0, node_budget=1)
+    r = shortest_synchronizing_word(aut, time_budget=1000.0, node_budget=1, clock=_fake_clock())
     assert r.word is not None and r.greedy_length == len(r.word)
     assert not any("greedy word not found" in note for note in r.notes)
 
 
-def test_stores_follow_the_memory_budget(monkeypatch):
+def test_stores_follow_the_memory_budget():
     """Three eighths of the budget per direction, 8 W + 44 bytes a row (bitset, parent, letter, hash
     slots), at least 1,024 rows; an automaton whose n backward roots do not fit gets no exact search
     (every singleton a root: the restriction to merging states switched off)."""
-    import kruskal_markov.sync.exact as exact_mod
     from kruskal_markov.sync.exact import _exact_search
 
-    monkeypatch.setattr(exact_mod, "_RESTRICT_ROOTS", False)
+    every_root = ExactSearchOptions(restrict_roots=False)
 
     n = 2000
     aut = SyncAutomaton.from_table(np.random.default_rng(0).integers(0, n, size=(2, n)))
@@ -805,29 +786,29 @@ def test_stores_follow_the_memory_budget(monkeypatch):
         return (rows + 0.5) * row * 8 / 3 / 2 ** 20
 
     s = np.arange(n)
-    assert _exact_search(aut, s, None, mb_for(n), node_budget=1) == (None, "budget", 0, 1)
-    word, status, explored, lower = _exact_search(aut, s, None, mb_for(n + 1), node_budget=1)
+    assert _exact_search(aut, s, None, mb_for(n), node_budget=1, options=every_root) == (None, "budget", 0, 1)
+    word, status, explored, lower = _exact_search(aut, s, None, mb_for(n + 1), node_budget=1, options=every_root)
     assert (word, status, lower) == (None, "budget", 1) and explored == n + 1      # one root each way
     small = SyncAutomaton.from_table(np.random.default_rng(0).integers(0, 1024, size=(2, 1024)))
-    assert _exact_search(small, np.arange(1024), None, 1e-3, node_budget=1) == (None, "budget", 0, 1)
+    assert _exact_search(small, np.arange(1024), None, 1e-3, node_budget=1, options=every_root) == \
+        (None, "budget", 0, 1)
 
 
-def test_depth_first_phase_stops_at_its_node_budget(monkeypatch):
+def test_depth_first_phase_stops_at_its_node_budget():
     """Past the breadth-first stores (a 0.05 MB budget), the depth-first phase counts the subsets it
     generates against the node budget: a budget between what the breadth-first phase used and what
     the whole search needs stops it there, with a proven lower bound at most the shortest length."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
+    no_beam = ExactSearchOptions(use_beam=False)      # the beam's word would be proven shortest first
     rng = np.random.default_rng(1)
     n = 60
     table = rng.integers(0, n, size=(2, n))
     aut = SyncAutomaton.from_table(table)
-    full = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=10**8)
+    full = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=10**8, options=no_beam)
     assert full.method == "bidirectional-bfs+dfs" and full.exact
     stops = 0
     for budget in (2100, 2500, 4000, (2048 + full.states_explored) // 2, full.states_explored - 1):
-        r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=budget)
+        r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=0.05, node_budget=budget,
+                                        options=no_beam)
         assert r.lower_bound <= full.length and r.length >= full.length
         assert r.exact == (r.length == full.length == r.lower_bound)
         if not r.exact:
@@ -849,7 +830,6 @@ def test_greedy_word_is_eppsteins_when_its_tables_fit_else_pair_merging():
     """The documented order: Eppstein's word when his tables fit the memory budget, else the word of
     merging one pair at a time."""
     from kruskal_markov import _sync_kernels as _k
-    from kruskal_markov.sync import _pair_merging_greedy
     from kruskal_markov.sync.pairs import eppstein_memory_mb
 
     rng = np.random.default_rng(17)
@@ -864,7 +844,7 @@ def test_greedy_word_is_eppsteins_when_its_tables_fit_else_pair_merging():
         length = _k.eppstein_greedy(aut.delta, np.arange(n, dtype=np.int64), dist, nxt, out)
         assert greedy_synchronizing_word(aut) == [int(x) for x in out[:length]]
         tight = eppstein_memory_mb(n) * 0.99
-        merged = _pair_merging_greedy(aut, np.arange(n))       # None past 4 n letters (Cerny C_6 needs 25)
+        merged = greedy_synchronizing_word(aut, stages=("pairs",))      # None past 4 n letters (C_6 needs 25)
         if merged is not None:
             assert greedy_synchronizing_word(aut, memory_budget_mb=tight) == merged
             pair_merged += 1
@@ -875,22 +855,18 @@ def test_pair_merging_on_deterministic_rows_and_merges_into_state_zero():
     """Deterministic rows are single-valued rows: pair merging follows them (Cerny C_3 and C_4: the
     smallest-image rule of set-valued starts would cycle through the rotation). A pair that merges
     only into state 0 is merged."""
-    from kruskal_markov.sync import _pair_merging_greedy
-
     for n in (3, 4):
         aut = SyncAutomaton.from_table(cerny(n))
-        word = _pair_merging_greedy(aut, np.arange(n))
+        word = greedy_synchronizing_word(aut, stages=("pairs",))
         assert word is not None and is_synchronizing_word(aut, word)
     into_zero = SyncAutomaton.from_table([[1, 2, 3, 0], [0, 0, 0, 0]])
-    assert _pair_merging_greedy(into_zero, np.arange(4)) == [1]
+    assert greedy_synchronizing_word(into_zero, stages=("pairs",)) == [1]
 
 
 def test_greedy_descent_searches_on_when_no_letter_shrinks_the_set():
     """Cerny C_5: after b, no single letter shrinks {1, 2, 3, 4}; the descent goes on breadth-first."""
-    from kruskal_markov.sync import _greedy_descent
-
     aut = SyncAutomaton.from_table(cerny(5))
-    word = _greedy_descent(aut, np.arange(5), 10 ** 5)
+    word = greedy_synchronizing_word(aut, node_budget=10 ** 5, stages=("descent",))
     assert word is not None and is_synchronizing_word(aut, word)
 
 
@@ -1026,39 +1002,15 @@ def test_sync_result_as_dict_whole():
     assert none.as_dict(("N", "E"))["word"] is None and none.notes == ()
 
 
-def _no_dominance(monkeypatch, exact_mod):
-    """Switch the subset-dominance pruning off: with it, the breadth-first stores of these small
-    automata no longer overflow, and the depth-first phase these tests exercise is not reached
-    (the pruning itself is tested in tests/kruskal_markov/sync/test_trie.py)."""
-    monkeypatch.setattr(exact_mod, "_FORWARD_DOMINANCE", False)
-    monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", False)
-
-
-def test_depth_first_phase_budget_status(monkeypatch):
+def test_depth_first_phase_budget_status():
     """_exact_search's contract: a node budget that stops the depth-first phase (past the 2,048 rows
     of the breadth-first stores of a 0.05 MB budget) returns status 'budget' with the subsets counted."""
-    import kruskal_markov.sync.exact as exact_mod
     from kruskal_markov.sync.exact import _exact_search
 
-    _no_dominance(monkeypatch, exact_mod)
     n = 60
     aut = SyncAutomaton.from_table(np.random.default_rng(1).integers(0, n, size=(2, n)))
     word, status, explored, lower = _exact_search(aut, np.arange(n), None, 0.05, node_budget=2500)
     assert (word, status) == (None, "budget") and explored >= 2500 and lower >= 1
-
-
-def test_greedy_word_is_verified_before_it_is_returned(monkeypatch):
-    """A greedy stage that returned a word that does not synchronize (planted: the pair-merging
-    stage answers ``[0]`` on Cerny C_4, where ``a`` is a permutation) is caught, not returned."""
-    import kruskal_markov.sync.greedy as greedy
-
-    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
-    monkeypatch.setattr(greedy, "_pair_merging_greedy", lambda *args, **kw: [0])
-    aut = SyncAutomaton.from_table(cerny(4))
-    assert len(plain_image(cerny(4), range(4), [0])) == 4
-    with pytest.raises(AssertionError) as info:
-        greedy_synchronizing_word(aut)
-    assert str(info.value) == "internal error: greedy word does not synchronize"
 
 
 def _predicted_stops(table, budget, max_levels=None):
@@ -1105,19 +1057,15 @@ def _predicted_stops(table, budget, max_levels=None):
             return None, None, None, costs
 
 
-def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(monkeypatch):
+def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit():
     """On a clock that never moves, the breadth-first search stops exactly before the first
     expansion whose predicted cost exceeds the time budget and hands that level over to the
     streaming (depth-first) phase, which there completes with the shortest word: budgets just below and just above each predicted cost of a plain
     model (:func:`_predicted_stops`), on small random automata (growth, shrinking levels, both
     sides) and on 300 states (bitsets of 5 words, where the meet-test guess grows with W)."""
-    import types
+    from kruskal_markov.sync.exact import _exact_search
 
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "time", types.SimpleNamespace(perf_counter=lambda: 0.0))
-    _no_dominance(monkeypatch, exact_mod)      # the model below is the plain search's, from every singleton
-    monkeypatch.setattr(exact_mod, "_RESTRICT_ROOTS", False)
+    every_root = ExactSearchOptions(restrict_roots=False)  # the model below is the plain search's, from every singleton
     cases = [(n, [list(map(int, r)) for r in table]) for _, n, table in random_tables(5, 12, (5, 10), k=(2, 4))]
     cases.append((300, [list(map(int, r)) for r in random_table(np.random.default_rng(3), 300, 2)]))
     stops = set()
@@ -1129,7 +1077,8 @@ def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(mon
                 status, explored, lower, _ = _predicted_stops(table, budget)
                 # 300 states: a node budget stops the streaming phase (on this clock it would not stop)
                 nodes = explored + 20_000 if (status == "budget" and n == 300) else None
-                word, *got = exact_mod._exact_search(aut, np.arange(n), budget, 64.0, node_budget=nodes)
+                word, *got = _exact_search(aut, np.arange(n), budget, 64.0, node_budget=nodes, options=every_root,
+                                           clock=lambda: 0.0)
                 if nodes is not None:
                     assert got[0] == "budget" and got[1] >= nodes and got[2] >= lower
                     stops.add((True, "budget"))
@@ -1150,106 +1099,88 @@ def test_the_time_prediction_stops_before_the_first_level_that_would_not_fit(mon
     assert stops >= {(False, "budget"), (False, "found"), (True, "budget")}
 
 
-def test_the_meet_test_runs_when_the_clock_reads_the_deadline_exactly(monkeypatch):
+def test_the_meet_test_runs_when_the_clock_reads_the_deadline_exactly():
     """The budget is past only after its deadline. On a clock ticking one second per reading,
     Cerny C_4 (shortest word 9) and a budget of 5 s: readings t0, the meet test at total 0, the
     prediction (t0 + 2), the expansion, the meet test at total 1 (t0 + 4), the check before its
     first slice (t0 + 5: at the deadline, not past it: the slice runs and finds nothing), the
     prediction (t0 + 6: past it): stopped with lower bound 2. With 4 s the check before the slice
     is past the deadline: stopped with lower bound 1."""
-    import kruskal_markov.sync.exact as exact_mod
+    from kruskal_markov.sync.exact import _exact_search
 
-    _fake_clock(monkeypatch, exact_mod)
     aut = SyncAutomaton.from_table(cerny(4))
     assert brute_det(cerny(4)) == 9
     for budget, lower in ((5.0, 2), (4.0, 1)):
-        word, status, _, bound = exact_mod._exact_search(aut, np.arange(4), budget, 64.0)
+        word, status, _, bound = _exact_search(aut, np.arange(4), budget, 64.0, clock=_fake_clock())
         assert (word, status, bound) == (None, "budget", lower)
 
 
-def test_the_greedy_descent_gets_the_subsets_the_memory_budget_holds(monkeypatch):
-    """When the greedy word comes from the descent (Eppstein's tables and pair merging planted as
-    failing), its breadth-first searches hold at most ``memory_budget_mb`` of 8 W + 44-byte rows
-    (bitset, parent, letter, hash slots): on Cerny C_18, whose descent needs more than 1,024 rows
-    (the floor), a budget of exactly the rows it needs gives the descent's word and one row less
-    gives None, as the descent with those node budgets does."""
-    import kruskal_markov.sync.greedy as greedy
+def test_the_greedy_descent_gets_the_subsets_the_memory_budget_holds():
+    """When the greedy word comes from the descent (the only stage asked for), its breadth-first
+    searches hold at most ``memory_budget_mb`` of 8 W + 44-byte rows (bitset, parent, letter, hash
+    slots): on Cerny C_18, whose descent needs more than 1,024 rows (the floor), a budget of exactly
+    the rows it needs gives the descent's word and one row less gives None, as the descent with
+    those node budgets does."""
+    aut = SyncAutomaton.from_table(cerny(18))
 
-    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
-    monkeypatch.setattr(greedy, "_pair_merging_greedy", lambda *args, **kw: None)
-    aut, s = SyncAutomaton.from_table(cerny(18)), np.arange(18)
+    def descent(**kw):
+        return greedy_synchronizing_word(aut, stages=("descent",), **kw)
     lo, hi = 1024, 1 << 14                          # the fewest rows the descent needs
-    assert greedy._greedy_descent(aut, s, lo) is None and greedy._greedy_descent(aut, s, hi) is not None
+    assert descent(node_budget=lo) is None and descent(node_budget=hi) is not None
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        lo, hi = (lo, mid) if greedy._greedy_descent(aut, s, mid) is not None else (mid, hi)
-    word = greedy._greedy_descent(aut, s, hi)
+        lo, hi = (lo, mid) if descent(node_budget=mid) is not None else (mid, hi)
+    word = descent(node_budget=hi)
     assert len(plain_image(cerny(18), range(18), word)) == 1
     row = 8 * 1 + 44
-    assert greedy_synchronizing_word(aut, memory_budget_mb=(hi + 0.5) * row / 2 ** 20) == word
-    assert greedy_synchronizing_word(aut, memory_budget_mb=(hi - 0.5) * row / 2 ** 20) is None
+    assert descent(memory_budget_mb=(hi + 0.5) * row / 2 ** 20) == word
+    assert descent(memory_budget_mb=(hi - 0.5) * row / 2 ** 20) is None
 
 
-def test_the_greedy_descent_returns_its_word_once_a_single_state_is_reached(monkeypatch):
+def test_the_greedy_descent_returns_its_word_once_a_single_state_is_reached():
     """The descent checks its deadline before each step only: letter 0 maps q to max(q - 1, 0),
     letter 1 fixes every state; from four states three steps of letter 0 reach state 0. On a clock
     ticking one second per reading (t0, t0 + 1, t0 + 2 before the steps) a deadline of t0 + 2
     gives the word, t0 + 1 gives None (passed before the third step)."""
-    import kruskal_markov.sync.greedy as greedy
-
     start = 10.0 ** 6
     table = [[0, 0, 1, 2], [0, 1, 2, 3]]
     aut = SyncAutomaton.from_table(table)
     assert plain_image(table, range(4), [0, 0, 0]) == {0} and plain_image(table, range(4), [0, 0]) == {0, 1}
-    _fake_clock(monkeypatch, greedy, start=start)
-    assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 2) == [0, 0, 0]
-    _fake_clock(monkeypatch, greedy, start=start)
-    assert greedy._greedy_descent(aut, np.arange(4), 1024, deadline=start + 1) is None
+    for deadline, want in ((start + 2, [0, 0, 0]), (start + 1, None)):
+        assert greedy_synchronizing_word(aut, node_budget=1024, deadline=deadline, stages=("descent",),
+                                         clock=_fake_clock(start)) == want
 
 
 @pytest.mark.parametrize("chunk", [2, 3])
-def test_depth_first_chunks_of_a_few_frontier_sets_cover_the_frontier(monkeypatch, chunk):
+def test_depth_first_chunks_of_a_few_frontier_sets_cover_the_frontier(chunk):
     """The depth-first phase extends every set of the newest forward level, chunk by chunk: with
     chunks of 2 or 3 sets (the module's constant patched; 4,096 in use) on 60-state random
     automata too large for the breadth-first stores of 0.05 MB, the shortest length is still
     the brute-force one."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
-    _no_dominance(monkeypatch, exact_mod)
+    options = ExactSearchOptions(dfs_chunk=chunk, use_beam=False)   # the beam's word would be proven shortest first
     for seed in (1, 2, 4, 7):
         table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
         r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=0.05,
-                                        node_budget=10 ** 8)
+                                        node_budget=10 ** 8, options=options)
         assert r.method == "bidirectional-bfs+dfs" and r.exact
         assert r.length == brute_bitmask(table) and len(plain_image(table, range(60), r.word)) == 1
 
 
 @pytest.mark.parametrize("bytes_48, chunk, whole", [(1050, 10, True), (1050, 11, False), (208, 4, True)])
-def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_above_it(monkeypatch, bytes_48, chunk,
-                                                                                   whole):
+def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_above_it(bytes_48, chunk, whole):
     """The depth-first phase gets a quarter of the memory budget and expands at most ``cap / k``
     sets at a time, ``cap = max(4 k, quarter / (8 W + 44) / 12)`` bytes-per-row; a larger batch
     is halved, a batch within the cap is expanded whole. Budgets of 48 x 1,050 and 48 x 208 bytes
     (a quarter of them is 12 x 1,050 and 12 x 208) give caps of 20 (1,050 / 52) and 8 (the 4 k
-    floor over 208 / 52); frontier chunks (the module's constant patched) of 10 and 4 sets fit
-    and are seen expanded whole, chunks of 11 never are. Every chunk store is spied; the answers
-    are the brute-force ones."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    real = exact_mod.SubsetStore
+    floor over 208 / 52); frontier chunks (``dfs_chunk``) of 10 and 4 sets fit and are seen
+    expanded whole, chunks of 11 never are. Every batch expanded is observed (the ``dfs-batch``
+    event); the answers are the brute-force ones."""
     sizes = []
 
-    class Spy(real):
-        def __init__(self, W, cap, max_rows):
-            if cap == max_rows and cap % 3 == 0:      # a chunk store: m sets and their 2 m images
-                sizes.append(cap // 3)
-            super().__init__(W, cap, max_rows)
-    monkeypatch.setattr(exact_mod, "SubsetStore", Spy)
-    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", chunk)
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)      # the beam's word would be proven shortest first
-    _no_dominance(monkeypatch, exact_mod)
+    def observe(event, value):
+        if event == "dfs-batch":
+            sizes.append(value)
+    options = ExactSearchOptions(dfs_chunk=chunk, use_beam=False, observe=observe)   # the beam off: see above
     memory_mb = bytes_48 * 48 / 2 ** 20
     cap = max(4 * 2, int(memory_mb / 4 * 2 ** 20 / (8 + 44) / 12))
     assert cap == (20 if bytes_48 == 1050 else 8)
@@ -1257,21 +1188,19 @@ def test_depth_first_chunks_stay_within_their_memory_cap_and_are_split_only_abov
         sizes.clear()
         table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
         r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=memory_mb,
-                                        node_budget=10 ** 8)
+                                        node_budget=10 ** 8, options=options)
         assert r.method == "bidirectional-bfs+dfs" and r.length == brute_bitmask(table)
         assert sizes and max(sizes) * 2 <= cap
         assert (chunk in sizes) == whole
 
 
-def test_pair_merging_searches_at_most_the_pairs_the_memory_budget_holds(monkeypatch):
+def test_pair_merging_searches_at_most_the_pairs_the_memory_budget_holds():
     """Pair merging's breadth-first search in the pair graph keeps at most ``memory_budget_mb /
     64 bytes`` pairs (at least 65,536): 600 states, two random permutations and a letter merging
     only 0 and 1, start {10, 500}. A plain pair-graph search finds the merging depth and the
     pairs within one letter less, more than 65,536; a budget holding exactly those pairs gives
     the merging word, one pair less gives None (Eppstein's tables and the descent planted as
     failing)."""
-    import kruskal_markov.sync.greedy as greedy
-
     n = 600
     rng = np.random.default_rng(0)
     c = np.arange(n)
@@ -1291,9 +1220,8 @@ def test_pair_merging_searches_at_most_the_pairs_the_memory_budget_holds(monkeyp
             break
         level, depth = nxt, depth + 1
     assert within > 1 << 16
-    monkeypatch.setattr(greedy, "_eppstein_fits", lambda aut, mb: False)
-    monkeypatch.setattr(greedy, "_greedy_descent", lambda *args, **kw: None)
     aut = SyncAutomaton.from_table(table)
-    word = greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within + 0.5) * 64 / 2 ** 20)
+    word = greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within + 0.5) * 64 / 2 ** 20, stages=("pairs",))
     assert len(word) == depth + 1 and len(plain_image(table, [10, 500], word)) == 1
-    assert greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within - 0.5) * 64 / 2 ** 20) is None
+    assert greedy_synchronizing_word(aut, [10, 500], memory_budget_mb=(within - 0.5) * 64 / 2 ** 20,
+                                     stages=("pairs",)) is None

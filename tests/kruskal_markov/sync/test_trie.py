@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 
 from kruskal_markov import generators
-from kruskal_markov.sync import SyncAutomaton, _trie, is_synchronizing_word, shortest_synchronizing_word
+from kruskal_markov.sync import (
+    ExactSearchOptions,
+    SyncAutomaton,
+    _trie,
+    is_synchronizing_word,
+    shortest_synchronizing_word,
+)
 from tests.kruskal_markov.sync.test_exact import brute
 
 
@@ -27,12 +33,11 @@ def random_family(rng, count, n):
 
 
 @pytest.mark.parametrize("tasks", [1, 3])
-def test_superset_and_subset_queries_agree_with_a_plain_scan(tasks, monkeypatch):
+def test_superset_and_subset_queries_agree_with_a_plain_scan(tasks):
     """300 random families (1-200 states, so 1-4 words; 0-300 stored sets, queries that include
     stored sets and duplicates): ``superset_mask`` flags a query exactly when some stored set lies
     inside it (a different one with ``proper``), ``subset_mask`` exactly when it lies inside one.
-    The parallel split is forced on for ``tasks=3`` (its threshold patched down)."""
-    monkeypatch.setattr(_trie, "_PAR_MIN", 1)
+    The parallel split is forced on for ``tasks=3`` (its threshold ``min_parallel`` set to 1)."""
     rng = np.random.default_rng(4360)
     seen = set()
     for _ in range(300):
@@ -46,8 +51,8 @@ def test_superset_and_subset_queries_agree_with_a_plain_scan(tasks, monkeypatch)
         for proper in (False, True):
             want_sup = (inside & ~same).any(axis=1) if proper else inside.any(axis=1)
             want_sub = (holds & ~same).any(axis=1) if proper else holds.any(axis=1)
-            got_sup = _trie.superset_mask(Sb, Qb, proper=proper, tasks=tasks)
-            got_sub = _trie.subset_mask(Sb, Qb, n, proper=proper, tasks=tasks)
+            got_sup = _trie.superset_mask(Sb, Qb, proper=proper, tasks=tasks, min_parallel=1)
+            got_sub = _trie.subset_mask(Sb, Qb, n, proper=proper, tasks=tasks, min_parallel=1)
             assert got_sup.tolist() == want_sup.tolist()
             assert got_sub.tolist() == want_sub.tolist()
             seen.update((bool(x), "sup") for x in want_sup)
@@ -81,25 +86,20 @@ def test_bad_shapes_are_refused():
 @pytest.mark.parametrize("forward, backward, visited, trie_meet", [
     (True, True, True, False), (True, False, True, False), (False, True, True, False),
     (True, True, False, False), (True, True, True, True)])
-def test_dominance_keeps_every_shortest_length(monkeypatch, forward, backward, visited, trie_meet):
+def test_dominance_keeps_every_shortest_length(forward, backward, visited, trie_meet):
     """With either direction's dominance pruning, against the level only or every earlier level, and
     with the trie's meet test: on 50 small random automata (5-16 states, 2-4 letters, some not
     synchronizing) and Cerny C_5..C_8, the search (beam off, so it must find the word itself) gives
     exactly the brute-force length, a word that synchronizes, or no word when none exists."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
-    monkeypatch.setattr(exact_mod, "_FORWARD_DOMINANCE", forward)
-    monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", backward)
-    monkeypatch.setattr(exact_mod, "_DOMINANCE_VISITED", visited)
-    monkeypatch.setattr(exact_mod, "_TRIE_MEET", trie_meet)
+    options = ExactSearchOptions(use_beam=False, forward_dominance=forward, backward_dominance=backward,
+                                 forward_visited=visited, trie_meet=trie_meet)
     rng = np.random.default_rng(4362)
     tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(50)]
     tables += [generators.cerny_table(n) for n in range(5, 9)]
     nones = 0
     for table in tables:
         aut = SyncAutomaton.from_table(table)
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
         want = brute(table)
         assert r.length == want and r.exact
         if want is None:
@@ -109,53 +109,63 @@ def test_dominance_keeps_every_shortest_length(monkeypatch, forward, backward, v
     assert 0 < nones < len(tables)
 
 
-def test_dominance_prunes_and_keeps_the_answer_on_a_larger_automaton(monkeypatch):
+def test_dominance_prunes_and_keeps_the_answer_on_a_larger_automaton():
     """On a random binary automaton of 60 states the pruning keeps fewer subsets than the plain
     search (counts of subsets, machine-independent) and the same shortest length, with a word."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
     aut = SyncAutomaton.from_table(generators.random_table(60, 2, 4363))
     got = {}
     for on in (False, True):
-        monkeypatch.setattr(exact_mod, "_FORWARD_DOMINANCE", on)
-        monkeypatch.setattr(exact_mod, "_BACKWARD_DOMINANCE", on)
-        got[on] = shortest_synchronizing_word(aut, time_budget=None)
+        options = ExactSearchOptions(use_beam=False, forward_dominance=on, backward_dominance=on)
+        got[on] = shortest_synchronizing_word(aut, time_budget=None, options=options)
     assert got[True].length == got[False].length and got[True].exact and got[False].exact
     assert is_synchronizing_word(aut, got[True].word)
     assert got[True].states_explored < got[False].states_explored
 
 
 @pytest.mark.parametrize("switch_rows", [4, 40])
-def test_inverse_depth_first_phase_keeps_every_shortest_length(monkeypatch, switch_rows):
+def test_inverse_depth_first_phase_keeps_every_shortest_length(switch_rows):
     """The depth-first phase from the backward side (entered early: once a breadth-first level
     would exceed ``switch_rows`` sets), its chunks (the module's constant patched to 3 sets) and
     the trie's meet test: on 60 small random automata and Cerny C_5..C_8, with the greedy word as
     the bound (beam off, so the search has words to find below it), the answer is the brute-force
-    length, exact, with a word that synchronizes; some answers come from the inverse phase."""
-    import kruskal_markov.sync.exact as exact_mod
-
-    monkeypatch.setattr(exact_mod, "_USE_BEAM", False)
-    monkeypatch.setattr(exact_mod, "_DFS_SWITCH_ROWS", switch_rows)
-    monkeypatch.setattr(exact_mod, "_DFS_CHUNK", 3)
+    length, exact, with a word that synchronizes; some answers come from the inverse phase (seen
+    through ``ExactSearchOptions.observe``)."""
     inverse_found = []
-    real = exact_mod._inverse_depth_first_phase
 
-    def spy(*args, **kw):
-        out = real(*args, **kw)
-        inverse_found.append(out[1] == "found-dfs")
-        return out
-    monkeypatch.setattr(exact_mod, "_inverse_depth_first_phase", spy)
+    def observe(event, value):
+        if event == "inverse-dfs":
+            inverse_found.append(value == 1)
+    options = ExactSearchOptions(use_beam=False, dfs_switch_rows=switch_rows, dfs_chunk=3, observe=observe)
     rng = np.random.default_rng(4364)
     tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
     tables += [generators.cerny_table(n) for n in range(5, 9)]
     methods = set()
     for table in tables:
         aut = SyncAutomaton.from_table(table)
-        r = shortest_synchronizing_word(aut, time_budget=None)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
         want = brute(table)
         assert r.length == want and r.exact
         if want is not None:
             assert is_synchronizing_word(aut, r.word)
         methods.add(r.method)
     assert "bidirectional-bfs+dfs" in methods and any(inverse_found)
+
+
+@pytest.mark.parametrize("max_small", [0, 3, 256])
+def test_the_size_split_answers_as_the_walk(max_small):
+    """``superset_mask`` with a :class:`~kruskal_markov.sync._trie.SizeSplit` of the stored rows
+    (queries smaller than every stored row answered at once, those below the cut scanned against
+    the few small stored rows, the rest walked) flags exactly the queries containing a stored set,
+    on 200 random families (1-200 states, densities and sizes varied, duplicates included)."""
+    rng = np.random.default_rng(4374)
+    for _ in range(200):
+        n = int(rng.integers(1, 200))
+        S = random_family(rng, int(rng.integers(1, 300)), n)
+        Q = np.concatenate([random_family(rng, int(rng.integers(0, 120)), n), S[:int(rng.integers(0, 20))]])
+        want = (S[None, :, :] <= Q[:, None, :]).all(axis=2).any(axis=1)
+        Sb, Qb = pack(S), pack(Q)
+        Ss = Sb[_trie.lex_order(Sb)]
+        split = _trie.SizeSplit(Ss, max_small=max_small)
+        assert split.small.shape[0] <= max_small
+        got = _trie.superset_mask(Ss, Qb, sorted_stored=True, split=split, tasks=1)
+        assert got.tolist() == want.tolist()

@@ -1,0 +1,118 @@
+"""The exact reset-word search's design choices, as one frozen value (issue 42).
+
+:func:`~kruskal_markov.sync.exact.shortest_synchronizing_word` takes an :class:`ExactSearchOptions`;
+the defaults are the measured best (docs/plans.md, issue 43). The other fields exist to measure what
+each technique buys and to let tests reach a phase directly (the depth-first phases on small
+automata, the search without the beam's first word); they never change a proven answer, only the
+work done to reach it.
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+__all__ = ["ExactSearchOptions"]
+
+_LAST_SIDES = (None, "forward", "backward")
+
+
+@dataclass(frozen=True)
+class ExactSearchOptions:
+    """Switches of the exact search (immutable; the defaults are the ones in use).
+
+    Attributes
+    ----------
+    use_beam : bool, default True
+        Run the inverse beam search for a short first word (synchrowords' ``Beam``, Szykula and
+        Zyzik, ESA 2022); off, the search has to find every word itself.
+    fast_nodes : int or None, default 32,768
+        Sets an exact search may generate below the greedy word before the beam runs (small
+        automata are answered without it); None: the beam first. Not used with a node budget.
+    forward_dominance, backward_dominance : bool, default False
+        Drop a new forward set containing another forward set, or a new backward set inside another
+        backward set (Kisielewicz, Kowalski and Szykula, J. Comb. Optim. 29, 2015), found by the
+        implicit subset trie. Off: the check costs more than it saves here (docs/plans.md).
+    forward_visited, backward_visited : bool, default True
+        Dominance against every earlier level of the direction, not only the new level.
+    trie_meet : bool, default True
+        The meet test by the implicit subset trie; off: by the rarest-member index.
+    restrict_roots : bool, default True
+        Backward roots only at the states a letter merges two states into.
+    inverse_dfs : bool, default True
+        The depth-first phase from the backward side when the forward level is the larger.
+    dfs_switch_rows : int or None, default None
+        Enter the depth-first phase once a breadth-first level would hold more sets than this
+        (None: only when memory or time run out, or the cost model says so).
+    dfs_chunk : int, default 4,096
+        Sets of the newest level per chunk of a depth-first phase.
+    cost_model : bool, default True
+        synchrowords' cost model decides the switch to the inverse depth-first phase.
+    step_by_cost : bool, default False
+        The breadth-first step by the cost model's cheaper step, not the smaller newest level.
+    last_unhashed : bool, default True
+        The last length to test is met without storing its level.
+    last_side : {None, "forward", "backward"}, default None
+        The direction of that last level (None: the step rule's).
+    parallel : bool or None, default None
+        Split large levels' images and the meet test's trie walks over Numba's threads. None:
+        only when the load average leaves a core idle at the search's start (a split walk costs
+        about 1.45 times the CPU of one batch, so on busy cores it is slower; docs/plans.md).
+    observe : callable or None, default None
+        Called as ``observe(event, value)`` when the search reaches a stage: ``"fast-path"`` (sets
+        generated), ``"beam"`` (the word's length, or -1), ``"inverse-dfs"`` (1 if it found a word,
+        else 0), ``"dfs-batch"`` (sets expanded together in a depth-first phase). For measurements
+        and tests; it does not change the search.
+
+    Examples
+    --------
+    >>> ExactSearchOptions().use_beam
+    True
+    >>> ExactSearchOptions(use_beam=False, dfs_chunk=3).dfs_chunk
+    3
+    """
+
+    use_beam: bool = True
+    fast_nodes: int | None = 1 << 15
+    forward_dominance: bool = False
+    backward_dominance: bool = False
+    forward_visited: bool = True
+    backward_visited: bool = True
+    trie_meet: bool = True
+    restrict_roots: bool = True
+    inverse_dfs: bool = True
+    dfs_switch_rows: int | None = None
+    dfs_chunk: int = 4096
+    cost_model: bool = True
+    step_by_cost: bool = False
+    last_unhashed: bool = True
+    last_side: str | None = None
+    parallel: bool | None = None
+    observe: Callable[[str, int], None] | None = None
+
+    def __post_init__(self):
+        if self.last_side not in _LAST_SIDES:
+            raise ValueError(f"last_side must be one of {_LAST_SIDES}, got {self.last_side!r}")
+        if int(self.dfs_chunk) != self.dfs_chunk or self.dfs_chunk < 1:
+            raise ValueError(f"dfs_chunk must be a positive integer, got {self.dfs_chunk!r}")
+        for name in ("fast_nodes", "dfs_switch_rows"):
+            v = getattr(self, name)
+            if v is not None and (int(v) != v or v < 1):
+                raise ValueError(f"{name} must be a positive integer or None, got {v!r}")
+
+    @property
+    def tasks(self) -> int:
+        """Slices per parallel kernel call: 8 with :attr:`parallel`, else 1 (one thread)."""
+        return 8 if self.parallel else 1
+
+    def resolved(self) -> ExactSearchOptions:
+        """These options with ``parallel`` decided (None: True when the 1-minute load average is
+        at most the number of CPUs less one)."""
+        if self.parallel is not None:
+            return self
+        return replace(self, parallel=os.getloadavg()[0] <= (os.cpu_count() or 1) - 1)
+
+    def emit(self, event: str, value: int) -> None:
+        """Pass ``(event, value)`` to :attr:`observe`, if set."""
+        if self.observe is not None:
+            self.observe(event, int(value))
