@@ -136,7 +136,8 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     if store:
         path = model_path or json.load(open(files[0]))["model_path"]
         model = _model({}, path)
-        with_calibration(model, q, level=0.9, steps=len(s), seeds=seeds,
+        sequences = sum(len(json.load(open(f))["per_sequence"]) for f in files)
+        with_calibration(model, q, level=0.9, steps=len(s), sequences=sequences, seeds=seeds,
                          scores=[round(float(x), 6) if math.isfinite(x) else None for x in s]).save(path)
         print(f"stored in {path}")
     return q
