@@ -9,6 +9,8 @@ seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps 
 coverage of kept runs under the relative rule at 0.105 and at the model's own term, and, with
 ``--calibration``, under the relative and the flow rule calibrated on those runs; its last row is a 95%
 interval of the pooled coverage that resamples whole sequences (:func:`sequence_bootstrap_interval`).
+``python -m benchmarks.bench_coverage study --model=PATH FILE ...`` resamples calibrations from 2-12 of the
+runs' sequences (:func:`calibration_study`: how many sequences a calibration needs).
 ``python -m benchmarks.bench_coverage loro --model=PATH FILE ...`` holds each kept run out in turn and
 calibrates both rules on the others (the tuning evidence on the flow rule, docs/uncertainty.md).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
@@ -167,6 +169,49 @@ def sequence_bootstrap_interval(per_sequence: list[np.ndarray], resamples: int =
     return float(np.quantile(share, 0.025)), float(np.quantile(share, 0.975))
 
 
+def calibration_study(per_sequence: list[np.ndarray], sizes=(2, 4, 8, 12), resamples: int = 2000,
+                      seed: int = 0, level: float = 0.9) -> dict:
+    """How many sequences a per-model calibration needs: resampled calibrations from ``k`` of a model's kept
+    sequences, each scored on the sequences it did not use and on all of them.
+
+    For each ``k`` in ``sizes`` (below the number of sequences), ``resamples`` times: ``k`` sequences drawn
+    without replacement (``numpy.random.default_rng(seed)``), delta = the split-conformal ``level``
+    quantile of their pooled steps' scores (what ``kruskal validate --calibrate`` stores), and the pooled
+    coverage at that delta of (a) the other sequences (``held_out``: calibration and test noise together)
+    and (b) all sequences (``all``: the calibration's own spread; optimistic, the calibration sequences are
+    among them).
+
+    Parameters
+    ----------
+    per_sequence : list of numpy.ndarray
+        Per sequence, its steps' relative-rule scores (:func:`kruskal_markov.structural.structural_score`).
+
+    Returns
+    -------
+    dict
+        ``{k: {"held_out": array, "all": array}}`` of the resampled coverages.
+    """
+    from kruskal_markov.structural import conformal_quantile
+
+    seqs = [np.asarray(x, dtype=np.float64) for x in per_sequence]
+    if len(seqs) < 2:
+        raise ValueError("need at least two sequences")
+    every = np.concatenate(seqs)
+    rng = np.random.default_rng(seed)
+    out = {}
+    for k in sizes:
+        if not 0 < k < len(seqs):
+            continue
+        held, pool = np.empty(resamples), np.empty(resamples)
+        for r in range(resamples):
+            p = rng.permutation(len(seqs))
+            d = conformal_quantile(np.concatenate([seqs[i] for i in p[:k]]), level)
+            held[r] = np.mean(np.concatenate([seqs[i] for i in p[k:]]) <= d)
+            pool[r] = np.mean(every <= d)
+        out[k] = {"held_out": held, "all": pool}
+    return out
+
+
 def _split(res: dict, inside: np.ndarray) -> list[np.ndarray]:
     """``inside`` (steps 1..N of every sequence of a kept run, concatenated) cut back into sequences."""
     ends = np.cumsum([len(s["reference"]) - 1 for s in res["per_sequence"]])
@@ -212,6 +257,25 @@ def evaluate(files: list[str], model_path: str, calibration: list[str] | None = 
     boot = [sequence_bootstrap_interval(sequences[k]) for k, _, _ in cols]
     print(f"| pooled, 95% by sequence ({len(sequences[cols[0][0]])} sequences resampled) | | "
           + " | ".join(f"{100 * lo:.0f}-{100 * hi:.0f}" for lo, hi in boot) + " |")
+
+
+def study(files: list[str], model_path: str) -> dict:
+    """Prints :func:`calibration_study` of kept runs of ``model_path`` (scores recomputed on the model): per
+    calibration size, the median and 5-95% range of the resampled coverages and the share inside 85-95%."""
+    model = _model({}, model_path)
+    seqs = []
+    for f in files:
+        res = json.load(open(f))
+        seqs += _split(res, _steps(res, 0.0, model)[1])
+    out = calibration_study(seqs)
+    print(f"{len(seqs)} sequences; coverage at 0.105: {np.mean(np.concatenate(seqs) <= 0.105):.3f}")
+    print("| calibration sequences | held out: median (5-95%) | in 85-95% | all: median (5-95%) | in 85-95% |")
+    print("|---|---|---|---|---|")
+    for k, v in out.items():
+        cells = [f"{100 * np.median(x):.1f}% ({100 * np.quantile(x, 0.05):.1f}-{100 * np.quantile(x, 0.95):.1f})"
+                 f" | {np.mean((x >= 0.85) & (x <= 0.95)):.2f}" for x in (v["held_out"], v["all"])]
+        print(f"| {k} | " + " | ".join(cells) + " |")
+    return out
 
 
 def leave_one_run_out(files: list[str], model_path: str) -> dict:
@@ -287,6 +351,8 @@ def main(argv: list[str] | None = None) -> None:
         cal = [x.split("=", 1)[1].split(",") for x in rest if x.startswith("--calibration=")]
         evaluate([x for x in rest if not x.startswith("--calibration=")], argv[1].split("=", 1)[1],
                  cal[0] if cal else None)
+    elif argv and argv[0] == "study":
+        study(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "loro":
         leave_one_run_out(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "calibrate":
