@@ -59,7 +59,7 @@ STRUCTURAL_RULE = "relative"
 #: The fewest random sequences a stored calibration should pool before its delta is trusted. A chunk
 #: error is an event of a whole sequence, so a 90% quantile of a few sequences' steps varies widely: on the
 #: key's 17 kept sequences, calibrations resampled from 2 of them gave deltas whose coverage of all 17
-#: ranged over 65-99% (5-95%), from 8 over 81-95%, from 12 over 85-93% (docs/uncertainty.md, "How many
+#: ranged over 65-99% (5-95%), from 8 over 80-95%, from 12 over 84-93% (docs/uncertainty.md, "How many
 #: sequences a calibration needs"). Below it the calibration and the model's note say so.
 MIN_CALIBRATION_SEQUENCES = 12
 
