@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from benchmarks.bench_coverage import _split, calibration_study, sequence_bootstrap_interval
+from benchmarks.bench_coverage import _split, calibration_study, kept_references, sequence_bootstrap_interval
 
 
 def test_all_or_nothing_sequences_give_the_binomial_spread_of_sequences():
@@ -61,3 +61,31 @@ def test_calibration_study_spreads_with_few_sequences_and_not_with_identical_one
     assert np.ptp(same["held_out"]) == 0 and np.ptp(same["all"]) == 0
     with pytest.raises(ValueError):
         calibration_study([np.zeros(3)])
+
+
+def test_kept_references_simulate_each_reference_once_and_resume_from_disk(tmp_path, monkeypatch):
+    """A stopped run resumes: a reference asked again (even by a new process's simulate) is read back, not
+    simulated; another seed, sequence or trial count is simulated anew."""
+    from types import SimpleNamespace
+
+    import analysis.validate as av
+
+    calls = []
+
+    def fake(scene, seq, trials, sd, noise):
+        calls.append((tuple(seq), trials, sd))
+        return {"seq": list(seq), "trials": trials, "seed": sd}
+
+    model = SimpleNamespace(metadata={"scene": {"shape": "toy"}})
+    monkeypatch.setattr(av, "model_grid", lambda m: None)
+    first = kept_references(str(tmp_path), model, simulate=fake)
+    a = first(None, [0, 1, 2], 10, 7, "none")
+    again = kept_references(str(tmp_path), model, simulate=fake)     # a new job
+    assert again(None, [0, 1, 2], 10, 7, "none") == a and len(calls) == 1
+    again(None, [0, 1, 2], 10, 8, "none")
+    again(None, [0, 1, 1], 10, 7, "none")
+    again(None, [0, 1, 2], 20, 7, "none")
+    assert len(calls) == 4
+    other = kept_references(str(tmp_path), SimpleNamespace(metadata={"scene": {"shape": "other"}}), simulate=fake)
+    other(None, [0, 1, 2], 10, 7, "none")                            # another scene: not the kept one
+    assert len(calls) == 5
