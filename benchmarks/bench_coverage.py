@@ -3,12 +3,17 @@
 ``python -m benchmarks.bench_coverage run MODEL LABEL SEED [SEED ...]`` validates a built model on
 random sequences of each seed (``kruskal validate``'s code: M = 2,000 trials, 30 tilts, 2 sequences per
 seed by default; ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` override) and keeps each run's JSON in
-``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated).
+``benchmarks/data/coverage/`` (committed: the runs are the evidence for the default) (a run already there is not repeated; with ``COVERAGE_RESUME=DIR`` each sequence's reference is kept in DIR
+as it is simulated, :func:`kept_references`, so a run stopped by its lock job's cap resumes where it stopped).
 
 ``python -m benchmarks.bench_coverage evaluate --model=PATH FILE ... [--calibration=FILE,FILE,...]`` prints the
 coverage of kept runs under the relative rule at 0.105 and at the model's own term, and, with
 ``--calibration``, under the relative and the flow rule calibrated on those runs; its last row is a 95%
 interval of the pooled coverage that resamples whole sequences (:func:`sequence_bootstrap_interval`).
+``python -m benchmarks.bench_coverage calibrate-run MODEL OUT.json SEED`` is ``kruskal validate --calibrate``
+with the same environment (resumable).
+``python -m benchmarks.bench_coverage study --model=PATH FILE ...`` resamples calibrations from 2-12 of the
+runs' sequences (:func:`calibration_study`: how many sequences a calibration needs).
 ``python -m benchmarks.bench_coverage loro --model=PATH FILE ...`` holds each kept run out in turn and
 calibrates both rules on the others (the tuning evidence on the flow rule, docs/uncertainty.md).
 ``python -m benchmarks.bench_coverage calibrate [--store] [--model=PATH] FILE ...`` computes the split-conformal ``delta``
@@ -39,6 +44,45 @@ def _runs() -> list[pathlib.Path]:
     return sorted(HERE.glob("*.json"))
 
 
+def kept_references(cache_dir: str, model, workers: int = 2, simulate=None):
+    """A ``simulate`` for :func:`analysis.validate.validate_model` that keeps each sequence's direct-simulation
+    reference in ``cache_dir`` and returns the kept one when asked again, so that a run stopped by a lock
+    job's time cap resumes at its next sequence.
+
+    A reference is keyed by the model's scene (its metadata) and report grid, the noise, the sequence, the
+    trial count and the trial seed:
+    everything that changes it (:func:`analysis.montecarlo.run_direct` seeds each trial's start pose and
+    process noise from the seed, so a resumed run's references equal an uninterrupted run's).
+    ``simulate(scene, sequence, trials, seed, noise)`` defaults to ``run_direct`` on ``workers`` processes.
+    """
+    import hashlib
+    import pickle
+
+    from analysis.montecarlo import run_direct
+    from analysis.validate import model_grid
+
+    grid = model_grid(model)
+    if simulate is None:
+        def simulate(scene, seq, trials, sd, noise):
+            return run_direct(scene, seq, trials, seed=sd, workers=workers, grid=grid, noise=noise)
+    os.makedirs(cache_dir, exist_ok=True)
+
+    def kept(scene, seq, trials, sd, noise):
+        what = json.dumps([model.metadata.get("scene"), repr(grid), str(noise), [int(a) if not isinstance(a, str) else a
+                                                                      for a in seq], int(trials), int(sd)],
+                          sort_keys=True, default=str)
+        path = os.path.join(cache_dir, hashlib.sha256(what.encode()).hexdigest()[:24] + ".pkl")
+        if os.path.exists(path):
+            with open(path, "rb") as fh:
+                return pickle.load(fh)
+        ref = simulate(scene, seq, trials, sd, noise)
+        with open(path + ".tmp", "wb") as fh:
+            pickle.dump(ref, fh)
+        os.replace(path + ".tmp", path)
+        return ref
+    return kept
+
+
 def run(model_path: str, label: str, seeds: list[int]) -> None:
     from analysis.validate import validate_model
     from kruskal_markov.model import TransitionModel, atomic_write_text
@@ -47,17 +91,40 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
     model = TransitionModel.load(model_path)
     k = int(os.environ.get("COVERAGE_SEQUENCES", 2))
     m = int(os.environ.get("COVERAGE_TRIALS", 2000))
+    resume = os.environ.get("COVERAGE_RESUME")
     for seed in seeds:
         out = HERE / f"{label}_seed{seed}.json"
         if out.exists():
             print(f"{out.name}: kept")
             continue
-        res = validate_model(model, sequences=k, trials=m, seed=seed, length=30, workers=2)
+        sim = kept_references(resume, model) if resume else None
+        res = validate_model(model, sequences=k, trials=m, seed=seed, length=30, workers=2, simulate=sim)
         res["model_path"] = model_path
         res["label"] = label
         atomic_write_text(str(out), json.dumps(res))
         print(f"{out.name}: coverage {res['band_coverage']:.3f} (Dirichlet alone {res['band_coverage_dirichlet']:.3f}),"
               f" mean error {res['mean_abs_error_bits']:.3f}, {res['simulation_seconds']:.0f} s")
+
+
+def calibrate_run(model_path: str, out: str, seed: int) -> None:
+    """``kruskal validate --model MODEL --seed SEED --length 30 --calibrate --json > OUT`` with
+    ``COVERAGE_SEQUENCES``/``COVERAGE_TRIALS`` (default 2 and 2,000) and, with ``COVERAGE_RESUME=DIR``, its
+    references kept per sequence (:func:`kept_references`); nothing is done if OUT exists."""
+    from analysis.commands.validate import calibrate_model
+    from analysis.validate import validate_model
+    from kruskal_markov.model import TransitionModel, atomic_write_text
+
+    if os.path.exists(out):
+        print(f"{out}: kept")
+        return
+    model = TransitionModel.load(model_path)
+    resume = os.environ.get("COVERAGE_RESUME")
+    res = validate_model(model, sequences=int(os.environ.get("COVERAGE_SEQUENCES", 2)),
+                         trials=int(os.environ.get("COVERAGE_TRIALS", 2000)), seed=seed, length=30, workers=2,
+                         simulate=kept_references(resume, model) if resume else None)
+    res["calibration"] = calibrate_model(model, res, model_path)
+    atomic_write_text(out, json.dumps(res))
+    print(f"{out}: calibrated delta {res['calibration']['delta']:.4g} from {res['calibration']['steps']} steps")
 
 
 _SCORES: dict = {}
@@ -136,7 +203,8 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     if store:
         path = model_path or json.load(open(files[0]))["model_path"]
         model = _model({}, path)
-        with_calibration(model, q, level=0.9, steps=len(s), seeds=seeds,
+        sequences = sum(len(json.load(open(f))["per_sequence"]) for f in files)
+        with_calibration(model, q, level=0.9, steps=len(s), sequences=sequences, seeds=seeds,
                          scores=[round(float(x), 6) if math.isfinite(x) else None for x in s]).save(path)
         print(f"stored in {path}")
     return q
@@ -164,6 +232,49 @@ def sequence_bootstrap_interval(per_sequence: list[np.ndarray], resamples: int =
     pick = np.random.default_rng(seed).integers(0, len(hits), size=(resamples, len(hits)))
     share = hits[pick].sum(axis=1) / steps[pick].sum(axis=1)
     return float(np.quantile(share, 0.025)), float(np.quantile(share, 0.975))
+
+
+def calibration_study(per_sequence: list[np.ndarray], sizes=(2, 4, 8, 12), resamples: int = 2000,
+                      seed: int = 0, level: float = 0.9) -> dict:
+    """How many sequences a per-model calibration needs: resampled calibrations from ``k`` of a model's kept
+    sequences, each scored on the sequences it did not use and on all of them.
+
+    For each ``k`` in ``sizes`` (below the number of sequences), ``resamples`` times: ``k`` sequences drawn
+    without replacement (``numpy.random.default_rng(seed)``), delta = the split-conformal ``level``
+    quantile of their pooled steps' scores (what ``kruskal validate --calibrate`` stores), and the pooled
+    coverage at that delta of (a) the other sequences (``held_out``: calibration and test noise together)
+    and (b) all sequences (``all``: the calibration's own spread; optimistic, the calibration sequences are
+    among them).
+
+    Parameters
+    ----------
+    per_sequence : list of numpy.ndarray
+        Per sequence, its steps' relative-rule scores (:func:`kruskal_markov.structural.structural_score`).
+
+    Returns
+    -------
+    dict
+        ``{k: {"held_out": array, "all": array}}`` of the resampled coverages.
+    """
+    from kruskal_markov.structural import conformal_quantile
+
+    seqs = [np.asarray(x, dtype=np.float64) for x in per_sequence]
+    if len(seqs) < 2:
+        raise ValueError("need at least two sequences")
+    every = np.concatenate(seqs)
+    rng = np.random.default_rng(seed)
+    out = {}
+    for k in sizes:
+        if not 0 < k < len(seqs):
+            continue
+        held, pool = np.empty(resamples), np.empty(resamples)
+        for r in range(resamples):
+            p = rng.permutation(len(seqs))
+            d = conformal_quantile(np.concatenate([seqs[i] for i in p[:k]]), level)
+            held[r] = np.mean(np.concatenate([seqs[i] for i in p[k:]]) <= d)
+            pool[r] = np.mean(every <= d)
+        out[k] = {"held_out": held, "all": pool}
+    return out
 
 
 def _split(res: dict, inside: np.ndarray) -> list[np.ndarray]:
@@ -211,6 +322,25 @@ def evaluate(files: list[str], model_path: str, calibration: list[str] | None = 
     boot = [sequence_bootstrap_interval(sequences[k]) for k, _, _ in cols]
     print(f"| pooled, 95% by sequence ({len(sequences[cols[0][0]])} sequences resampled) | | "
           + " | ".join(f"{100 * lo:.0f}-{100 * hi:.0f}" for lo, hi in boot) + " |")
+
+
+def study(files: list[str], model_path: str) -> dict:
+    """Prints :func:`calibration_study` of kept runs of ``model_path`` (scores recomputed on the model): per
+    calibration size, the median and 5-95% range of the resampled coverages and the share inside 85-95%."""
+    model = _model({}, model_path)
+    seqs = []
+    for f in files:
+        res = json.load(open(f))
+        seqs += _split(res, _steps(res, 0.0, model)[1])
+    out = calibration_study(seqs)
+    print(f"{len(seqs)} sequences; coverage at 0.105: {np.mean(np.concatenate(seqs) <= 0.105):.3f}")
+    print("| calibration sequences | held out: median (5-95%) | in 85-95% | all: median (5-95%) | in 85-95% |")
+    print("|---|---|---|---|---|")
+    for k, v in out.items():
+        cells = [f"{100 * np.median(x):.1f}% ({100 * np.quantile(x, 0.05):.1f}-{100 * np.quantile(x, 0.95):.1f})"
+                 f" | {np.mean((x >= 0.85) & (x <= 0.95)):.2f}" for x in (v["held_out"], v["all"])]
+        print(f"| {k} | " + " | ".join(cells) + " |")
+    return out
 
 
 def leave_one_run_out(files: list[str], model_path: str) -> dict:
@@ -286,6 +416,10 @@ def main(argv: list[str] | None = None) -> None:
         cal = [x.split("=", 1)[1].split(",") for x in rest if x.startswith("--calibration=")]
         evaluate([x for x in rest if not x.startswith("--calibration=")], argv[1].split("=", 1)[1],
                  cal[0] if cal else None)
+    elif argv and argv[0] == "calibrate-run":
+        calibrate_run(argv[1], argv[2], int(argv[3]))
+    elif argv and argv[0] == "study":
+        study(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "loro":
         leave_one_run_out(argv[2:], argv[1].split("=", 1)[1])
     elif argv and argv[0] == "calibrate":

@@ -42,7 +42,8 @@ import numpy as np
 
 __all__ = ["STRUCTURAL_DELTA", "STRUCTURAL_RULE", "entropy_range_tv", "structural_share", "band_with_structure",
            "structural_score", "conformal_quantile", "StructuralTerm", "structural_term", "with_calibration",
-           "is_sampled", "row_variance", "structural_flow", "flow_scores"]
+           "is_sampled", "row_variance", "structural_flow", "flow_scores", "MIN_CALIBRATION_SEQUENCES",
+           "calibration_warning"]
 
 #: The fallback relative structural error of a *built* model that carries no calibration of its own:
 #: the share of the not-yet-gathered probability that the model may have misplaced (split-conformal
@@ -54,6 +55,13 @@ STRUCTURAL_DELTA = 0.105
 #: and one naming another rule (e.g. ``"flow"``, measured and not adopted) is ignored: its delta is on
 #: another scale. A record without a rule predates the name and is of this rule.
 STRUCTURAL_RULE = "relative"
+
+#: The fewest random sequences a stored calibration should pool before its delta is trusted. A chunk
+#: error is an event of a whole sequence, so a 90% quantile of a few sequences' steps varies widely: on the
+#: key's 17 kept sequences, calibrations resampled from 2 of them gave deltas whose coverage of all 17
+#: ranged over 65-99% (5-95%), from 8 over 80-95%, from 12 over 84-93% (docs/uncertainty.md, "How many
+#: sequences a calibration needs"). Below it the calibration and the model's note say so.
+MIN_CALIBRATION_SEQUENCES = 12
 
 #: What the output says for a model that was not sampled.
 NO_TERM_NOTE = ("no structural term: the model was not sampled from physics (an automaton given exactly, "
@@ -124,13 +132,33 @@ def structural_term(model, delta: float | None = None) -> StructuralTerm:
                               "--calibrate` renews it)")
     if isinstance(rec, dict) and isinstance(rec.get("delta"), (int, float)) and math.isfinite(rec["delta"]) \
             and rec["delta"] >= 0:
+        seqs = rec.get("sequences")
+        of = f" of {seqs} sequences" if isinstance(seqs, int) else ""
+        warn = calibration_warning(seqs)
         return StructuralTerm(float(rec["delta"]), "calibrated",
                               f"structural delta {rec['delta']:.4g} calibrated on this model "
-                              f"({rec.get('steps', '?')} steps of `kruskal validate --calibrate`, seeds "
-                              f"{', '.join(map(str, rec.get('seeds', []))) or '?'})")
+                              f"({rec.get('steps', '?')} steps{of} of `kruskal validate --calibrate`, seeds "
+                              f"{', '.join(map(str, rec.get('seeds', []))) or '?'})" + (f"; {warn}" if warn else ""))
     return StructuralTerm(STRUCTURAL_DELTA, "default",
                           f"structural delta {STRUCTURAL_DELTA:g}: the allen key's calibration, this model has "
                           "none of its own (`kruskal validate --calibrate` stores one)")
+
+
+def calibration_warning(sequences) -> str | None:
+    """None for a calibration pooled from at least :data:`MIN_CALIBRATION_SEQUENCES` sequences, else one
+    line saying it rests on fewer (or on an unknown number: a record that predates the count).
+
+    Parameters
+    ----------
+    sequences : int or None
+        The sequences the calibration pooled (``metadata["structural"]["sequences"]``).
+    """
+    if isinstance(sequences, int) and not isinstance(sequences, bool) and sequences >= MIN_CALIBRATION_SEQUENCES:
+        return None
+    n = f"{sequences} sequences" if isinstance(sequences, int) and not isinstance(sequences, bool) \
+        else "an unrecorded number of sequences"
+    return (f"calibrated on {n}, fewer than {MIN_CALIBRATION_SEQUENCES}: such a delta is unstable "
+            "(docs/uncertainty.md); pool more `kruskal validate --calibrate` runs of other seeds")
 
 
 def with_calibration(model, delta: float, **record):

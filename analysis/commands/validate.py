@@ -67,11 +67,13 @@ def run(args: argparse.Namespace) -> dict:
 def calibrate_model(model, result: dict, path: str) -> dict:
     """Store the run's split-conformal ``delta`` (pooled with earlier calibrations' steps) in the model file.
 
-    Returns the ``calibration`` JSON key: ``delta``, ``steps``, ``seeds`` and ``model`` (the path written).
+    Returns the ``calibration`` JSON key: ``delta``, ``steps``, ``sequences`` (pooled; None once a record
+    that predates the count is pooled in), ``seeds``, ``model`` (the path written) and, for a calibration of
+    fewer than :data:`kruskal_markov.structural.MIN_CALIBRATION_SEQUENCES` sequences, ``warning``.
     """
     import math
 
-    from kruskal_markov.structural import conformal_quantile, with_calibration
+    from kruskal_markov.structural import calibration_warning, conformal_quantile, with_calibration
 
     if result.get("contact") != result.get("model_contact"):
         raise InputError("--calibrate compares the model with its own physics: drop --contact")
@@ -83,13 +85,21 @@ def calibrate_model(model, result: dict, path: str) -> dict:
     new = [math.inf if x is None else float(x) for s in result["per_sequence"] for x in s["structural_needed"][1:]]
     scores = [math.inf if x is None else float(x) for x in old.get("scores", [])] + new
     seeds = [*old.get("seeds", []), result["seed"]]
+    # sequences pooled: unknown (None) once a record that predates the count is pooled in
+    before = old.get("sequences", None) if old.get("scores") else 0
+    sequences = before + len(result["per_sequence"]) if isinstance(before, int) else None
     delta = conformal_quantile(scores, 0.9)
     if not math.isfinite(delta):
         raise InputError(f"--calibrate: {len(scores)} steps do not give a finite 90% structural delta "
                          "(too few steps, or a reference no band reaches): run more --sequences")
     finite = [round(x, 6) if math.isfinite(x) else None for x in scores]
-    with_calibration(model, delta, level=0.9, steps=len(scores), seeds=seeds, scores=finite).save(path)
-    return {"delta": delta, "steps": len(scores), "seeds": seeds, "model": path}
+    with_calibration(model, delta, level=0.9, steps=len(scores), sequences=sequences, seeds=seeds,
+                     scores=finite).save(path)
+    out = {"delta": delta, "steps": len(scores), "sequences": sequences, "seeds": seeds, "model": path}
+    warn = calibration_warning(sequences)
+    if warn:
+        out["warning"] = warn
+    return out
 
 
 def format_text(result: dict) -> str:
@@ -121,6 +131,8 @@ def format_text(result: dict) -> str:
         c = result["calibration"]
         lines.append(f"calibrated: structural delta {c['delta']:.4g} from {c['steps']} steps (seeds "
                      f"{', '.join(map(str, c['seeds']))}), stored in {c['model']}")
+        if c.get("warning"):
+            lines.append(f"warning: {c['warning']}")
     if "simulation_spread_bits" in result:
         sp = result["simulation_spread_bits"]
         lines.append(f"simulator half-time-step spread: mean {sp['mean']:.3f}  max {sp['max']:.3f}")

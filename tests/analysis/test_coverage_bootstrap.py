@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from benchmarks.bench_coverage import _split, sequence_bootstrap_interval
+from benchmarks.bench_coverage import _split, calibration_study, kept_references, sequence_bootstrap_interval
 
 
 def test_all_or_nothing_sequences_give_the_binomial_spread_of_sequences():
@@ -41,3 +41,51 @@ def test_split_cuts_a_kept_runs_steps_back_into_its_sequences():
     parts = _split(res, inside)
     assert [len(p) for p in parts] == [30, 20]
     assert np.array_equal(np.concatenate(parts), inside)
+
+
+def test_calibration_study_spreads_with_few_sequences_and_not_with_identical_ones():
+    # 20 sequences of 30 steps: 18 need no term (score 0), 2 need 0.5 at every step. A calibration from
+    # 2 sequences that drew neither has delta 0: of the other 18 sequences 16 are covered (88.9%), of all
+    # 20, 18 (90%). One that drew a bad sequence has 30 of its 60 scores at 0.5, so its 55th smallest
+    # (ceil(61 * 0.9)) is 0.5 and every step is covered.
+    seqs = [np.zeros(30)] * 18 + [np.full(30, 0.5)] * 2
+    out = calibration_study(seqs, sizes=(2, 25), resamples=400)
+    assert set(out) == {2}                               # k = 25 > 20 sequences is skipped
+    held, every = out[2]["held_out"], out[2]["all"]
+    assert set(np.round(held, 6)) == {round(16 / 18, 6), 1.0}
+    assert set(np.round(every, 6)) == {0.9, 1.0}
+    # P(neither bad sequence among 2 of 20) = (18 * 17) / (20 * 19) = 0.805
+    assert abs(np.mean(held < 1) - 0.805) < 0.06
+    # identical sequences: every calibration gives the same delta and coverage
+    same = calibration_study([np.linspace(0, 1, 30)] * 6, sizes=(3,), resamples=50)[3]
+    assert np.ptp(same["held_out"]) == 0 and np.ptp(same["all"]) == 0
+    with pytest.raises(ValueError):
+        calibration_study([np.zeros(3)])
+
+
+def test_kept_references_simulate_each_reference_once_and_resume_from_disk(tmp_path, monkeypatch):
+    """A stopped run resumes: a reference asked again (even by a new process's simulate) is read back, not
+    simulated; another seed, sequence or trial count is simulated anew."""
+    from types import SimpleNamespace
+
+    import analysis.validate as av
+
+    calls = []
+
+    def fake(scene, seq, trials, sd, noise):
+        calls.append((tuple(seq), trials, sd))
+        return {"seq": list(seq), "trials": trials, "seed": sd}
+
+    model = SimpleNamespace(metadata={"scene": {"shape": "toy"}})
+    monkeypatch.setattr(av, "model_grid", lambda m: None)
+    first = kept_references(str(tmp_path), model, simulate=fake)
+    a = first(None, [0, 1, 2], 10, 7, "none")
+    again = kept_references(str(tmp_path), model, simulate=fake)     # a new job
+    assert again(None, [0, 1, 2], 10, 7, "none") == a and len(calls) == 1
+    again(None, [0, 1, 2], 10, 8, "none")
+    again(None, [0, 1, 1], 10, 7, "none")
+    again(None, [0, 1, 2], 20, 7, "none")
+    assert len(calls) == 4
+    other = kept_references(str(tmp_path), SimpleNamespace(metadata={"scene": {"shape": "other"}}), simulate=fake)
+    other(None, [0, 1, 2], 10, 7, "none")                            # another scene: not the kept one
+    assert len(calls) == 5

@@ -127,6 +127,33 @@ def test_calibrate_writes_the_conformal_quantile_into_the_model_file_and_pools_r
     json.dumps(TransitionModel.load(path).metadata)
 
 
+def test_a_calibration_of_few_sequences_says_so_until_enough_are_pooled(tmp_path):
+    """The stored record counts the sequences pooled; below MIN_CALIBRATION_SEQUENCES the calibration and
+    the model's note warn, at or above it they do not; a record without the count stays unknown."""
+    from kruskal_markov.structural import MIN_CALIBRATION_SEQUENCES, calibration_warning
+
+    path = str(tmp_path / "m.npz")
+    m = _counted(metadata=BUILT)
+    m.save(path)
+    two = [[0.0] * 9 + [0.2], [0.0] * 10]
+    c = calibrate_model(m, _result(two), path)
+    assert c["sequences"] == 2 and "2 sequences, fewer than" in c["warning"]
+    t = structural_term(TransitionModel.load(path))
+    assert "20 steps of 2 sequences" in t.note and "fewer than" in t.note
+    rest = [[0.0] * 10] * (MIN_CALIBRATION_SEQUENCES - 2)
+    c2 = calibrate_model(TransitionModel.load(path), _result(rest, seed=12), path)
+    assert c2["sequences"] == MIN_CALIBRATION_SEQUENCES and "warning" not in c2
+    t2 = structural_term(TransitionModel.load(path))
+    assert f"of {MIN_CALIBRATION_SEQUENCES} sequences" in t2.note and "fewer than" not in t2.note
+    # a record from before the count: its sequences are unknown, and pooling it keeps them unknown
+    old = with_calibration(m, 0.02, steps=60, seeds=[5], scores=[0.0] * 59 + [0.02])
+    assert "unrecorded number of sequences" in structural_term(old).note
+    c3 = calibrate_model(old, _result([[0.0] * 10] * 20, seed=13), path)
+    assert c3["sequences"] is None and "unrecorded" in c3["warning"]
+    assert calibration_warning(MIN_CALIBRATION_SEQUENCES - 1) and calibration_warning(True)
+    assert calibration_warning(MIN_CALIBRATION_SEQUENCES) is None
+
+
 def test_calibrate_refuses_what_it_cannot_calibrate(tmp_path):
     path = str(tmp_path / "m.npz")
     m = _counted(metadata=BUILT)
