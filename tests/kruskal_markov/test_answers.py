@@ -237,3 +237,126 @@ def test_posterior_draws_on_a_subsample_give_the_same_interval():
         width = b[1] - b[0]
         assert width > 0.02
         assert abs(a[0] - b[0]) < 0.15 * width and abs(a[1] - b[1]) < 0.15 * width
+
+
+def test_plan_success_interval_by_value_against_its_definition():
+    """The plan's interval recomputed from its definition: the final report-cell distribution after the
+    word, the posterior 5-95% quantiles of its most likely cell's probability over the default 20
+    draws [seed, 7, i] (shifted onto ``success``, clipped to [0, 1]), and the structural range
+    ``success -+ delta (1 - max(c))``; an explicit final cell changes which cell the draws follow."""
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.posterior import resample_model
+
+    m = _counted_model()
+    word, seed, delta = [0, 1, 2], 2, 0.2
+
+    def final(mm):
+        p = entropy_trajectory(mm, word, return_distributions=True).distributions[-1]
+        return np.bincount(m.partition, weights=p, minlength=m.n_cells)
+
+    c = final(m)
+    draws = [final(resample_model(m, np.random.default_rng([seed, 7, i]))) for i in range(20)]
+    for cell in (int(np.argmax(c)), int(np.argmin(c))):
+        success = float(c[cell])
+        out = plan_success_interval(m, word, success, seed=seed, structural_delta=delta,
+                                    final_cell=None if cell == int(np.argmax(c)) else cell)
+        q = np.quantile([d[cell] - c[cell] for d in draws], [0.05, 0.95])
+        post = [max(0.0, success + q[0]), min(1.0, success + q[1])]
+        s = delta * (1 - c.max() / c.sum())
+        assert 0 < success + q[1] < 1 and 0 < success - s and success + s < 1
+        assert out["value"] == success
+        assert out["posterior_ci90"] == pytest.approx([min(post[0], success), max(post[1], success)])
+        assert out["structural_range"] == pytest.approx([success - s, success + s])
+        lo, hi = out["posterior_ci90"]
+        assert out["model_ci90"] == pytest.approx([max(0.0, lo - s), min(1.0, hi + s)])
+
+
+def test_mean_entropies_are_reported_at_the_tilts_within_the_length():
+    """Mean entropies at tilts 10, 20 and 50, each only when the sequences are that long."""
+    m = _counted_model()
+    keys = {length: {k for k in answer_intervals(m, seed=0, count=50, length=length, draws=0, structural_delta=0,
+                                                 structural_sequences=5) if k.startswith("mean_entropy")}
+            for length in (9, 10, 19, 20, 49, 50)}
+    assert keys == {9: set(), 10: {"mean_entropy_10"}, 19: {"mean_entropy_10"},
+                    20: {"mean_entropy_10", "mean_entropy_20"}, 49: {"mean_entropy_10", "mean_entropy_20"},
+                    50: {"mean_entropy_10", "mean_entropy_20", "mean_entropy_50"}}
+
+
+def test_a_seed_given_as_a_sequence_seeds_every_stream_from_it():
+    """``seed=[3, 1]``: the ensemble is seeded [3, 1], the random tilts [3, 1, 5], the posterior draws
+    [3 + 1, 7, i] and the structural subsample [3 + 1, 8]; each figure recomputed with those streams."""
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts
+    from kruskal_markov.ensemble import random_sequences, run_ensemble
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.posterior import resample_model
+
+    m = _merging_model()           # at 0.3 bits its random tilts converge (7.6 on average), so they vary by draw
+    seed, count, length, eps, runs, cap, draws, dc, delta, sub = [3, 1], 200, 20, 0.3, 30, 60, 4, 100, 0.2, 8
+    out = answer_intervals(m, seed=seed, count=count, length=length, epsilon=eps, runs=runs, max_steps=cap,
+                           draws=draws, draw_count=dc, structural_delta=delta, structural_sequences=sub)
+    ens = run_ensemble(m, count, length, seed=seed, epsilon=eps)
+    assert out["converging_share"]["value"] == ens.converged / count
+    t = monte_carlo_entropy_tilts(m, eps, runs=runs, seed=[3, 1, 5], max_steps=cap)
+    tilts = t["mean"] if t["mean"] is not None else t["lower"]
+    assert t["censored"] == 0 and out["random_tilts"]["value"] == pytest.approx(tilts)
+
+    def figures(mm):
+        e = run_ensemble(mm, dc, length, seed=seed, epsilon=eps)
+        r = monte_carlo_entropy_tilts(mm, eps, runs=runs, seed=[3, 1, 5], max_steps=cap)
+        return {10: e.mean[10], 20: e.mean[20], "t": r["mean"] if r["mean"] is not None else r["lower"]}
+
+    base = figures(m)
+    diffs = [{k: v - base[k] for k, v in figures(resample_model(m, np.random.default_rng([4, 7, i]))).items()}
+             for i in range(draws)]
+    point = {10: ens.mean[10], 20: ens.mean[20], "t": tilts}
+    for k, key in ((10, "mean_entropy_10"), (20, "mean_entropy_20"), ("t", "random_tilts")):
+        q = np.quantile([d[k] for d in diffs], [0.05, 0.95])
+        assert out[key]["posterior_ci90"] == pytest.approx([min(point[k], point[k] + q[0]),
+                                                            max(point[k], point[k] + q[1])]), key
+    seqs = random_sequences(m.n_actions, sub, cap, seed=[4, 8])
+    h, lo, hi = [], [], []
+    for s in seqs:
+        tr = entropy_trajectory(m, s[:11], return_distributions=True)
+        c = np.bincount(m.partition, weights=tr.distributions[10], minlength=m.n_cells)
+        r = _range_by_bisection(c, delta * (1 - c.max() / c.sum()))
+        h.append(tr.entropy_bits[10])
+        lo.append(r[0])
+        hi.append(r[1])
+    h, lo, hi = map(np.asarray, (h, lo, hi))
+    assert out["mean_entropy_10"]["structural_range"] == pytest.approx(
+        [max(0.0, ens.mean[10] + np.mean(lo - h)), ens.mean[10] + np.mean(hi - h)], abs=1e-9)
+
+
+def test_the_structural_subsample_runs_at_most_400_tilts():
+    """With Monte Carlo runs of up to 1,000 tilts the structural subsample is 400 tilts long (drawn
+    [seed, 8] as a 400-column array; a sequence whose entropy never reaches epsilon counts as 400):
+    the random tilts' structural range recomputed on those sequences, the ball by bisection."""
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts
+    from kruskal_markov.ensemble import random_sequences
+    from kruskal_markov.entropy import entropy_trajectory
+
+    m = _merging_model()
+    seed, runs, eps, delta, sub, cap = 2, 20, 0.3, 1.0, 10, 400
+    out = answer_intervals(m, seed=seed, count=100, length=12, epsilon=eps, runs=runs, max_steps=1000, draws=0,
+                           structural_delta=delta, structural_sequences=sub)
+    t = monte_carlo_entropy_tilts(m, eps, runs=runs, seed=[seed, 5], max_steps=1000)
+    v = out["random_tilts"]["value"]
+    assert t["censored"] == 0 and v == pytest.approx(t["mean"])
+    firsts = []
+    for s in random_sequences(2, sub, cap, seed=[seed, 8]):
+        dist = entropy_trajectory(m, s, return_distributions=True).distributions
+        hit = [None, None, None]                   # the entropy, the ball's smallest and largest
+        for k, p in enumerate(dist):
+            c = np.bincount(m.partition, weights=p, minlength=4)
+            lo, hi = _range_by_bisection(c, delta * (1 - c.max() / c.sum()))
+            e = -sum(x * np.log2(x) for x in c / c.sum() if x > 0)
+            for j, x in enumerate((e, lo, hi)):
+                if hit[j] is None and x <= eps:
+                    hit[j] = k
+            if None not in hit:
+                break
+        firsts.append([cap if x is None else x for x in hit])
+    f = np.asarray(firsts, dtype=float)
+    expect = [max(0.0, v + np.mean(f[:, 1] - f[:, 0])), v + np.mean(f[:, 2] - f[:, 0])]
+    assert out["random_tilts"]["structural_range"] == pytest.approx(expect)
+    assert expect[0] < v < expect[1]
