@@ -159,3 +159,83 @@ def test_coverage_verdict_fails_a_band_that_is_too_wide_as_well_as_too_narrow():
     assert coverage_verdict(60, 100) == "too narrow"
     assert coverage_verdict(20, 20) == "consistent"         # 20 steps: 83.9-100%, cannot tell
     assert coverage_verdict(120, 120) == "too wide"
+
+
+def test_spread_and_every_other_key_by_value_on_the_hand_checked_case():
+    """The same case with ``--spread``: at half the time step sequence 0's trials stay in cell 0 at tilts
+    3 and 7 (0 bits where the default run had 1), sequence 1 repeats itself. By hand: the simulator's
+    spread is 1 bit at 2 of sequence 0's 10 tilts (mean 0.2, max 1) and 0 on sequence 1 (overall
+    mean 2 / 20 = 0.1, max 1); the model (0 bits from tilt 1) against the half-step run: 0 on sequence
+    0, 1.5 bits at sequence 1's last tilt (mean 0.15, max 1.5). The band: a one-point posterior (each
+    row sampled once, to one cell) on a converged model, so the centre is the matched curve, the
+    width 1.645 x the reference's bootstrap sd and the structural term adds nothing."""
+    from analysis.sequences import random_sequences_for
+
+    model, grid = _built_point_model()
+    length, m, seed = 10, 40, 4
+    default_dt = model_scene(model).settings.time_step_s
+    calls = []
+
+    def fake(scene, seq, trials, sd, noise):
+        half = scene.settings.time_step_s < default_dt
+        assert scene.settings.time_step_s == (default_dt / 2 if half else default_dt)      # half: 1/480 s
+        calls.append((list(seq), sd, half, noise))
+        i = sum(1 for c in calls if c[2] == half) - 1
+        steps = [list(range(8))] + [[0]] * length
+        if i == 0 and not half:
+            steps[3] = steps[7] = [0, 1]
+        elif i == 1:
+            steps[length] = [0, 0, 2, 3]
+        return _fake_reference(grid, steps, trials)
+
+    out = validate_model(model, sequences=2, trials=m, seed=seed, length=length, bands=5, simulate=fake, spread=True)
+    seqs = random_sequences_for(model.n_actions, 2, length, seed)
+    assert [(c[0], c[1], c[2], c[3]) for c in calls] == [
+        (list(seqs[0]), reference_seed(seed, 0), False, "none"), (list(seqs[0]), reference_seed(seed, 0), True, "none"),
+        (list(seqs[1]), reference_seed(seed, 1), False, "none"), (list(seqs[1]), reference_seed(seed, 1), True, "none")]
+    assert out["simulation_spread_bits"] == pytest.approx({"mean": 0.1, "max": 1.0})
+    s0, s1 = out["per_sequence"]
+    assert s0["simulation_spread_bits"] == pytest.approx({"mean": 0.2, "max": 1.0})
+    assert s1["simulation_spread_bits"] == {"mean": 0.0, "max": 0.0}
+    assert s0["model_vs_half_time_step"] == {"mean": 0.0, "max": 0.0}
+    assert s1["model_vs_half_time_step"] == pytest.approx({"mean": 0.15, "max": 1.5})
+    assert s0["half_time_step"] == pytest.approx([3.0] + [0.0] * length)
+    assert s1["half_time_step"] == pytest.approx([3.0] + [0.0] * (length - 1) + [1.5])
+    for i, s in enumerate((s0, s1)):
+        assert s["sequence"] == [model.actions[a] for a in seqs[i]] and s["reference_seed"] == reference_seed(seed, i)
+        assert s["max_abs_error_bits"] == (1.0 if i == 0 else 1.5) and s["faults"] == {}
+        ref = [3.0] + [0.0] * length
+        if i == 0:
+            ref[3] = ref[7] = 1.0
+        else:
+            ref[length] = 1.5
+        assert s["reference"] == pytest.approx(ref)
+        sd = np.asarray(s["reference_sd"])
+        assert len(sd) == length + 1 and sd[0] > 0
+        assert s["reference_noise_bits"] == pytest.approx(sd[1:].mean())
+        w = 1.6448536269514722 * sd
+        assert s["band_width"] == pytest.approx(w.tolist())
+        assert s["band_centre"] == pytest.approx(s["model"])
+        assert s["band_lo"][1:] == pytest.approx((-w[1:]).tolist()) and s["band_hi"][1:] == pytest.approx(w[1:].tolist())
+        assert s["band_coverage_dirichlet"] == s["band_coverage"]
+    # sd > 0 only where the reference has two or more cells: step 0, tilts 3 and 7 of sequence 0, the last of 1
+    assert [k for k, x in enumerate(s0["reference_sd"]) if x > 0] == [0, 3, 7]
+    assert [k for k, x in enumerate(s1["reference_sd"]) if x > 0] == [0, length]
+    noise = np.concatenate([np.asarray(s["reference_sd"][1:]) for s in (s0, s1)])
+    assert out["reference_noise_bits"] == pytest.approx(noise.mean())
+    assert out["reference_noise_bits_max"] == pytest.approx(noise.max())
+    assert out["band_coverage_dirichlet_ci95"] == pytest.approx(out["band_coverage_ci95"])
+    assert out["band_draws"] == 5 and out["states"] == 8
+    assert (out["sequences"], out["trials"], out["length"], out["seed"], out["noise"]) == (2, m, length, seed, "none")
+    assert out["contact"] == out["model_contact"] == model_scene(model).settings.contact
+    assert out["steps_compared"] == "1..N (step 0 is the start distribution)"
+    assert out["estimator"] == "model curve = expected plug-in entropy of M draws from its report-grid distribution"
+    assert out["model_seconds"] > 0 and out["simulation_seconds"] >= 0
+    assert set(out) == {
+        "mean_abs_error_bits", "max_abs_error_bits", "median_abs_error_bits", "share_steps_above_0_25",
+        "mean_abs_error_bits_exact_curve", "final_tv_distance", "reference_noise_bits", "reference_noise_bits_max",
+        "band_coverage", "band_coverage_ci95", "band_coverage_dirichlet", "band_coverage_dirichlet_ci95",
+        "band_steps", "band_verdict", "structural_delta", "structural_source", "structural_note",
+        "structural_delta_q90", "band_draws", "per_sequence", "sequences", "trials", "length", "seed", "noise",
+        "steps_compared", "estimator", "model_seconds", "simulation_seconds", "states", "contact", "model_contact",
+        "simulation_spread_bits"}
