@@ -5,7 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.validate import _bootstrap_sd, _expected_plugin, model_grid, model_scene, reference_seed, validate_model
+from analysis.validate import (
+    _bootstrap_sd,
+    _expected_plugin,
+    model_grid,
+    model_scene,
+    reference_seed,
+    validate_model,
+    wilson_interval,
+)
 from kruskal_markov.model import ModelError, TransitionModel
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import scene_from_options
@@ -239,3 +247,81 @@ def test_spread_and_every_other_key_by_value_on_the_hand_checked_case():
         "structural_delta_q90", "band_draws", "per_sequence", "sequences", "trials", "length", "seed", "noise",
         "steps_compared", "estimator", "model_seconds", "simulation_seconds", "states", "contact", "model_contact",
         "simulation_spread_bits"}
+
+
+def _built_mixed_model():
+    """8 report cells = 8 states; every tilt sends every state to cell 0 three times in four and to cell 1
+    once (counts 3 and 1), so from tilt 1 on the model predicts (0.75, 0.25): 0.811 bits."""
+    import scipy.sparse as sp
+
+    scene = scene_from_options("rectangle:20x20")
+    grid = ReportGrid(200.0, 200.0, 2, 2, 2, symmetry_order=4)
+    n = grid.n_voxels
+    rows, cols = np.repeat(np.arange(n), 2), np.tile([0, 1], n)
+    mats = [sp.csr_matrix((np.tile([0.75, 0.25], n), (rows, cols)), shape=(n, n)) for _ in scene.actions]
+    extras = {f"counts_{a}": np.tile([3, 1], n).astype(np.int64) for a in range(len(scene.actions))}
+    md = {"kind": "kruskal.built_model", "stats": {"states": n}, "scene": scene.to_dict(), "grid": grid.to_dict(),
+          "noise": "none"}
+    return TransitionModel(list(scene.actions), mats, initial=np.full(n, 1.0 / n), partition=np.arange(n),
+                           n_cells=n, metadata=md, extras=extras), grid
+
+
+def test_band_structural_needs_and_their_quantile_recomputed_from_their_definitions():
+    """A model predicting (0.75, 0.25) against references at 0 bits (all trials in cell 0), 0.811 bits
+    (the model), 0.918 bits (two thirds in cell 0) and 1 bit: the band recomputed from its definition
+    (posterior draws [seed, 4, r], their sd in quadrature with 1.645 x the reference's bootstrap sd,
+    moved by the plug-in bias; the structural term at a given delta of 1, which reaches 0 bits), each
+    step's needed delta by
+    structural_score, their conformal 90% quantile, and both coverages with their Wilson intervals."""
+    from analysis.validate import coverage_verdict
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.posterior import resample_model
+    from kruskal_markov.structural import band_with_structure, conformal_quantile, structural_score
+
+    model, grid = _built_mixed_model()
+    length, m, seed, bands = 12, 60, 3, 8
+    patterns = [[0], [0, 0, 0, 1], [0, 0, 1], [0, 1]]
+
+    def fake(scene, seq, trials, sd, noise):
+        i = fake.calls
+        fake.calls += 1
+        steps = [list(range(8))] + [patterns[(k + i) % 4] for k in range(length)]
+        return _fake_reference(grid, steps, trials)
+    fake.calls = 0
+    out = validate_model(model, sequences=3, trials=m, seed=seed, length=length, bands=bands, simulate=fake,
+                         structural_delta=1.0)
+    assert (out["structural_delta"], out["structural_source"]) == (1.0, "given")
+    draws = [resample_model(model, np.random.default_rng([seed, 4, r])) for r in range(bands)]
+    ins, ins_dir, need_all = [], [], []
+    for s in out["per_sequence"]:
+        seq = [model.actions.index(a) for a in s["sequence"]]
+        tr = entropy_trajectory(model, seq, return_distributions=True)
+        cells = np.asarray(tr.distributions)
+        curves = np.stack([entropy_trajectory(d, seq).entropy_bits for d in draws])
+        matched, exact = np.asarray(s["model"]), np.asarray(s["model_exact"])
+        assert exact[1:] == pytest.approx([0.8112781244591328] * length)
+        centre = curves.mean(0) + matched - exact
+        width = 1.6448536269514722 * np.sqrt(curves.std(0, ddof=1) ** 2 + np.asarray(s["reference_sd"]) ** 2)
+        assert s["band_centre"] == pytest.approx(centre.tolist()) and s["band_width"] == pytest.approx(width.tolist())
+        lo, hi = band_with_structure(cells, centre, width, 1.0)
+        assert s["band_lo"] == pytest.approx(lo.tolist()) and s["band_hi"] == pytest.approx(hi.tolist())
+        href = np.asarray(s["reference"])
+        need = structural_score(cells, centre, width, href)
+        assert s["structural_needed"] == pytest.approx([x if np.isfinite(x) else None for x in need.tolist()])
+        inside = (href >= lo - 1e-12) & (href <= hi + 1e-12)
+        inside_dir = (href >= centre - width - 1e-12) & (href <= centre + width + 1e-12)
+        assert s["band_coverage"] == pytest.approx(inside[1:].mean())
+        assert s["band_coverage_dirichlet"] == pytest.approx(inside_dir[1:].mean())
+        ins.append(inside[1:])
+        ins_dir.append(inside_dir[1:])
+        need_all.append(need[1:])
+    ins, ins_dir, need_all = map(np.concatenate, (ins, ins_dir, need_all))
+    q = conformal_quantile(need_all, 0.9)
+    assert 0 < q < np.inf and out["structural_delta_q90"] == pytest.approx(q)
+    assert out["band_steps"] == 3 * length
+    assert out["band_coverage"] == pytest.approx(ins.mean()) and out["band_coverage_dirichlet"] == pytest.approx(
+        ins_dir.mean())
+    assert ins.sum() > ins_dir.sum()                       # the structural term holds steps the Dirichlet band misses
+    assert out["band_coverage_ci95"] == pytest.approx(list(wilson_interval(int(ins.sum()), len(ins))))
+    assert out["band_coverage_dirichlet_ci95"] == pytest.approx(list(wilson_interval(int(ins_dir.sum()), len(ins))))
+    assert out["band_verdict"] == coverage_verdict(int(ins.sum()), len(ins))
