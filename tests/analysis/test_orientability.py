@@ -100,6 +100,10 @@ def test_part_metrics_by_value_against_their_definitions():
     aut = support_automaton(model, 0.0)
     r = monte_carlo_sync_length(aut, start_set(model, False), runs=runs, seed=[seed, 6], max_steps=cap)
     assert m.random_sync_censored == r["censored"] and m.random_sync_lower == pytest.approx(r["lower"])
+    # every run censored (none reaches 1e-3 bits in 300 tilts): no mean and no interval, only the lower bound
+    assert t["censored"] == r["censored"] == runs and m.random_tilts_lower == m.random_sync_lower == cap
+    assert (m.random_tilts, m.random_sync_length) == (None, None)
+    assert m.random_tilts_ci95 == m.random_sync_ci95 == (None, None)
     assert m.initial_entropy == pytest.approx(2.0)            # 12 states uniform on 4 cells of 3
     assert m.epsilon == eps and m.states == 12
     iv = m.intervals
@@ -113,3 +117,39 @@ def test_part_metrics_by_value_against_their_definitions():
     big = part_metrics(model, seed=seed, count=1200, runs=20, max_tilts=cap, draws=2, sync_node_budget=2000)
     assert big.epsilon == 1e-3 and big.intervals["settings"]["epsilon"] == 1e-3
     assert big.intervals["settings"]["draw_count"] == 1000 and big.intervals["settings"]["draws"] == 2
+
+
+def test_the_word_synchronizes_and_every_interval_is_its_monte_carlo():
+    """Černý C_4 (runs that all finish): the word printed takes every state to one state (checked by
+    following it from each), and the random tilts' and random synchronizing length's means, 95%
+    intervals and lower bounds are those of their Monte Carlo on the documented streams."""
+    import numpy as np
+
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts, monte_carlo_sync_length
+    from kruskal_markov.ensemble import run_ensemble
+    from kruskal_markov.sync import shortest_word, start_set, support_automaton
+
+    model = cerny_model(4)
+    seed, count, runs = 1, 100, 60
+    m = part_metrics(model, seed=seed, count=count, runs=runs, sync_node_budget=10_000, draws=0)
+    images = set()
+    for s in range(model.n_states):
+        for name in m.sync_word:
+            s = int(np.argmax(model.matrices[model.actions.index(name)].toarray()[s]))
+        images.add(s)
+    assert len(images) == 1
+    assert m.sync_method == shortest_word(model, "state", start="initial", node_budget=10_000).method
+    t = monte_carlo_entropy_tilts(model, 1e-3, runs=runs, seed=[seed, 5], max_steps=1000)
+    r = monte_carlo_sync_length(support_automaton(model, 0.0), start_set(model, False), runs=runs, seed=[seed, 6],
+                                max_steps=1000)
+    assert t["censored"] == r["censored"] == 0
+    assert (m.random_tilts, m.random_tilts_lower, m.random_tilts_censored) == (t["mean"], t["lower"], 0)
+    assert m.random_tilts_ci95 == pytest.approx(tuple(t["ci95"]))
+    assert (m.random_sync_length, m.random_sync_lower, m.random_sync_censored) == (r["mean"], r["lower"], 0)
+    assert m.random_sync_ci95 == pytest.approx(tuple(r["ci95"]))
+    ens = run_ensemble(model, count, 50, seed=seed, epsilon=1e-3)
+    assert (m.mean_entropy_10, m.mean_entropy_50, m.converging_share_50) == pytest.approx(
+        (ens.mean[10], ens.mean[50], ens.converged / count))
+    assert m.intervals["random_tilts"]["value"] == m.random_tilts
+    assert m.intervals["random_tilts"]["mc_ci95"] == pytest.approx(list(t["ci95"]))
+
