@@ -153,3 +153,21 @@ def test_the_word_synchronizes_and_every_interval_is_its_monte_carlo():
     assert m.intervals["random_tilts"]["value"] == m.random_tilts
     assert m.intervals["random_tilts"]["mc_ci95"] == pytest.approx(list(t["ci95"]))
 
+
+
+def test_the_documented_defaults_of_part_metrics():
+    """part_metrics(model) with its defaults: seed 0, 2,000 ensemble sequences, 500 Monte Carlo runs
+    censored at 1,000 tilts (this model never reaches 1e-3 bits: every run counts 1,000), 10 posterior
+    draws on min(2,000, 1,000) sequences, the model's own structural term (none: not built)."""
+    from kruskal_markov.ensemble import run_ensemble
+    from tests.kruskal_markov.test_answers import _counted_model
+
+    model = _counted_model(seed=5)
+    m = part_metrics(model, sync_node_budget=2000)
+    ens = run_ensemble(model, 2000, 50, seed=0, epsilon=1e-3)
+    assert (m.mean_entropy_10, m.mean_entropy_50) == pytest.approx((ens.mean[10], ens.mean[50]))
+    assert (m.random_tilts_censored, m.random_tilts_lower, m.random_sync_censored, m.random_sync_lower) == (
+        500, 1000.0, 500, 1000.0)
+    s = m.intervals["settings"]
+    assert (s["count"], s["runs"], s["draws"], s["draw_count"], s["epsilon"], s["structural_source"]) == (
+        2000, 500, 10, 1000, 1e-3, "none")
