@@ -47,6 +47,8 @@ def test_bootstrap_sd():
     # the delta method's sqrt(var(log-ratio term) / m), near zero at p = 1/2; it is small and positive
     sd = _bootstrap_sd(np.repeat([0, 1], 50), 2, rng)
     assert 0.0 < sd < 0.05
+    # two trials are enough for a bootstrap: resamples of (0, 1) give 0 or 1 bit, an sd near 0.5
+    assert 0.4 < _bootstrap_sd(np.array([0, 1]), 2, rng) < 0.6
 
 
 def test_models_without_a_scene_or_grid_are_refused():
@@ -325,3 +327,38 @@ def test_band_structural_needs_and_their_quantile_recomputed_from_their_definiti
     assert out["band_coverage_ci95"] == pytest.approx(list(wilson_interval(int(ins.sum()), len(ins))))
     assert out["band_coverage_dirichlet_ci95"] == pytest.approx(list(wilson_interval(int(ins_dir.sum()), len(ins))))
     assert out["band_verdict"] == coverage_verdict(int(ins.sum()), len(ins))
+
+
+def test_the_documented_defaults_and_the_smallest_counts():
+    """validate_model(model) runs 6 sequences of 50 tilts, 1,000 trials each, seed 0, a 40-draw band;
+    2 trials, 1 sequence, 1 tilt and no band are the smallest counts allowed."""
+    from analysis.sequences import random_sequences_for
+
+    model, grid = _built_point_model()
+    seen = []
+
+    def fake(scene, seq, trials, sd, noise):
+        seen.append((list(seq), trials, sd))
+        return _fake_reference(grid, [list(range(8))] + [[0]] * len(seq), trials)
+
+    out = validate_model(model, simulate=fake)
+    assert (out["sequences"], out["trials"], out["seed"], out["length"], out["band_draws"]) == (6, 1000, 0, 50, 40)
+    assert [s for s, _, _ in seen] == [list(q) for q in random_sequences_for(model.n_actions, 6, 50, 0)]
+    assert {t for _, t, _ in seen} == {1000} and [sd for *_, sd in seen] == [reference_seed(0, i) for i in range(6)]
+    small = validate_model(model, sequences=1, trials=2, length=1, bands=0, simulate=fake)
+    assert (small["sequences"], small["trials"], small["length"], small["band_draws"]) == (1, 2, 1, 0)
+    assert small["band_coverage"] is None and small["structural_delta_q90"] is None and small["band_verdict"] is None
+
+
+def test_the_share_of_steps_above_a_quarter_bit_is_strict_at_its_threshold():
+    """A model at 0 bits against references of 200 trials: 9 of them in cell 1 is H(0.955) = 0.265 bits,
+    above 0.25; 8 is H(0.96) = 0.242, below; so 1 step of 4 is above a quarter bit."""
+    model, grid = _built_point_model()
+
+    def fake(scene, seq, trials, sd, noise):
+        return _fake_reference(grid, [list(range(8)), [0], [0] * 191 + [1] * 9, [0] * 192 + [1] * 8, [0]], trials)
+
+    out = validate_model(model, sequences=1, trials=200, length=4, bands=0, simulate=fake)
+    err = out["per_sequence"][0]["reference"][1:]
+    assert err == pytest.approx([0.0, 0.2648, 0.2423, 0.0], abs=1e-4)
+    assert out["share_steps_above_0_25"] == 0.25 and out["max_abs_error_bits"] == pytest.approx(err[1])
