@@ -171,3 +171,18 @@ def test_the_documented_defaults_of_part_metrics():
     s = m.intervals["settings"]
     assert (s["count"], s["runs"], s["draws"], s["draw_count"], s["epsilon"], s["structural_source"]) == (
         2000, 500, 10, 1000, 1e-3, "none")
+
+
+def test_the_deprecated_as_dict_warns_at_the_callers_line_and_equals_to_dict():
+    """A deprecation warning points at the caller's code (stacklevel 2), where the user can change it."""
+    import warnings
+
+    from kruskal_markov.errors import KruskalDeprecationWarning
+
+    m = _metrics()
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        d = m.as_dict()
+    assert d == m.to_dict()
+    assert [(x.category, str(x.message), x.filename) for x in w] == [
+        (KruskalDeprecationWarning, "PartMetrics.as_dict is deprecated; use to_dict", __file__)]
