@@ -362,3 +362,27 @@ def test_the_share_of_steps_above_a_quarter_bit_is_strict_at_its_threshold():
     err = out["per_sequence"][0]["reference"][1:]
     assert err == pytest.approx([0.0, 0.2648, 0.2423, 0.0], abs=1e-4)
     assert out["share_steps_above_0_25"] == 0.25 and out["max_abs_error_bits"] == pytest.approx(err[1])
+
+
+def test_bad_input_errors_are_whole_lines():
+    import re
+
+    model, grid = _built_point_model()
+    for bad in (-0.1, True, float("nan"), float("inf"), "0.1"):
+        with pytest.raises(ValueError, match="^" + re.escape(f"structural_delta must be a non-negative number, got {bad!r}")
+                           + "$"):
+            validate_model(model, structural_delta=bad, simulate=lambda *a: None)
+    plain = TransitionModel(["N"], [np.eye(2)])
+    with pytest.raises(ModelError, match=r"^the model records no scene \(only models from `kruskal build` can be "
+                                         r"validated\)$"):
+        model_scene(plain)
+    with pytest.raises(ModelError, match="^the model records no report grid$"):
+        model_grid(TransitionModel(["N"], [np.eye(2)], metadata={"scene": model.metadata["scene"]}))
+    off_grid = TransitionModel(model.actions, model.matrices, initial=model.initial, partition=np.arange(8) % 4,
+                               n_cells=4, metadata=model.metadata, extras=model.extras)
+    with pytest.raises(ModelError, match="^the model's partition is not on its report grid$"):
+        validate_model(off_grid, simulate=lambda *a: None)
+    # a structural delta of 0 is allowed: the Dirichlet band alone
+    out = validate_model(model, sequences=1, trials=2, length=1, bands=2, structural_delta=0,
+                         simulate=lambda sc, sq, m, sd, nz: _fake_reference(grid, [list(range(8)), [0]], m))
+    assert (out["structural_delta"], out["structural_source"]) == (0.0, "given")
