@@ -386,3 +386,26 @@ def test_bad_input_errors_are_whole_lines():
     out = validate_model(model, sequences=1, trials=2, length=1, bands=2, structural_delta=0,
                          simulate=lambda sc, sq, m, sd, nz: _fake_reference(grid, [list(range(8)), [0]], m))
     assert (out["structural_delta"], out["structural_source"]) == (0.0, "given")
+
+
+def test_final_total_variation_compares_the_last_step():
+    """A model that moves the part one cell on at every tilt (state i -> i + 1 mod 8, from cell 0): after
+    5 tilts it is in cell 5. A reference in cell 5 at the end is at total variation 0, one in cell 6 at
+    1 (whatever the earlier steps); the mean over the two sequences is 0.5."""
+    import scipy.sparse as sp
+
+    model, grid = _built_point_model()
+    n = 8
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), (np.arange(n) + 1) % n)), shape=(n, n)) for _ in model.actions]
+    shift = TransitionModel(model.actions, mats, initial=np.eye(n)[0], partition=np.arange(n), n_cells=n,
+                            metadata=model.metadata, extras=model.extras)
+    length = 5
+
+    def fake(scene, seq, trials, sd, noise):
+        i = fake.calls
+        fake.calls += 1
+        return _fake_reference(grid, [[k % n] for k in range(length)] + [[length + i]], trials)
+    fake.calls = 0
+    out = validate_model(shift, sequences=2, trials=10, length=length, bands=0, simulate=fake)
+    assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0]
+    assert out["final_tv_distance"] == 0.5 and out["mean_abs_error_bits"] == 0.0
