@@ -100,6 +100,10 @@ def test_part_metrics_by_value_against_their_definitions():
     aut = support_automaton(model, 0.0)
     r = monte_carlo_sync_length(aut, start_set(model, False), runs=runs, seed=[seed, 6], max_steps=cap)
     assert m.random_sync_censored == r["censored"] and m.random_sync_lower == pytest.approx(r["lower"])
+    # every run censored (none reaches 1e-3 bits in 300 tilts): no mean and no interval, only the lower bound
+    assert t["censored"] == r["censored"] == runs and m.random_tilts_lower == m.random_sync_lower == cap
+    assert (m.random_tilts, m.random_sync_length) == (None, None)
+    assert m.random_tilts_ci95 == m.random_sync_ci95 == (None, None)
     assert m.initial_entropy == pytest.approx(2.0)            # 12 states uniform on 4 cells of 3
     assert m.epsilon == eps and m.states == 12
     iv = m.intervals
@@ -113,3 +117,78 @@ def test_part_metrics_by_value_against_their_definitions():
     big = part_metrics(model, seed=seed, count=1200, runs=20, max_tilts=cap, draws=2, sync_node_budget=2000)
     assert big.epsilon == 1e-3 and big.intervals["settings"]["epsilon"] == 1e-3
     assert big.intervals["settings"]["draw_count"] == 1000 and big.intervals["settings"]["draws"] == 2
+
+
+def test_the_word_synchronizes_and_every_interval_is_its_monte_carlo():
+    """Černý C_4 (runs that all finish): the word printed takes every state to one state (checked by
+    following it from each), and the random tilts' and random synchronizing length's means, 95%
+    intervals and lower bounds are those of their Monte Carlo on the documented streams."""
+    import numpy as np
+
+    from kruskal_markov.convergence import monte_carlo_entropy_tilts, monte_carlo_sync_length
+    from kruskal_markov.ensemble import run_ensemble
+    from kruskal_markov.sync import shortest_word, start_set, support_automaton
+
+    model = cerny_model(4)
+    seed, count, runs = 1, 100, 60
+    m = part_metrics(model, seed=seed, count=count, runs=runs, sync_node_budget=10_000, draws=0)
+    images = set()
+    for s in range(model.n_states):
+        for name in m.sync_word:
+            s = int(np.argmax(model.matrices[model.actions.index(name)].toarray()[s]))
+        images.add(s)
+    assert len(images) == 1
+    assert m.sync_method == shortest_word(model, "state", start="initial", node_budget=10_000).method
+    t = monte_carlo_entropy_tilts(model, 1e-3, runs=runs, seed=[seed, 5], max_steps=1000)
+    r = monte_carlo_sync_length(support_automaton(model, 0.0), start_set(model, False), runs=runs, seed=[seed, 6],
+                                max_steps=1000)
+    assert t["censored"] == r["censored"] == 0
+    assert (m.random_tilts, m.random_tilts_lower, m.random_tilts_censored) == (t["mean"], t["lower"], 0)
+    assert m.random_tilts_ci95 == pytest.approx(tuple(t["ci95"]))
+    assert (m.random_sync_length, m.random_sync_lower, m.random_sync_censored) == (r["mean"], r["lower"], 0)
+    assert m.random_sync_ci95 == pytest.approx(tuple(r["ci95"]))
+    ens = run_ensemble(model, count, 50, seed=seed, epsilon=1e-3)
+    assert (m.mean_entropy_10, m.mean_entropy_50, m.converging_share_50) == pytest.approx(
+        (ens.mean[10], ens.mean[50], ens.converged / count))
+    assert m.intervals["random_tilts"]["value"] == m.random_tilts
+    assert m.intervals["random_tilts"]["mc_ci95"] == pytest.approx(list(t["ci95"]))
+
+
+
+def test_the_documented_defaults_of_part_metrics():
+    """part_metrics(model) with its defaults: seed 0, 2,000 ensemble sequences, 500 Monte Carlo runs
+    censored at 1,000 tilts (this model never reaches 1e-3 bits: every run counts 1,000), 10 posterior
+    draws on min(2,000, 1,000) sequences, the model's own structural term (none: not built)."""
+    from kruskal_markov.ensemble import run_ensemble
+    from tests.kruskal_markov.test_answers import _counted_model
+
+    model = _counted_model(seed=5)
+    m = part_metrics(model, sync_node_budget=2000)
+    ens = run_ensemble(model, 2000, 50, seed=0, epsilon=1e-3)
+    assert (m.mean_entropy_10, m.mean_entropy_50) == pytest.approx((ens.mean[10], ens.mean[50]))
+    assert (m.random_tilts_censored, m.random_tilts_lower, m.random_sync_censored, m.random_sync_lower) == (
+        500, 1000.0, 500, 1000.0)
+    s = m.intervals["settings"]
+    assert (s["count"], s["runs"], s["draws"], s["draw_count"], s["epsilon"], s["structural_source"]) == (
+        2000, 500, 10, 1000, 1e-3, "none")
+
+
+def test_the_deprecated_as_dict_warns_at_the_callers_line_and_equals_to_dict():
+    """A deprecation warning points at the caller's code (stacklevel 2), where the user can change it.
+    Not under mutmut, whose trampoline adds a frame between the caller and every mutated method (the
+    operators of tools/mutate_ops.py run it)."""
+    import sys
+    import warnings
+
+    if "mutmut.mutation.trampoline" in sys.modules:         # this module was imported as mutmut's mutant
+        pytest.skip("mutmut's trampoline adds a frame: the warning's stack level cannot be checked under it")
+
+    from kruskal_markov.errors import KruskalDeprecationWarning
+
+    m = _metrics()
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        d = m.as_dict()
+    assert d == m.to_dict()
+    assert [(x.category, str(x.message), x.filename) for x in w] == [
+        (KruskalDeprecationWarning, "PartMetrics.as_dict is deprecated; use to_dict", __file__)]

@@ -5,7 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.validate import _bootstrap_sd, _expected_plugin, model_grid, model_scene, reference_seed, validate_model
+from analysis.validate import (
+    _bootstrap_sd,
+    _expected_plugin,
+    model_grid,
+    model_scene,
+    reference_seed,
+    validate_model,
+    wilson_interval,
+)
 from kruskal_markov.model import ModelError, TransitionModel
 from transition_builder.grid import ReportGrid
 from transition_builder.scene import scene_from_options
@@ -39,6 +47,8 @@ def test_bootstrap_sd():
     # the delta method's sqrt(var(log-ratio term) / m), near zero at p = 1/2; it is small and positive
     sd = _bootstrap_sd(np.repeat([0, 1], 50), 2, rng)
     assert 0.0 < sd < 0.05
+    # two trials are enough for a bootstrap: resamples of (0, 1) give 0 or 1 bit, an sd near 0.5
+    assert 0.4 < _bootstrap_sd(np.array([0, 1]), 2, rng) < 0.6
 
 
 def test_models_without_a_scene_or_grid_are_refused():
@@ -159,3 +169,243 @@ def test_coverage_verdict_fails_a_band_that_is_too_wide_as_well_as_too_narrow():
     assert coverage_verdict(60, 100) == "too narrow"
     assert coverage_verdict(20, 20) == "consistent"         # 20 steps: 83.9-100%, cannot tell
     assert coverage_verdict(120, 120) == "too wide"
+
+
+def test_spread_and_every_other_key_by_value_on_the_hand_checked_case():
+    """The same case with ``--spread``: at half the time step sequence 0's trials stay in cell 0 at tilts
+    3 and 7 (0 bits where the default run had 1), sequence 1 repeats itself. By hand: the simulator's
+    spread is 1 bit at 2 of sequence 0's 10 tilts (mean 0.2, max 1) and 0 on sequence 1 (overall
+    mean 2 / 20 = 0.1, max 1); the model (0 bits from tilt 1) against the half-step run: 0 on sequence
+    0, 1.5 bits at sequence 1's last tilt (mean 0.15, max 1.5). The band: a one-point posterior (each
+    row sampled once, to one cell) on a converged model, so the centre is the matched curve, the
+    width 1.645 x the reference's bootstrap sd and the structural term adds nothing."""
+    from analysis.sequences import random_sequences_for
+
+    model, grid = _built_point_model()
+    length, m, seed = 10, 40, 4
+    default_dt = model_scene(model).settings.time_step_s
+    calls = []
+
+    def fake(scene, seq, trials, sd, noise):
+        half = scene.settings.time_step_s < default_dt
+        assert scene.settings.time_step_s == (default_dt / 2 if half else default_dt)      # half: 1/480 s
+        calls.append((list(seq), sd, half, noise))
+        i = sum(1 for c in calls if c[2] == half) - 1
+        steps = [list(range(8))] + [[0]] * length
+        if i == 0 and not half:
+            steps[3] = steps[7] = [0, 1]
+        elif i == 1:
+            steps[length] = [0, 0, 2, 3]
+        return _fake_reference(grid, steps, trials)
+
+    out = validate_model(model, sequences=2, trials=m, seed=seed, length=length, bands=5, simulate=fake, spread=True)
+    seqs = random_sequences_for(model.n_actions, 2, length, seed)
+    assert [(c[0], c[1], c[2], c[3]) for c in calls] == [
+        (list(seqs[0]), reference_seed(seed, 0), False, "none"), (list(seqs[0]), reference_seed(seed, 0), True, "none"),
+        (list(seqs[1]), reference_seed(seed, 1), False, "none"), (list(seqs[1]), reference_seed(seed, 1), True, "none")]
+    assert out["simulation_spread_bits"] == pytest.approx({"mean": 0.1, "max": 1.0})
+    s0, s1 = out["per_sequence"]
+    assert s0["simulation_spread_bits"] == pytest.approx({"mean": 0.2, "max": 1.0})
+    assert s1["simulation_spread_bits"] == {"mean": 0.0, "max": 0.0}
+    assert s0["model_vs_half_time_step"] == {"mean": 0.0, "max": 0.0}
+    assert s1["model_vs_half_time_step"] == pytest.approx({"mean": 0.15, "max": 1.5})
+    assert s0["half_time_step"] == pytest.approx([3.0] + [0.0] * length)
+    assert s1["half_time_step"] == pytest.approx([3.0] + [0.0] * (length - 1) + [1.5])
+    for i, s in enumerate((s0, s1)):
+        assert s["sequence"] == [model.actions[a] for a in seqs[i]] and s["reference_seed"] == reference_seed(seed, i)
+        assert s["max_abs_error_bits"] == (1.0 if i == 0 else 1.5) and s["faults"] == {}
+        ref = [3.0] + [0.0] * length
+        if i == 0:
+            ref[3] = ref[7] = 1.0
+        else:
+            ref[length] = 1.5
+        assert s["reference"] == pytest.approx(ref)
+        sd = np.asarray(s["reference_sd"])
+        assert len(sd) == length + 1 and sd[0] > 0
+        assert s["reference_noise_bits"] == pytest.approx(sd[1:].mean())
+        w = 1.6448536269514722 * sd
+        assert s["band_width"] == pytest.approx(w.tolist())
+        assert s["band_centre"] == pytest.approx(s["model"])
+        assert s["band_lo"][1:] == pytest.approx((-w[1:]).tolist()) and s["band_hi"][1:] == pytest.approx(w[1:].tolist())
+        assert s["band_coverage_dirichlet"] == s["band_coverage"]
+    # sd > 0 only where the reference has two or more cells: step 0, tilts 3 and 7 of sequence 0, the last of 1
+    assert [k for k, x in enumerate(s0["reference_sd"]) if x > 0] == [0, 3, 7]
+    assert [k for k, x in enumerate(s1["reference_sd"]) if x > 0] == [0, length]
+    noise = np.concatenate([np.asarray(s["reference_sd"][1:]) for s in (s0, s1)])
+    assert out["reference_noise_bits"] == pytest.approx(noise.mean())
+    assert out["reference_noise_bits_max"] == pytest.approx(noise.max())
+    assert out["band_coverage_dirichlet_ci95"] == pytest.approx(out["band_coverage_ci95"])
+    assert out["band_draws"] == 5 and out["states"] == 8
+    assert (out["sequences"], out["trials"], out["length"], out["seed"], out["noise"]) == (2, m, length, seed, "none")
+    assert out["contact"] == out["model_contact"] == model_scene(model).settings.contact
+    assert out["steps_compared"] == "1..N (step 0 is the start distribution)"
+    assert out["estimator"] == "model curve = expected plug-in entropy of M draws from its report-grid distribution"
+    assert out["model_seconds"] > 0 and out["simulation_seconds"] >= 0
+    assert set(out) == {
+        "mean_abs_error_bits", "max_abs_error_bits", "median_abs_error_bits", "share_steps_above_0_25",
+        "mean_abs_error_bits_exact_curve", "final_tv_distance", "reference_noise_bits", "reference_noise_bits_max",
+        "band_coverage", "band_coverage_ci95", "band_coverage_dirichlet", "band_coverage_dirichlet_ci95",
+        "band_steps", "band_verdict", "structural_delta", "structural_source", "structural_note",
+        "structural_delta_q90", "band_draws", "per_sequence", "sequences", "trials", "length", "seed", "noise",
+        "steps_compared", "estimator", "model_seconds", "simulation_seconds", "states", "contact", "model_contact",
+        "simulation_spread_bits"}
+
+
+def _built_mixed_model():
+    """8 report cells = 8 states; every tilt sends every state to cell 0 three times in four and to cell 1
+    once (counts 3 and 1), so from tilt 1 on the model predicts (0.75, 0.25): 0.811 bits."""
+    import scipy.sparse as sp
+
+    scene = scene_from_options("rectangle:20x20")
+    grid = ReportGrid(200.0, 200.0, 2, 2, 2, symmetry_order=4)
+    n = grid.n_voxels
+    rows, cols = np.repeat(np.arange(n), 2), np.tile([0, 1], n)
+    mats = [sp.csr_matrix((np.tile([0.75, 0.25], n), (rows, cols)), shape=(n, n)) for _ in scene.actions]
+    extras = {f"counts_{a}": np.tile([3, 1], n).astype(np.int64) for a in range(len(scene.actions))}
+    md = {"kind": "kruskal.built_model", "stats": {"states": n}, "scene": scene.to_dict(), "grid": grid.to_dict(),
+          "noise": "none"}
+    return TransitionModel(list(scene.actions), mats, initial=np.full(n, 1.0 / n), partition=np.arange(n),
+                           n_cells=n, metadata=md, extras=extras), grid
+
+
+def test_band_structural_needs_and_their_quantile_recomputed_from_their_definitions():
+    """A model predicting (0.75, 0.25) against references at 0 bits (all trials in cell 0), 0.811 bits
+    (the model), 0.918 bits (two thirds in cell 0) and 1 bit: the band recomputed from its definition
+    (posterior draws [seed, 4, r], their sd in quadrature with 1.645 x the reference's bootstrap sd,
+    moved by the plug-in bias; the structural term at a given delta of 1, which reaches 0 bits), each
+    step's needed delta by
+    structural_score, their conformal 90% quantile, and both coverages with their Wilson intervals."""
+    from analysis.validate import coverage_verdict
+    from kruskal_markov.entropy import entropy_trajectory
+    from kruskal_markov.posterior import resample_model
+    from kruskal_markov.structural import band_with_structure, conformal_quantile, structural_score
+
+    model, grid = _built_mixed_model()
+    length, m, seed, bands = 12, 60, 3, 8
+    patterns = [[0], [0, 0, 0, 1], [0, 0, 1], [0, 1]]
+
+    def fake(scene, seq, trials, sd, noise):
+        i = fake.calls
+        fake.calls += 1
+        steps = [list(range(8))] + [patterns[(k + i) % 4] for k in range(length)]
+        return _fake_reference(grid, steps, trials)
+    fake.calls = 0
+    out = validate_model(model, sequences=3, trials=m, seed=seed, length=length, bands=bands, simulate=fake,
+                         structural_delta=1.0)
+    assert (out["structural_delta"], out["structural_source"]) == (1.0, "given")
+    draws = [resample_model(model, np.random.default_rng([seed, 4, r])) for r in range(bands)]
+    ins, ins_dir, need_all = [], [], []
+    for s in out["per_sequence"]:
+        seq = [model.actions.index(a) for a in s["sequence"]]
+        tr = entropy_trajectory(model, seq, return_distributions=True)
+        cells = np.asarray(tr.distributions)
+        curves = np.stack([entropy_trajectory(d, seq).entropy_bits for d in draws])
+        matched, exact = np.asarray(s["model"]), np.asarray(s["model_exact"])
+        assert exact[1:] == pytest.approx([0.8112781244591328] * length)
+        centre = curves.mean(0) + matched - exact
+        width = 1.6448536269514722 * np.sqrt(curves.std(0, ddof=1) ** 2 + np.asarray(s["reference_sd"]) ** 2)
+        assert s["band_centre"] == pytest.approx(centre.tolist()) and s["band_width"] == pytest.approx(width.tolist())
+        lo, hi = band_with_structure(cells, centre, width, 1.0)
+        assert s["band_lo"] == pytest.approx(lo.tolist()) and s["band_hi"] == pytest.approx(hi.tolist())
+        href = np.asarray(s["reference"])
+        need = structural_score(cells, centre, width, href)
+        assert s["structural_needed"] == pytest.approx([x if np.isfinite(x) else None for x in need.tolist()])
+        inside = (href >= lo - 1e-12) & (href <= hi + 1e-12)
+        inside_dir = (href >= centre - width - 1e-12) & (href <= centre + width + 1e-12)
+        assert s["band_coverage"] == pytest.approx(inside[1:].mean())
+        assert s["band_coverage_dirichlet"] == pytest.approx(inside_dir[1:].mean())
+        ins.append(inside[1:])
+        ins_dir.append(inside_dir[1:])
+        need_all.append(need[1:])
+    ins, ins_dir, need_all = map(np.concatenate, (ins, ins_dir, need_all))
+    q = conformal_quantile(need_all, 0.9)
+    assert 0 < q < np.inf and out["structural_delta_q90"] == pytest.approx(q)
+    assert out["band_steps"] == 3 * length
+    assert out["band_coverage"] == pytest.approx(ins.mean()) and out["band_coverage_dirichlet"] == pytest.approx(
+        ins_dir.mean())
+    assert ins.sum() > ins_dir.sum()                       # the structural term holds steps the Dirichlet band misses
+    assert out["band_coverage_ci95"] == pytest.approx(list(wilson_interval(int(ins.sum()), len(ins))))
+    assert out["band_coverage_dirichlet_ci95"] == pytest.approx(list(wilson_interval(int(ins_dir.sum()), len(ins))))
+    assert out["band_verdict"] == coverage_verdict(int(ins.sum()), len(ins))
+
+
+def test_the_documented_defaults_and_the_smallest_counts():
+    """validate_model(model) runs 6 sequences of 50 tilts, 1,000 trials each, seed 0, a 40-draw band;
+    2 trials, 1 sequence, 1 tilt and no band are the smallest counts allowed."""
+    from analysis.sequences import random_sequences_for
+
+    model, grid = _built_point_model()
+    seen = []
+
+    def fake(scene, seq, trials, sd, noise):
+        seen.append((list(seq), trials, sd))
+        return _fake_reference(grid, [list(range(8))] + [[0]] * len(seq), trials)
+
+    out = validate_model(model, simulate=fake)
+    assert (out["sequences"], out["trials"], out["seed"], out["length"], out["band_draws"]) == (6, 1000, 0, 50, 40)
+    assert [s for s, _, _ in seen] == [list(q) for q in random_sequences_for(model.n_actions, 6, 50, 0)]
+    assert {t for _, t, _ in seen} == {1000} and [sd for *_, sd in seen] == [reference_seed(0, i) for i in range(6)]
+    small = validate_model(model, sequences=1, trials=2, length=1, bands=0, simulate=fake)
+    assert (small["sequences"], small["trials"], small["length"], small["band_draws"]) == (1, 2, 1, 0)
+    assert small["band_coverage"] is None and small["structural_delta_q90"] is None and small["band_verdict"] is None
+
+
+def test_the_share_of_steps_above_a_quarter_bit_is_strict_at_its_threshold():
+    """A model at 0 bits against references of 200 trials: 9 of them in cell 1 is H(0.955) = 0.265 bits,
+    above 0.25; 8 is H(0.96) = 0.242, below; so 1 step of 4 is above a quarter bit."""
+    model, grid = _built_point_model()
+
+    def fake(scene, seq, trials, sd, noise):
+        return _fake_reference(grid, [list(range(8)), [0], [0] * 191 + [1] * 9, [0] * 192 + [1] * 8, [0]], trials)
+
+    out = validate_model(model, sequences=1, trials=200, length=4, bands=0, simulate=fake)
+    err = out["per_sequence"][0]["reference"][1:]
+    assert err == pytest.approx([0.0, 0.2648, 0.2423, 0.0], abs=1e-4)
+    assert out["share_steps_above_0_25"] == 0.25 and out["max_abs_error_bits"] == pytest.approx(err[1])
+
+
+def test_bad_input_errors_are_whole_lines():
+    import re
+
+    model, grid = _built_point_model()
+    for bad in (-0.1, True, float("nan"), float("inf"), "0.1"):
+        with pytest.raises(ValueError, match="^" + re.escape(f"structural_delta must be a non-negative number, got {bad!r}")
+                           + "$"):
+            validate_model(model, structural_delta=bad, simulate=lambda *a: None)
+    plain = TransitionModel(["N"], [np.eye(2)])
+    with pytest.raises(ModelError, match=r"^the model records no scene \(only models from `kruskal build` can be "
+                                         r"validated\)$"):
+        model_scene(plain)
+    with pytest.raises(ModelError, match="^the model records no report grid$"):
+        model_grid(TransitionModel(["N"], [np.eye(2)], metadata={"scene": model.metadata["scene"]}))
+    off_grid = TransitionModel(model.actions, model.matrices, initial=model.initial, partition=np.arange(8) % 4,
+                               n_cells=4, metadata=model.metadata, extras=model.extras)
+    with pytest.raises(ModelError, match="^the model's partition is not on its report grid$"):
+        validate_model(off_grid, simulate=lambda *a: None)
+    # a structural delta of 0 is allowed: the Dirichlet band alone
+    out = validate_model(model, sequences=1, trials=2, length=1, bands=2, structural_delta=0,
+                         simulate=lambda sc, sq, m, sd, nz: _fake_reference(grid, [list(range(8)), [0]], m))
+    assert (out["structural_delta"], out["structural_source"]) == (0.0, "given")
+
+
+def test_final_total_variation_compares_the_last_step():
+    """A model that moves the part one cell on at every tilt (state i -> i + 1 mod 8, from cell 0): after
+    5 tilts it is in cell 5. A reference in cell 5 at the end is at total variation 0, one in cell 6 at
+    1 (whatever the earlier steps); the mean over the two sequences is 0.5."""
+    import scipy.sparse as sp
+
+    model, grid = _built_point_model()
+    n = 8
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), (np.arange(n) + 1) % n)), shape=(n, n)) for _ in model.actions]
+    shift = TransitionModel(model.actions, mats, initial=np.eye(n)[0], partition=np.arange(n), n_cells=n,
+                            metadata=model.metadata, extras=model.extras)
+    length = 5
+
+    def fake(scene, seq, trials, sd, noise):
+        i = fake.calls
+        fake.calls += 1
+        return _fake_reference(grid, [[k % n] for k in range(length)] + [[length + i]], trials)
+    fake.calls = 0
+    out = validate_model(shift, sequences=2, trials=10, length=length, bands=0, simulate=fake)
+    assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0]
+    assert out["final_tv_distance"] == 0.5 and out["mean_abs_error_bits"] == 0.0

@@ -178,3 +178,37 @@ def test_dirichlet_band_covers_simulated_references_at_its_nominal_rate():
     wide, narrow = np.concatenate(wide), np.concatenate(narrow)
     assert wide.mean() > 0.96 and coverage_verdict(int(wide.sum()), len(wide)) == "too wide", wide.mean()
     assert narrow.mean() < 0.84 and coverage_verdict(int(narrow.sum()), len(narrow)) == "too narrow"
+
+
+def test_one_bad_row_or_delta_among_good_ones_is_refused_with_its_whole_message():
+    """Every row and every per-row delta is checked, not only the first or all at once; the messages
+    are the one-line errors the CLI prints."""
+    import re
+
+    good = [0.5, 0.5]
+    for p in ([good, [0.5, -0.1]], [good, [np.nan, 0.5]], [good, [np.inf, 0.5]]):
+        with pytest.raises(ValueError, match="^distributions must be finite and non-negative$"):
+            entropy_range_tv(p, 0.1)
+    with pytest.raises(ValueError, match="^every distribution needs positive mass$"):
+        entropy_range_tv([good, [0.0, 0.0]], 0.1)
+    for d in ([0.1, -0.1], [0.1, np.nan], [0.1, np.inf]):
+        with pytest.raises(ValueError, match="^" + re.escape(f"delta must be finite and non-negative, got {d!r}") + "$"):
+            entropy_range_tv([good, good], d)
+        cells = np.array([[0.5, 0.5], [0.9, 0.1]])
+        with pytest.raises(ValueError, match="^" + re.escape(f"structural delta must be a non-negative number, got {d!r}")
+                           + "$"):
+            band_with_structure(cells, np.zeros(2), np.zeros(2), d)
+    # a delta above 1 is the whole simplex: the same range as 1
+    assert [float(x) for x in entropy_range_tv([0.7, 0.2, 0.1], 5.0)] == pytest.approx(
+        [float(x) for x in entropy_range_tv([0.7, 0.2, 0.1], 1.0)])
+    assert float(entropy_range_tv([0.7, 0.2, 0.1], 5.0)[1]) == pytest.approx(math.log2(3))
+    # and so is a huge one (structural_score tries 1e6): the kernel alone would stop short of uniform there
+    lo, hi = entropy_range_tv(np.random.default_rng(0).dirichlet(np.ones(6), size=50), 1e6)
+    assert np.allclose(hi, math.log2(6)) and np.allclose(lo, 0.0, atol=1e-12)
+
+
+def test_the_conformal_quantile_is_at_90_percent_by_default():
+    assert conformal_quantile(np.arange(19.0)) == 17.0        # ceil(20 * 0.9) = 18th smallest
+    assert conformal_quantile(np.arange(9.0)) == 8.0          # ceil(10 * 0.9) = 9th of 9
+    with pytest.raises(ValueError, match=r"^level must lie in \(0, 1\), got 0$"):
+        conformal_quantile([1.0], 0)

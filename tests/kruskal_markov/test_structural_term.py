@@ -247,3 +247,69 @@ def test_a_calibration_of_another_rule_is_not_used():
     cal = with_calibration(m, 0.05, steps=60, seeds=[5])
     assert cal.metadata["structural"]["rule"] == "relative"
     assert (structural_term(cal).delta, structural_term(cal).source) == (0.05, "calibrated")
+
+
+def test_every_note_and_error_is_its_whole_line():
+    """The structural note is printed with every answer (``structural_note``) and the errors as one-line
+    CLI errors: each whole, for every source."""
+    import re
+
+    m = _counted(metadata=BUILT)
+    assert structural_term(m, 0.25).to_dict() == {"structural_delta": 0.25, "structural_source": "given",
+                                                   "structural_note": "structural delta 0.25 given by the caller"}
+    assert structural_term(m, 0).delta == 0.0 and structural_term(m, 0).source == "given"
+    assert structural_term(m).note == ("structural delta 0.105: the allen key's calibration, this model has none "
+                                       "of its own (`kruskal validate --calibrate` stores one)")
+    other = _counted(metadata={**BUILT, "structural": {"delta": 2.27, "rule": "flow"}})
+    assert structural_term(other).note == (
+        "structural delta 0.105: the allen key's calibration; the model's stored calibration is of another "
+        "rule ('flow'; `kruskal validate --calibrate` renews it)")
+    cal = with_calibration(m, 0.0123456, steps=60, seeds=[5, 7])
+    assert structural_term(cal).to_dict() == {
+        "structural_delta": 0.0123456, "structural_source": "calibrated",
+        "structural_note": "structural delta 0.01235 calibrated on this model (60 steps of `kruskal validate "
+                           "--calibrate`, seeds 5, 7)"}
+    bare = _counted(metadata={**BUILT, "structural": {"delta": 0}})
+    assert structural_term(bare).to_dict() == {
+        "structural_delta": 0.0, "structural_source": "calibrated",
+        "structural_note": "structural delta 0 calibrated on this model (? steps of `kruskal validate --calibrate`, "
+                           "seeds ?)"}
+    for bad in (-0.1, math.nan, math.inf):
+        with pytest.raises(ValueError, match="^" + re.escape(f"structural delta must be a non-negative number, got {bad!r}")
+                           + "$"):
+            structural_term(m, bad)
+        with pytest.raises(ValueError, match="^" + re.escape(
+                f"calibrated delta must be a finite non-negative number, got {bad!r}") + "$"):
+            with_calibration(m, bad)
+    with pytest.raises(ValueError, match="^only a built model has a structural term to calibrate$"):
+        with_calibration(_counted(), 0.1)
+    # a stored delta that is not a finite non-negative number is no calibration: the default
+    for rec in ({"delta": -1.0}, {"delta": "0.1"}, {"steps": 3}, "0.1"):
+        t = structural_term(_counted(metadata={**BUILT, "structural": rec}))
+        assert (t.delta, t.source) == (STRUCTURAL_DELTA, "default"), rec
+
+
+def test_a_calibrated_copy_is_the_same_model_with_its_record():
+    c = _counted(metadata=BUILT)
+    m = TransitionModel(c.actions, c.matrices, initial=c.initial, partition=c.partition, n_cells=c.n_cells,
+                        metadata=BUILT, tol=1e-6, extras=c.extras)          # a tolerance other than the default
+    cal = with_calibration(m, 0.05, steps=60, seeds=[5], level=0.9)
+    assert cal.metadata["structural"] == {"delta": 0.05, "steps": 60, "seeds": [5], "level": 0.9, "rule": "relative"}
+    assert {k: v for k, v in cal.metadata.items() if k != "structural"} == m.metadata
+    assert "structural" not in m.metadata                               # the original is left alone
+    assert cal.actions == m.actions and cal.n_cells == m.n_cells and cal.tol == m.tol
+    assert np.array_equal(cal.initial, m.initial) and np.array_equal(cal.partition, m.partition)
+    for a in range(m.n_actions):
+        assert (cal.matrices[a] != m.matrices[a]).nnz == 0
+        assert np.array_equal(cal.extras[f"counts_{a}"], m.extras[f"counts_{a}"])
+
+
+def test_only_a_model_built_with_statistics_and_counts_is_sampled():
+    counts = _counted()
+    assert is_sampled(_counted(metadata=BUILT))
+    assert not is_sampled(_counted(metadata={**BUILT, "kind": "kruskal.automaton"}))
+    assert not is_sampled(_counted(metadata={**BUILT, "stats": "12 states"}))
+    assert not is_sampled(_counted(metadata={k: v for k, v in BUILT.items() if k != "stats"}))
+    no_counts = TransitionModel(counts.actions, counts.matrices, initial=counts.initial, partition=counts.partition,
+                                n_cells=counts.n_cells, metadata=BUILT)
+    assert not is_sampled(no_counts)
