@@ -127,8 +127,14 @@ def summarise_rank(results=OUT, ends=("0.2", "0.4")) -> dict | None:
     if not all(outs):
         return None
     summary = rankings_over_range(list(ends), [o["ranking"] for o in outs])
-    summary["rankings"] = {mu: o["ranking"] for mu, o in zip(ends, outs)}
+    summary["rankings"] = {mu: [{k: r.get(k) for k in _RANK_KEYS} for r in o["ranking"]] for mu, o in zip(ends, outs)}
+    summary["seconds"] = {mu: o.get("seconds") for mu, o in zip(ends, outs)}
     return summary
+
+
+#: the ranking rows' keys kept in ``data/ranges/rank.json`` (the full rows stay in ``results/``)
+_RANK_KEYS = ("shape", "rank", "decided_by", "states", "sync_length", "sync_exact", "random_tilts", "random_tilts_lower",
+              "random_tilts_ci95", "random_tilts_censored", "converging_share_50", "mean_entropy_50")
 
 
 def _tilts(row) -> str:
