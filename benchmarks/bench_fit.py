@@ -13,7 +13,8 @@ Parts (``python -m benchmarks.bench_fit [recovery|timing|plan]``, default all):
 - ``recovery200``: the same logs cut to their first 200 trials (no new simulation).
 - ``pose_noise``: one log with process noise ``pose:0.2,0.2`` in the physics (log 0's truth and
   seeds), fitted with ``--fit mu`` (noise-free models).
-- ``logs tuning|paper|pose_noise``: only make the logs; ``tuning``: fit the tuning logs.
+- ``recovery2``, ``recovery3``: the second and third validation sets (docs/fit.md).
+- ``logs tuning|paper|paper2|paper3|pose_noise``: only make the logs; ``tuning``: fit the tuning logs.
 - ``timing``: log 0 fitted again with every model cached (the second-fit time).
 - ``plan``: the key's robust plan for mu 0.2..0.4 (5 models) against the single-mu optimum (mu
   0.3), both replayed by direct simulation at the 4 coefficients halfway between the models.
@@ -62,6 +63,10 @@ TUNING = Protocol(truths=(0.333, 0.238, 0.352), seed0=4300, out=HERE / "results"
 #: the second validation set (docs/fit.md), named after the first was spent on the model-error term.
 PAPER2 = Protocol(truths=(0.304, 0.282, 0.333, 0.419, 0.34, 0.377, 0.296, 0.252, 0.173, 0.441), seed0=4500,
                   out=HERE / "results" / "fit_validation2")
+#: the third validation set (docs/fit.md), named before any of it was made, judging version 3 (the
+#: best grid point): seeds 4700-4709, truths ``default_rng(4747).uniform(0.175, 0.425, 10)`` rounded.
+PAPER3 = Protocol(truths=(0.3, 0.356, 0.386, 0.22, 0.209, 0.406, 0.407, 0.301, 0.357, 0.194), seed0=4700,
+                  out=HERE / "results" / "fit_validation3")
 #: the validation logs cut to their first 200 trials (no new simulation).
 PAPER_200 = Protocol(trials=200, out=HERE / "results" / "fit_200")
 #: one log with process noise in the physics (``pose:0.2,0.2``), protocol log 0's truth and seed.
@@ -291,7 +296,8 @@ def make_logs(which: str) -> None:
     start = time.perf_counter()
     if which == "tuning":
         make_report_log()
-    for proto in {"tuning": (TUNING,), "paper": (PAPER,), "pose_noise": (POSE_NOISE,), "paper2": (PAPER2,)}[which]:
+    for proto in {"tuning": (TUNING,), "paper": (PAPER,), "pose_noise": (POSE_NOISE,), "paper2": (PAPER2,),
+                  "paper3": (PAPER3,)}[which]:
         for i in range(len(proto.truths)):
             if time.perf_counter() - start > budget:
                 return
@@ -309,7 +315,7 @@ def main(parts=None) -> None:
         tuning()
         return
     for part, proto in (("recovery", PAPER), ("recovery200", PAPER_200), ("pose_noise", POSE_NOISE),
-                        ("recovery2", PAPER2)):
+                        ("recovery2", PAPER2), ("recovery3", PAPER3)):
         if part in parts:
             rows = recovery(budget, proto)
             if rows:

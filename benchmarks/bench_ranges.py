@@ -28,7 +28,7 @@ import time
 PARTS = ("allen-key", *(f"triangle:{i}" for i in range(1, 16)), "rectangle:40x40",
          "polygon:0,0;50,0;25,43.30127", "polygon:0,0;60,0;60,40;45,40;45,15;15,15;15,40;0,40")
 #: the build options of the ranking over 0.2..0.4 (docs/ranges.md says why not the report's)
-OPTIONS = ("--resolution", "1,1", "--recenter-rounds", "1", "--start-samples", "2000", "--seed", "0")
+OPTIONS = ("--resolution", "2,2", "--recenter-rounds", "1", "--start-samples", "2000", "--seed", "0")
 OUT = pathlib.Path(__file__).parent / "results" / "ranges"
 
 
@@ -127,8 +127,14 @@ def summarise_rank(results=OUT, ends=("0.2", "0.4")) -> dict | None:
     if not all(outs):
         return None
     summary = rankings_over_range(list(ends), [o["ranking"] for o in outs])
-    summary["rankings"] = {mu: o["ranking"] for mu, o in zip(ends, outs)}
+    summary["rankings"] = {mu: [{k: r.get(k) for k in _RANK_KEYS} for r in o["ranking"]] for mu, o in zip(ends, outs)}
+    summary["seconds"] = {mu: o.get("seconds") for mu, o in zip(ends, outs)}
     return summary
+
+
+#: the ranking rows' keys kept in ``data/ranges/rank.json`` (the full rows stay in ``results/``)
+_RANK_KEYS = ("shape", "rank", "decided_by", "states", "sync_length", "sync_exact", "random_tilts", "random_tilts_lower",
+              "random_tilts_ci95", "random_tilts_censored", "converging_share_50", "mean_entropy_50")
 
 
 def _tilts(row) -> str:
@@ -137,9 +143,37 @@ def _tilts(row) -> str:
     return random_tilts_text(row)
 
 
+def summarise_builds(results=OUT, options=OPTIONS) -> list:
+    """The ranking models' builds at ``options`` (``builds.jsonl``; the last fresh build of each
+    part and coefficient; a cache hit is not a build time)."""
+    rows = {}
+    path = pathlib.Path(results) / "builds.jsonl"
+    for line in path.read_text().splitlines() if path.exists() else []:
+        r = json.loads(line)
+        if tuple(r["options"]) == tuple(options) and not r["cached"]:
+            rows[(r["shape"], r["mu"])] = {k: r[k] for k in ("shape", "mu", "states", "wall_seconds")}
+    return sorted(rows.values(), key=lambda r: (PARTS.index(r["shape"]) if r["shape"] in PARTS else 99, r["mu"]))
+
+
+def _print_builds(builds) -> None:
+    by = {(r["shape"], r["mu"]): r for r in builds}
+    print("| part | states 0.2 / 0.4 | build wall s 0.2 / 0.4 |")
+    print("|---|---|---|")
+    for shape in PARTS:
+        a, b = by.get((shape, "0.2")), by.get((shape, "0.4"))
+        st = " / ".join(str(r["states"]) if r else "-" for r in (a, b))
+        ws = " / ".join(f"{r['wall_seconds']:.0f}" if r else "-" for r in (a, b))
+        print(f"| {shape} | {st} | {ws} |")
+    print(f"{len(builds)} builds, {sum(r['wall_seconds'] for r in builds):.0f} s wall in all")
+
+
 def summarise(results=OUT, data=pathlib.Path(__file__).parent / "data" / "ranges") -> None:
     """Copy the small results to ``benchmarks/data/ranges/`` and print the doc's tables."""
     data.mkdir(parents=True, exist_ok=True)
+    builds = summarise_builds(results)
+    if builds:
+        (data / "rank_builds.json").write_text(json.dumps(builds, indent=1))
+        _print_builds(builds)
     replay = summarise_replay(results)
     if replay:
         (data / "replay.json").write_text(json.dumps(replay, indent=1))

@@ -88,13 +88,31 @@ def run_over_range(args, run_one) -> dict:
     out = dict(outs[len(outs) // 2])
     out["friction_range"] = {**answers_over_range([s for s, _, _ in models], outs), "interval": str(fr),
                              "models": [p for _, _, p in models], "middle": models[len(models) // 2][0],
-                             "at_points": {s: {k: v for k, v in o.items() if _is_number(v)}
-                                           for (s, _, _), o in zip(models, outs)}}
+                             "at_points": {s: _numbers(o) or {} for (s, _, _), o in zip(models, outs)}}
     return out
 
 
 def _is_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _numbers(v):
+    """The single numbers and flags of an answer, nested dictionaries kept (``convergence``'s
+    ``expected_length`` is one) and intervals (lists of at most two numbers) kept; curves, nulls
+    and everything else dropped; None when nothing is left.
+
+    >>> _numbers({"a": 1, "b": {"mc": 2.5, "ci95": [2, 3], "curve": [1, 2, 3]}, "c": "x", "d": {"e": None},
+    ...           "infinite": False})
+    {'a': 1, 'b': {'mc': 2.5, 'ci95': [2, 3]}, 'infinite': False}
+    """
+    if _is_number(v) or isinstance(v, bool):
+        return v
+    if isinstance(v, dict):
+        kept = {k: x for k, x in ((k, _numbers(x)) for k, x in v.items()) if x is not None}
+        return kept or None
+    if isinstance(v, (list, tuple)) and 0 < len(v) <= 2 and all(_is_number(x) for x in v):
+        return list(v)
+    return None
 
 
 def _check_coefficients(args):

@@ -57,6 +57,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--fit mu: extra builds (other build seeds) of the best model and its two neighbours, "
                              "measuring the models' own error for the interval (default 1; 0: from the "
                              "criterion's residual scatter alone)")
+    parser.add_argument("--estimator", choices=("grid", "vertex"), default="grid",
+                        help="--fit mu: the estimate is the best grid point (grid, default) or the vertex of a "
+                             "quadratic through its window (vertex; docs/fit.md)")
     parser.add_argument("--figure", metavar="PNG", help="write the criterion and goodness-of-fit figure here")
     parser.add_argument("--resolution", default="1,1", metavar="MM,DEG",
                         help="snapping tolerance of the grid's models (default 1,1; see docs/fit.md)")
@@ -115,7 +118,7 @@ def _settings(args):
     try:
         return FitSettings(params=params, ranges=ranges, points=points, refine=args.refine, camera=camera,
                            criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed,
-                           replicates=args.replicates)
+                           replicates=args.replicates, estimator=args.estimator)
     except ValueError as exc:
         raise InputError(f"--fit {args.fit}: {exc}") from None
 

@@ -30,7 +30,14 @@ import numpy as np
 
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
 from analysis.fit.hmm import EmissionSettings, model_tolerance, trial_loglik
-from analysis.fit.model_error import model_error, replicate_indices, resample_vertices, trials_needed, weighted_vertex
+from analysis.fit.model_error import (
+    ESTIMATORS,
+    model_error,
+    replicate_indices,
+    resample_vertices,
+    trials_needed,
+    weighted_vertex,
+)
 from analysis.fit.pair import PAIR, pair_axes, pair_grid, pair_refinement, pair_summary
 
 __all__ = ["FitSettings", "FitResult", "PARAMETERS", "FITS", "fit_log", "CAMERA_CANDIDATES"]
@@ -94,6 +101,10 @@ class FitSettings:
         ``--fit mu``: extra builds (build seed + r, r = 1..replicates) of the best grid point and its
         two neighbours, which measure the models' own error (:mod:`analysis.fit.model_error`);
         0 measures it from the residual scatter of the criterion alone.
+    estimator : str
+        ``--fit mu`` with the likelihood: ``"grid"`` (default, version 3: the best grid point) or
+        ``"vertex"`` (version 2: the vertex of the weighted quadratic through the best point's
+        window); :data:`analysis.fit.model_error.ESTIMATORS`, docs/fit.md.
     """
 
     params: tuple = ("mu",)
@@ -107,6 +118,7 @@ class FitSettings:
     seed: int = 0
     outlier: float = 1e-3
     replicates: int = 1
+    estimator: str = "grid"
 
     def __post_init__(self):
         if tuple(self.params) not in FITS:
@@ -125,6 +137,8 @@ class FitSettings:
                                  "LO_K <= LO_S, HI_K <= HI_S and a range of positive width")
             if min(self.points["mu_s"], self.points["mu_k"]) < 2:
                 raise ValueError("a pair fit needs at least 2 grid points per axis")
+        if self.estimator not in ESTIMATORS:
+            raise ValueError(f"unknown estimator {self.estimator!r}: {' or '.join(ESTIMATORS)}")
         if self.criterion not in ("likelihood", "histogram"):
             raise ValueError(f"unknown criterion {self.criterion!r}: likelihood or histogram")
 
@@ -410,7 +424,8 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     L = np.stack([g.mean_ll(p, cam) for p in pts], axis=1)              # (T, points)
     y = L.sum(axis=0)
     j = int(np.argmax(y))
-    est = weighted_vertex(x, y, n, j)
+    estimator = ESTIMATORS[s.estimator]
+    est = estimator(x, y, n, j)
     at_edge = bool(len(x) > 1 and (x[j] <= lo + 1e-9 or x[j] >= hi - 1e-9))
     if at_edge or len(x) < 3 or g.log.trials < 2:     # fewer models cannot show a curve: no interval
         return _summary_1d_out(name, est, at_edge, None, None, {}, None)
@@ -419,9 +434,9 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     err = model_error(x, y, n, j, diffs, resolution=h)
     rng = np.random.default_rng([s.seed, _SALT])
     B = max(s.bootstrap, 2)
-    both = resample_vertices(x, L, n, err, rng, B)
-    only_trials = resample_vertices(x, L, n, err, rng, B, model=False)
-    only_model = resample_vertices(x, L, n, err, rng, B, trials=False)
+    both = resample_vertices(x, L, n, err, rng, B, estimator=estimator)
+    only_trials = resample_vertices(x, L, n, err, rng, B, model=False, estimator=estimator)
+    only_model = resample_vertices(x, L, n, err, rng, B, trials=False, estimator=estimator)
     sd_t, sd_m, sd = (float(v.std(ddof=1)) for v in (only_trials, only_model, both))
     interval = [float(v) for v in np.quantile(both, [0.05, 0.95])]
     profile = [est - 1.6448536 * sd, est + 1.6448536 * sd]

@@ -150,3 +150,53 @@ def test_command_line_reports_the_model_error(monkeypatch, scene, tmp_path, caps
     assert "the interval is dominated by: " + out["trials_needed"]["dominated_by"] in capsys.readouterr().out
     assert main([*args, "--replicates", "-1"]) == 2
     assert "--replicates" in capsys.readouterr().err
+
+
+def test_estimators_on_a_criterion_with_a_cliff():
+    """A misspecified curve: the best model at 0.275 and a cliff at 0.3 (the shape of a spent
+    validation log, docs/fit.md). The vertex of the window's quadratic is pulled away from the best
+    point; the grid estimate stays on it, and its resampled interval (builds' noise plus the
+    resolution term) contains the estimate."""
+    from analysis.fit.model_error import ESTIMATORS, best_point, resample_vertices, weighted_vertex
+
+    x = np.array([0.15, 0.2, 0.225, 0.25, 0.275, 0.3, 0.35, 0.4])
+    y = np.array([-147e3, -100e3, -70e3, -30e3, -16e3, -119e3, -193e3, -216e3])
+    n = np.ones(len(x))
+    j = int(np.argmax(y))
+    assert best_point(x, y, n, j) == 0.275 and ESTIMATORS["grid"] is best_point
+    assert abs(weighted_vertex(x, y, n, j) - 0.275) > 0.02        # the quadratic's pull
+    err = model_error(x, y, n, j, [], resolution=0.025)
+    L = np.tile(y / 10, (10, 1))                                  # 10 identical trials
+    v = resample_vertices(x, L, n, err, np.random.default_rng(0), 400, estimator=best_point)
+    lo, hi = np.quantile(v, [0.05, 0.95])
+    assert lo < 0.275 < hi
+    assert np.all(np.abs(v - np.round(v / 0.025) * 0.025) <= 0.0125 + 1e-12)   # grid points +- h/2
+
+
+def test_estimator_setting_and_option(monkeypatch, scene, tmp_path, capsys):
+    """``--estimator vertex`` gives version 2's estimate, the default the best grid point; an unknown
+    estimator is refused."""
+    import json
+    from types import SimpleNamespace
+
+    import transition_builder.cache as cache
+    from analysis.cli import main
+    from tests.analysis.test_fit import SHAPE
+
+    with pytest.raises(ValueError, match="estimator"):
+        FitSettings(estimator="median")
+    monkeypatch.setattr(cache, "cached_build",
+                        lambda sc, st, **kw: (SimpleNamespace(model=_noisy_build(sc, st)[0]), f"{sc.friction}", None))
+    path = tmp_path / "log.csv"
+    synthetic_log(scene, path, 0.31, trials=150, tilts=12, seed=21)
+    args = ["fit", "--poses", str(path), "--shape", SHAPE, "--range", "0.1..0.5", "--points", "9",
+            "--camera-noise", "0.5,0.5", "--bootstrap", "50", "--json"]
+    assert main(args) == 0
+    grid = json.loads(capsys.readouterr().out)
+    assert any(abs(c["mu"] - grid["estimate"]["mu"]) < 1e-6 for c in grid["criterion"])   # a grid point
+    lo, hi = grid["interval_90"]["mu"]
+    assert lo <= grid["estimate"]["mu"] <= hi
+    assert main([*args, "--estimator", "vertex"]) == 0
+    vertex = json.loads(capsys.readouterr().out)
+    assert vertex["criterion"] == grid["criterion"]
+    assert main([*args, "--estimator", "median"]) == 2

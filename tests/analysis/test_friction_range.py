@@ -174,3 +174,20 @@ def test_ensemble_over_a_range_gives_each_points_answers(monkeypatch, scene, tmp
     # mu = 0 converges on the first tilt, mu > 0 never does: which end is which is in at_points
     assert at["0"]["converged"] == 10 and at["0.2"]["converged"] == at["0.4"]["converged"] == 0
     assert r["range"]["converged"] == [0, 10] and out["converged"] == at["0.2"]["converged"]
+
+
+def test_convergence_over_a_range_gives_each_points_expected_length(monkeypatch, scene, tmp_path, capsys):
+    """``at_points`` keeps nested answers: each point's ``expected_length`` (it dropped them, so a
+    range's ends could not be told apart for ``convergence``)."""
+    import analysis.friction_range as fr_mod
+
+    monkeypatch.setattr(fr_mod, "models_over_range", _two_way_models(scene, tmp_path))
+    assert main(["convergence", "--friction", "0.0..0.4", "--shape", SHAPE, "--range-points", "3", "--draws", "0",
+                 "--runs", "50", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    at = out["friction_range"]["at_points"]
+    assert list(at) == ["0", "0.2", "0.4"]
+    # mu = 0 synchronizes on the first tilt, mu > 0 never does (two rest states stay reachable)
+    assert at["0"]["expected_length"]["exact"] == 1.0 and at["0"]["infinite"] is False
+    assert at["0.2"]["infinite"] is True and at["0.4"]["infinite"] is True and out["infinite"] is True
+    assert "expected_length" not in at["0.2"]                   # all null there: nothing to keep
