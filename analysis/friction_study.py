@@ -204,13 +204,16 @@ def b_criterion(converged: int, parts: int) -> float:
     return abs(converged / parts - PAPER["B_converged"] / PAPER["B_parts"])
 
 
-def b_search(s: FrictionStudySettings, progress=print, on_item=None, done=None) -> dict:
+def b_search(s: FrictionStudySettings, progress=print, on_item=None, done=None, a_search: dict | None = None) -> dict:
     """Every candidate physics on B: the B sequence replayed on each B part at ``b_trials`` starts.
     ``on_item(results_so_far)`` is called after every part (to save partial results); ``done`` holds
     an earlier, interrupted run's results, whose parts are kept where their trials, seed and sequence
-    match (each part's run is seeded on its own, so a resumed search equals an uninterrupted one)."""
+    match (each part's run is seeded on its own, so a resumed search equals an uninterrupted one).
+    With the A search's results (``a_search``) the candidates run closest to the paper's A first
+    (by D), so that an interrupted search has measured the likeliest physics."""
     out = {}
-    for label, spec, tilt_time in s.candidates:
+    order = sorted(s.candidates, key=lambda c: (a_search or {}).get(c[0], {}).get("D", float("inf")))
+    for label, spec, tilt_time in order:
         old = ((done or {}).get(label) or {}).get("parts", {})
         parts = {}
         for part in s.b_parts:
@@ -418,7 +421,11 @@ def main(argv=None) -> int:
         if part.startswith("c_"):
             save(c_reading(s, part[2:], on_item=save, done=done))
         elif part == "b_search":
-            save(b_search(s, on_item=save, done=done))
+            a_search = None
+            if os.path.exists(os.path.join(a.out, "search.json")):
+                with open(os.path.join(a.out, "search.json")) as f:
+                    a_search = json.load(f)
+            save(b_search(s, on_item=save, done=done, a_search=a_search))
         else:
             save(physics_search(s, on_item=save))
     return 0

@@ -143,3 +143,13 @@ def test_markdown_b_table_joins_the_a_criterion():
     assert "| today | `0.3` | 0 | 9 of 15 | 8 | 0.40 | 0 | 0.07 | 0.20 | 0.27 |" in text
     assert "| pair | `0.5/0.3` | 0 | 0 of 7 (measured 7 of 15) | 0 | 2.00 | 1 | 0.67 | - | - |" in text
     assert text.index("| today | `0.3` | 0 | 9") < text.index("| pair |")
+
+
+def test_b_search_runs_the_candidates_closest_to_a_first():
+    from analysis.friction_study import b_search
+
+    s = FrictionStudySettings(b_parts=("triangle:1",), b_trials=2, b_sequence="E", workers=1,
+                              candidates=(("far", "0.5", 0.0), ("near", "0.3", 0.0), ("unsearched", "0.2", 0.0)))
+    told = []
+    b_search(s, progress=told.append, a_search={"far": {"D": 0.9}, "near": {"D": 0.1}})
+    assert [t.split(" (")[0] for t in told] == ["B search: near", "B search: far", "B search: unsearched"]
