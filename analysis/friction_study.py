@@ -210,10 +210,11 @@ def b_search(s: FrictionStudySettings, progress=print, on_item=None, done=None, 
     an earlier, interrupted run's results, whose parts are kept where their trials, seed and sequence
     match (each part's run is seeded on its own, so a resumed search equals an uninterrupted one).
     With the A search's results (``a_search``) the candidates run closest to the paper's A first
-    (by D), so that an interrupted search has measured the likeliest physics."""
+    (by D), so that an interrupted search has measured the likeliest physics; candidates with a tilt
+    time run last (their tilts cost about three times as much)."""
     # an interrupted run's candidates stay in the saved results until their turn comes
     out = {label: old for label, old in (done or {}).items() if label in {c[0] for c in s.candidates}}
-    order = sorted(s.candidates, key=lambda c: (a_search or {}).get(c[0], {}).get("D", float("inf")))
+    order = sorted(s.candidates, key=lambda c: (c[2] > 0, (a_search or {}).get(c[0], {}).get("D", float("inf"))))
     for label, spec, tilt_time in order:
         old = ((done or {}).get(label) or {}).get("parts", {})
         parts = {}

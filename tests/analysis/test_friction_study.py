@@ -153,3 +153,13 @@ def test_b_search_runs_the_candidates_closest_to_a_first():
     told = []
     b_search(s, progress=told.append, a_search={"far": {"D": 0.9}, "near": {"D": 0.1}})
     assert [t.split(" (")[0] for t in told] == ["B search: near", "B search: far", "B search: unsearched"]
+
+
+def test_b_search_runs_tilt_time_candidates_last():
+    from analysis.friction_study import b_search
+
+    s = FrictionStudySettings(b_parts=("triangle:1",), b_trials=2, b_sequence="E", workers=1,
+                              candidates=(("ramp", "0.3", 0.5), ("far", "0.5", 0.0)))
+    told = []
+    b_search(s, progress=told.append, a_search={"ramp": {"D": 0.1}, "far": {"D": 0.9}})
+    assert [t.split(" (")[0] for t in told] == ["B search: far", "B search: ramp"]
