@@ -21,8 +21,14 @@ random 50-tilt sequences (the first K of experiment A's, ``random_sequences_for(
 are simulated directly at M starts each. The criterion is ``D = |share - 29/43| + H20 / H0``: the
 distance of the share of sequences whose entropy reaches zero from the paper's 29 of 43, plus the
 mean entropy at tilt 20 as a fraction of the starting entropy (the paper: "close to zero by the
-20th tilt", i.e. 0). Lower is better; 0 is the paper. B is not part of the search (no budget for
-its 15 parts per candidate).
+20th tilt", i.e. 0). Lower is better; 0 is the paper.
+
+**Which physics reproduces B.** For each candidate, the report's B replayed by direct simulation:
+A's best sequence of the committed report (:data:`B_SEQUENCE`) on the 15 B parts
+(``triangle:1`` .. ``triangle:15``) at ``b_trials`` starts each. A part *converges* when its entropy
+reaches zero at some tilt (the report's B row counts reaching and ending apart; both are kept).
+The combined criterion ``D_AB = D + |b / 15 - 10 / 15|`` adds the distance of the converging
+parts ``b`` from the paper's 10 of 15 (fixed before any B result existed, 2026-11-26).
 
 Small M makes zero entropy easier to reach (fewer starts to gather into one cell); every candidate
 and every map is run at the same M and seeds, so the comparisons are like for like, but the
@@ -30,7 +36,7 @@ absolute shares are not the paper's M = 1,000 (C) or 10,000 (A).
 
 Run in parts (each a separate heavy job), then write the report::
 
-    python -m analysis.friction_study c_amplitude c_mean search --out DIR
+    python -m analysis.friction_study c_amplitude c_mean search b_search --out DIR
     python -m analysis.friction_study report --out DIR
 """
 from __future__ import annotations
@@ -44,7 +50,7 @@ import numpy as np
 
 __all__ = ["FrictionStudySettings", "FrictionStudyResult", "c_reading", "mean_maps", "physics_search",
            "run_friction_study",
-           "criterion", "study_from_parts", "PAPER"]
+           "criterion", "study_from_parts", "PAPER", "b_search", "B_SEQUENCE", "B_PARTS"]
 
 #: the paper's numbers (Mannam et al.): A 29 of 43, B 10 of 15, C 10 of 13 / 0 of 3 / 0 of 4.
 PAPER = {"A_converged": 29, "A_sequences": 43, "B_converged": 10, "B_parts": 15,
@@ -53,6 +59,12 @@ PAPER = {"A_converged": 29, "A_sequences": 43, "B_converged": 10, "B_parts": 15,
 #: sequence the paper's C replays (its green line).
 REPORT_BEST_SEQUENCE = ("E,S,W,W,W,NW,N,SW,NE,W,W,S,NW,SW,N,E,SW,NW,W,E,SW,NE,SE,N,N,NW,E,N,SW,NE,NE,N,NE,E,W,"
                         "NE,SE,SE,NE,W,E,N,E,SW,SE,E,SW,NW,SE,SW")
+#: experiment A's best sequence of the committed report (reports/full/index.md, 9549441's run), which
+#: its B replays on the parts; the B search replays the same sequence under every candidate.
+B_SEQUENCE = ("S,NW,SE,N,NW,NE,NE,NE,N,SE,SW,SW,E,W,SW,S,W,W,N,E,SW,NW,NW,N,W,SE,SE,E,NE,S,W,E,N,E,SE,W,SE,NE,"
+              "W,N,SW,E,N,E,E,SE,E,W,NW,SW")
+#: the report's B parts (``ReproduceSettings.parts``)
+B_PARTS = tuple(f"triangle:{i}" for i in range(1, 16))
 #: the candidate physics of the search: (label, friction spec, tilt time s).
 CANDIDATES = (("today's default", "0.3", 0.0),
               ("Simscape defaults 0.5/0.3", "0.5/0.3", 0.0),
@@ -88,6 +100,8 @@ class FrictionStudySettings:
         K random 50-tilt sequences per candidate physics.
     candidates : tuple
         ``(label, friction, tilt_time_s)`` of the search.
+    b_parts, b_sequence, b_trials
+        The B search: the parts, the sequence replayed on them, and the starts per part.
     """
 
     sequence: str = REPORT_BEST_SEQUENCE
@@ -101,14 +115,18 @@ class FrictionStudySettings:
     search_sequences: int = 6
     search_trials: int = 100
     candidates: tuple = CANDIDATES
+    b_parts: tuple = B_PARTS
+    b_sequence: str = B_SEQUENCE
+    b_trials: int = 100
     workers: int | None = None
 
 
-def _direct(spec: str, sequence, trials: int, seed: int, workers, tilt_time_s: float = 0.0) -> dict:
+def _direct(spec: str, sequence, trials: int, seed: int, workers, tilt_time_s: float = 0.0,
+            shape: str = "allen-key") -> dict:
     from analysis.montecarlo import run_direct
     from transition_builder.scene import scene_from_options
 
-    scene = scene_from_options("allen-key", spec, tilt_time_s=tilt_time_s)
+    scene = scene_from_options(shape, spec, tilt_time_s=tilt_time_s)
     res = run_direct(scene, sequence, trials, seed=seed, workers=workers)
     h = [float(v) for v in res.entropy_bits]
     return {"friction": spec, "tilt_time_s": tilt_time_s, "entropy_bits": h, "trials": int(trials),
@@ -181,6 +199,50 @@ def physics_search(s: FrictionStudySettings, progress=print, on_item=None) -> di
     return out
 
 
+def b_criterion(converged: int, parts: int) -> float:
+    """``|b / parts - 10 / 15|``: the distance of the B parts that converge from the paper's 10 of 15."""
+    return abs(converged / parts - PAPER["B_converged"] / PAPER["B_parts"])
+
+
+def b_search(s: FrictionStudySettings, progress=print, on_item=None, done=None, a_search: dict | None = None) -> dict:
+    """Every candidate physics on B: the B sequence replayed on each B part at ``b_trials`` starts.
+    ``on_item(results_so_far)`` is called after every part (to save partial results); ``done`` holds
+    an earlier, interrupted run's results, whose parts are kept where their trials, seed and sequence
+    match (each part's run is seeded on its own, so a resumed search equals an uninterrupted one).
+    With the A search's results (``a_search``) the candidates run closest to the paper's A first
+    (by D), so that an interrupted search has measured the likeliest physics; candidates with a tilt
+    time run last (their tilts cost about three times as much)."""
+    # an interrupted run's candidates stay in the saved results until their turn comes
+    out = {label: old for label, old in (done or {}).items() if label in {c[0] for c in s.candidates}}
+    order = sorted(s.candidates, key=lambda c: (c[2] > 0, (a_search or {}).get(c[0], {}).get("D", float("inf"))))
+    for label, spec, tilt_time in order:
+        old = ((done or {}).get(label) or {}).get("parts", {})
+        parts = {}
+        for part in s.b_parts:
+            kept = old.get(part)
+            if kept is not None and (kept.get("trials"), kept.get("seed"), kept.get("sequence")) == (
+                    s.b_trials, s.seed, s.b_sequence):
+                parts[part] = kept
+                continue
+            progress(f"B search: {label} ({spec}, tilt time {tilt_time:g} s): {part}, {s.b_trials} trials")
+            r = _direct(spec, s.b_sequence, s.b_trials, s.seed, s.workers, tilt_time, shape=part)
+            parts[part] = dict(r, seed=s.seed, sequence=s.b_sequence)
+            out[label] = _b_summary(spec, tilt_time, parts, len(s.b_parts))
+            if on_item:
+                on_item(out)
+        out[label] = _b_summary(spec, tilt_time, parts, len(s.b_parts))
+    return out
+
+
+def _b_summary(spec, tilt_time, parts: dict, planned: int) -> dict:
+    reached = sum(p["reaches_zero"] for p in parts.values())
+    return {"friction": spec, "tilt_time_s": tilt_time, "parts": parts, "measured": len(parts), "planned": planned,
+            "reaches_zero": int(reached), "ends_zero": int(sum(p["ends_zero"] for p in parts.values())),
+            "mean_entropy_50": float(np.mean([p["entropy_bits"][-1] for p in parts.values()])),
+            "faults": int(sum(sum(p["faults"].values()) for p in parts.values())),
+            "B_distance": b_criterion(int(reached), len(parts))}
+
+
 def _groups(maps: dict) -> dict:
     g = {}
     for level in ("low", "medium", "high"):
@@ -201,6 +263,7 @@ class FrictionStudyResult:
     c_amplitude: dict = field(default_factory=dict)
     c_mean: dict = field(default_factory=dict)
     search: dict = field(default_factory=dict)
+    b_search: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         out = asdict(self)
@@ -249,7 +312,30 @@ class FrictionStudyResult:
             for label, r in sorted(self.search.items(), key=lambda kv: kv[1]["D"]):
                 lines.append(f"| {label} | `{r['friction']}` | {r['tilt_time_s']:g} | {r['share_reaching_zero']:.2f} | "
                              f"{r['mean_entropy_20']:.2f} | {r['mean_entropy_50']:.2f} | {r['D']:.2f} |")
+        if self.b_search:
+            lines += self._b_lines()
         return "\n".join(lines) + "\n"
+
+    def _b_lines(self) -> list[str]:
+        s = self.settings
+        lines = ["", f"**Which physics reproduces B.** A's best sequence of the report replayed on the "
+                 f"{len(s.get('b_parts', B_PARTS))} B parts, M = {s.get('b_trials')} starts each (the paper: 10 of 15 "
+                 "parts converge). B distance = |b / 15 - 10 / 15| (b: parts whose entropy reaches zero); D_AB = D + "
+                 "B distance, with D the A criterion above. Lower is better.", "",
+                 "| physics | friction | tilt time (s) | parts reaching zero | ending at zero | mean H at 50 | "
+                 "faults | B distance | D (A) | D_AB |", "|---|---|---|---|---|---|---|---|---|---|"]
+
+        def d_ab(item):
+            a = self.search.get(item[0], {}).get("D")
+            return (a is None, (a or 0.0) + item[1]["B_distance"])
+        for label, r in sorted(self.b_search.items(), key=d_ab):
+            a = self.search.get(label, {}).get("D")
+            a_text, ab_text = ("-", "-") if a is None else (f"{a:.2f}", f"{a + r['B_distance']:.2f}")
+            part = "" if r["measured"] == r["planned"] else f" (measured {r['measured']} of {r['planned']})"
+            lines.append(f"| {label} | `{r['friction']}` | {r['tilt_time_s']:g} | {r['reaches_zero']} of "
+                         f"{r['measured']}{part} | {r['ends_zero']} | {r['mean_entropy_50']:.2f} | {r['faults']} | "
+                         f"{r['B_distance']:.2f} | {a_text} | {ab_text} |")
+        return lines
 
     def figures(self, out_dir: str) -> list[str]:
         """``fig_friction_c.png``: mean entropy per group of each reading. Returns the files written."""
@@ -277,21 +363,25 @@ class FrictionStudyResult:
         return [path]
 
 
-def run_friction_study(settings: FrictionStudySettings | None = None, parts=("c_amplitude", "c_mean", "search"),
+def run_friction_study(settings: FrictionStudySettings | None = None,
+                       parts=("c_amplitude", "c_mean", "search", "b_search"),
                        progress=print) -> FrictionStudyResult:
     """Run the study in one call (the entry a report section registers): the named parts of
     ``settings`` (default :class:`FrictionStudySettings`), as :func:`main` runs them one by one."""
     s = settings or FrictionStudySettings()
     out = {}
     for part in parts:
-        out[part] = c_reading(s, part[2:], progress) if part.startswith("c_") else physics_search(s, progress)
+        if part.startswith("c_"):
+            out[part] = c_reading(s, part[2:], progress)
+        else:
+            out[part] = (b_search if part == "b_search" else physics_search)(s, progress)
     return FrictionStudyResult(settings=asdict(s), **out)
 
 
 def study_from_parts(out_dir: str, settings: FrictionStudySettings) -> FrictionStudyResult:
     """The result assembled from the parts' JSON files in ``out_dir`` (missing parts stay empty)."""
     parts = {}
-    for name in ("c_amplitude", "c_mean", "search"):
+    for name in ("c_amplitude", "c_mean", "search", "b_search"):
         path = os.path.join(out_dir, f"{name}.json")
         if os.path.exists(path):
             with open(path) as f:
@@ -303,15 +393,16 @@ def main(argv=None) -> int:
     from kruskal_markov.model import atomic_write_text
 
     p = argparse.ArgumentParser(prog="python -m analysis.friction_study", description=__doc__.split("\n")[0])
-    p.add_argument("parts", nargs="+", choices=["c_amplitude", "c_mean", "search", "report"])
+    p.add_argument("parts", nargs="+", choices=["c_amplitude", "c_mean", "search", "b_search", "report"])
     p.add_argument("--out", required=True)
     p.add_argument("--trials", type=int, default=200)
     p.add_argument("--search-trials", type=int, default=100)
     p.add_argument("--search-sequences", type=int, default=6)
+    p.add_argument("--b-trials", type=int, default=100)
     p.add_argument("--workers", type=int, default=None)
     a = p.parse_args(argv)
     s = FrictionStudySettings(trials=a.trials, search_trials=a.search_trials, search_sequences=a.search_sequences,
-                              workers=a.workers)
+                              b_trials=a.b_trials, workers=a.workers)
     os.makedirs(a.out, exist_ok=True)
     for part in a.parts:
         if part == "report":
@@ -326,11 +417,19 @@ def main(argv=None) -> int:
         def save(data, path=path):
             atomic_write_text(path, json.dumps(data, indent=1))
         done = None
-        if part.startswith("c_") and os.path.exists(path):
+        if part != "search" and os.path.exists(path):
             with open(path) as f:
                 done = json.load(f)
-        save(c_reading(s, part[2:], on_item=save, done=done) if part.startswith("c_")
-             else physics_search(s, on_item=save))
+        if part.startswith("c_"):
+            save(c_reading(s, part[2:], on_item=save, done=done))
+        elif part == "b_search":
+            a_search = None
+            if os.path.exists(os.path.join(a.out, "search.json")):
+                with open(os.path.join(a.out, "search.json")) as f:
+                    a_search = json.load(f)
+            save(b_search(s, on_item=save, done=done, a_search=a_search))
+        else:
+            save(physics_search(s, on_item=save))
     return 0
 
 

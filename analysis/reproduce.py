@@ -139,6 +139,9 @@ class ReproduceSettings:
     #: the friction study (analysis.friction_study: C read by mean and amplitude, the search for the
     #: physics of A); off by default (about 40 minutes of direct simulation on 2 cores at its defaults)
     friction_study: bool = False
+    #: where the differences section finds a friction study run as its own command (its
+    #: ``friction_study.json``) when the friction section did not run; None: nowhere
+    friction_study_dir: str | None = None
     #: the tray's-log section (analysis.experiments.tray_log): a log of this many trials x tilts at a hidden
     #: coefficient, fitted (about ten coarse builds of the key; on in :meth:`full` only)
     tray_log: bool = False
@@ -150,7 +153,7 @@ class ReproduceSettings:
         """The committed report's settings: every section but the friction study, which is its own
         command (``python -m analysis.friction_study``, about 40 minutes of direct simulation; its
         measured parts are committed beside the report in ``reports/full/friction_study/``)."""
-        return cls(seed=seed, tray_log=True)
+        return cls(seed=seed, tray_log=True, friction_study_dir="reports/full/friction_study")
 
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":

@@ -7,9 +7,14 @@ next section's heading) and its figures, and leaves every other section as it wa
 are read back from the report's own ``results.json``, so the section runs exactly as the full run
 would have. ``docs/results.md`` must say which sections were re-run this way, at which commit.
 
+A section that simulates nothing (it only reads other sections' results, e.g. ``differences``)
+defines ``from_saved(saved_results, report_dir)``; ``--from-saved`` renders it from the saved
+``results.json`` without running any section, so it reads exactly the numbers the report shows.
+
 Usage::
 
     python tools/rerun_section.py --out reports/full --section tray_log [--workers 2]
+    python tools/rerun_section.py --out reports/full --section differences --from-saved
 """
 from __future__ import annotations
 
@@ -63,6 +68,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, help="the report directory (index.md, results.json)")
     ap.add_argument("--section", required=True, choices=sorted(EXPERIMENTS))
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--from-saved", action="store_true",
+                    help="render the section from the saved results.json (sections with from_saved only)")
     args = ap.parse_args(argv)
     results_path, index_path = (os.path.join(args.out, n) for n in ("results.json", "index.md"))
     try:
@@ -74,17 +81,24 @@ def main(argv=None) -> int:
     except (OSError, ValueError, KeyError) as exc:
         print(f"rerun_section: {exc}", file=sys.stderr)
         return 2
-    report = run_experiments(settings, workers=args.workers, only=(args.section,),
-                             progress=lambda msg: print(msg, file=sys.stderr))
     module = importlib.import_module(EXPERIMENTS[args.section])
-    result = report.results[args.section]
+    if args.from_saved:
+        if not hasattr(module, "from_saved"):
+            print(f"rerun_section: section {args.section!r} cannot be rendered from a saved report (it computes; "
+                  "run it without --from-saved)", file=sys.stderr)
+            return 2
+        result, seconds = module.from_saved(saved, args.out), 0.0
+    else:
+        report = run_experiments(settings, workers=args.workers, only=(args.section,),
+                                 progress=lambda msg: print(msg, file=sys.stderr))
+        result, seconds = report.results[args.section], report.seconds
     saved.update(result.to_dict())
     text = module.markdown(result)
     new_index = splice_section(index_text, text) if text else index_text
     atomic_write_text(results_path, strict_json(saved, indent=1))
     figures = module.figures(result, args.out)
     atomic_write_text(index_path, new_index)
-    print(json.dumps({"section": args.section, "seconds": report.seconds, "figures": figures}))
+    print(json.dumps({"section": args.section, "seconds": seconds, "figures": figures}))
     return 0
 
 

@@ -61,4 +61,4 @@ register("tray_log", "analysis.experiments.tray_log")          # a tray's log: t
 register("B", "analysis.experiments.experiment_b")             # B: other parts (Fig. 4)
 register("C", "analysis.experiments.experiment_c")             # C: friction maps (Fig. 6)
 register("friction", "analysis.experiments.friction")          # C by mean, the physics of A (issue 40)
-register("notes", "analysis.experiments.notes")                # how the differences arise
+register("differences", "analysis.experiments.differences")    # how the differences arise, point by point

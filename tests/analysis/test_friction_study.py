@@ -96,3 +96,70 @@ def test_a_resumed_c_reading_equals_an_uninterrupted_one():
     told.clear()
     c_reading(s, "mean", progress=told.append, done={first: stale})
     assert len(told) == 2
+
+
+def test_b_criterion_is_zero_at_the_paper_and_counts_parts():
+    from analysis.friction_study import b_criterion
+
+    assert b_criterion(10, 15) == 0.0
+    assert b_criterion(9, 15) == pytest.approx(1 / 15)
+    assert b_criterion(15, 15) == pytest.approx(5 / 15)
+
+
+def test_a_resumed_b_search_equals_an_uninterrupted_one():
+    """The B search replays one sequence on every part under every candidate; an interrupted run
+    resumes at the first part not saved, and a part saved with other trials is run again."""
+    from analysis.friction_study import b_search
+
+    s = FrictionStudySettings(b_parts=("triangle:1", "triangle:2"), b_trials=3, b_sequence="E,S", workers=1,
+                              candidates=(("today", "0.3", 0.0),))
+    saved = []
+    whole = b_search(s, progress=lambda line: None, on_item=lambda out: saved.append(
+        {k: dict(v, parts=dict(v["parts"])) for k, v in out.items()}))
+    r = whole["today"]
+    assert r["measured"] == r["planned"] == 2 and set(r["parts"]) == {"triangle:1", "triangle:2"}
+    assert r["reaches_zero"] == sum(p["reaches_zero"] for p in r["parts"].values())
+    assert all(len(p["entropy_bits"]) == 3 and p["trials"] == 3 for p in r["parts"].values())
+    told = []
+    resumed = b_search(s, progress=told.append, done=saved[0])
+    assert resumed == whole and len(told) == 1 and "triangle:2" in told[0]
+    stale = {"today": dict(saved[0]["today"], parts={"triangle:1": dict(r["parts"]["triangle:1"], trials=2)})}
+    told.clear()
+    b_search(s, progress=told.append, done=stale)
+    assert len(told) == 2
+
+
+def test_markdown_b_table_joins_the_a_criterion():
+    b = {"today": {"friction": "0.3", "tilt_time_s": 0.0, "parts": {}, "measured": 15, "planned": 15,
+                   "reaches_zero": 9, "ends_zero": 8, "mean_entropy_50": 0.4, "faults": 0,
+                   "B_distance": 1 / 15},
+         "pair": {"friction": "0.5/0.3", "tilt_time_s": 0.0, "parts": {}, "measured": 7, "planned": 15,
+                  "reaches_zero": 0, "ends_zero": 0, "mean_entropy_50": 2.0, "faults": 1, "B_distance": 10 / 15}}
+    search = {"today": {"friction": "0.3", "tilt_time_s": 0.0, "share_reaching_zero": 0.5, "mean_entropy_20": 1.0,
+                        "mean_entropy_50": 0.5, "D": 0.2}}
+    res = FrictionStudyResult(settings=dict(trials=200, seed=0, search_sequences=6, search_trials=100, b_trials=100),
+                              search=search, b_search=b)
+    text = res.markdown()
+    assert "| today | `0.3` | 0 | 9 of 15 | 8 | 0.40 | 0 | 0.07 | 0.20 | 0.27 |" in text
+    assert "| pair | `0.5/0.3` | 0 | 0 of 7 (measured 7 of 15) | 0 | 2.00 | 1 | 0.67 | - | - |" in text
+    assert text.index("| today | `0.3` | 0 | 9") < text.index("| pair |")
+
+
+def test_b_search_runs_the_candidates_closest_to_a_first():
+    from analysis.friction_study import b_search
+
+    s = FrictionStudySettings(b_parts=("triangle:1",), b_trials=2, b_sequence="E", workers=1,
+                              candidates=(("far", "0.5", 0.0), ("near", "0.3", 0.0), ("unsearched", "0.2", 0.0)))
+    told = []
+    b_search(s, progress=told.append, a_search={"far": {"D": 0.9}, "near": {"D": 0.1}})
+    assert [t.split(" (")[0] for t in told] == ["B search: near", "B search: far", "B search: unsearched"]
+
+
+def test_b_search_runs_tilt_time_candidates_last():
+    from analysis.friction_study import b_search
+
+    s = FrictionStudySettings(b_parts=("triangle:1",), b_trials=2, b_sequence="E", workers=1,
+                              candidates=(("ramp", "0.3", 0.5), ("far", "0.5", 0.0)))
+    told = []
+    b_search(s, progress=told.append, a_search={"ramp": {"D": 0.1}, "far": {"D": 0.9}})
+    assert [t.split(" (")[0] for t in told] == ["B search: far", "B search: ramp"]
