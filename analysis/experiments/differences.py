@@ -165,7 +165,7 @@ def _b_points(s: dict, study: dict | None) -> list[Point]:
         "not explained" if b.get("mean_near_zero_by") is None else "explained",
         f"{n - b['converged']} of our {n} parts never converge and hold the mean up; the paper's 5 "
         "non-converging parts must have ended with little entropy for its mean to reach zero by tilt 27 "
-        "(its parts and bins are not ours; not measured)."))
+        "(its parts are not ours; not measured)."))
     return out
 
 
@@ -204,7 +204,7 @@ def _plan_point(s: dict) -> Point:
     cell = ((s.get("plans") or {}).get("cell") or {}).get("plan")
     cell_len = cell.get("length") if isinstance(cell, dict) else None
     return Point(
-        "the key's optimal sensorless plan", f"{PAPER['erdmann_mason_plan_length']} tilts (Erdmann and Mason, by hand)",
+        "the key's optimal sensorless plan", f"{PAPER['erdmann_mason_plan_length']} tilts (Erdmann and Mason's plan)",
         f"{km.get('sync_length')} tilts to one state{' (proven shortest)' if km.get('sync_exact') else ''}"
         + (f"; {cell_len} to one report cell" if cell_len else ""),
         "not comparable",
