@@ -453,9 +453,8 @@ class BulletWorld:
         first update, which read the same values again before."""
         cid, ob = self.cid, self.body
         mem, geom, grid, params, out = self._cb_mem, self._cb_geom, self._cb_grid, self._cb_params, self._cb_out
-        n, z = self.normal_force, self._cb_z
         joints = _JOINTS
-        get_states, change, force, step = pb.getJointStates, pb.changeDynamics, pb.applyExternalForce, pb.stepSimulation
+        get_states, step = pb.getJointStates, pb.stepSimulation
         mode = 0
         s = self._after
         if s is None:
@@ -474,15 +473,22 @@ class BulletWorld:
                 s = get_states(ob, joints, physicsClientId=cid)
             sx, sy, _, sw = s
             _contact_update(sx[0], sy[0], sw[0], sx[1], sy[1], sw[1], mem, geom, grid, params, out)
-            caps = (out[0], out[1])
-            if caps != self._cb_caps:
-                change(ob, J_YAW, lateralFriction=caps[0], spinningFriction=caps[1], physicsClientId=cid)
-                self._cb_caps = caps
-            if out[2] != 0.0 or out[3] != 0.0:
-                force(ob, J_YAW, (out[2] * n, out[3] * n, 0.0), (sx[0], sy[0], z), pb.WORLD_FRAME,
-                      physicsClientId=cid)
+            self._apply_contact(out, sx[0], sy[0])
             step(physicsClientId=cid)
         self._after = get_states(ob, joints, physicsClientId=cid)
+
+    def _apply_contact(self, out, x: float, y: float) -> None:
+        """Apply one contact update ``out`` before a physics step: the support's lateral and spinning
+        limits when they changed, and the explicit friction force (at the support point ``x, y``)."""
+        caps = (out[0], out[1])
+        if caps != self._cb_caps:
+            pb.changeDynamics(self.body, J_YAW, lateralFriction=caps[0], spinningFriction=caps[1],
+                              physicsClientId=self.cid)
+            self._cb_caps = caps
+        if out[2] != 0.0 or out[3] != 0.0:
+            n = self.normal_force
+            pb.applyExternalForce(self.body, J_YAW, (out[2] * n, out[3] * n, 0.0), (x, y, self._cb_z),
+                                  pb.WORLD_FRAME, physicsClientId=self.cid)
 
     def _step_steady(self, free: int, s):
         """:meth:`_step_coulomb` with ``long_steps="free+steady"``: every call runs in the long-step
@@ -493,9 +499,8 @@ class BulletWorld:
         ``s``: the joint states at the start of the interval."""
         cid, ob = self.cid, self.body
         mem, geom, grid, params, out = self._cb_mem, self._cb_geom, self._cb_grid, self._cb_params, self._cb_out
-        n, z = self.normal_force, self._cb_z
         joints, modes = _JOINTS, self._cb_modes
-        get_states, change, force, step = pb.getJointStates, pb.changeDynamics, pb.applyExternalForce, pb.stepSimulation
+        get_states, step = pb.getJointStates, pb.stepSimulation
         unit, steady_units, left = self._cb_units
         stick_only = self._cb_stick_only
         first = True
@@ -514,13 +519,7 @@ class BulletWorld:
                 dt, n_sub, _ = modes[mode]
                 pb.setPhysicsEngineParameter(fixedTimeStep=dt * n_sub, numSubSteps=n_sub, physicsClientId=cid)
                 self._cb_mode = mode
-            caps = (out[0], out[1])
-            if caps != self._cb_caps:
-                change(ob, J_YAW, lateralFriction=caps[0], spinningFriction=caps[1], physicsClientId=cid)
-                self._cb_caps = caps
-            if out[2] != 0.0 or out[3] != 0.0:
-                force(ob, J_YAW, (out[2] * n, out[3] * n, 0.0), (sx[0], sy[0], z), pb.WORLD_FRAME,
-                      physicsClientId=cid)
+            self._apply_contact(out, sx[0], sy[0])
             step(physicsClientId=cid)
         self._after = get_states(ob, joints, physicsClientId=cid)
 
