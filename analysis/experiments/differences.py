@@ -114,12 +114,17 @@ def _a_points(s: dict, study: dict | None) -> list[Point]:
         f"{'holds' if inside else 'does not hold'} our converging share ({base}). Our own 43 differ from "
         "the paper's 43 draws, so their count moves by as much." +
         (f" Shares reaching zero in the physics search (6 sequences, M = 100): {', '.join(near)}." if near else "")))
-    h20 = (ens or a)["mean"][20]
+    mean = (ens or a)["mean"]
+    t20 = min(pa["near_zero_by"], len(mean) - 1)
+    last = len(mean) - 1
+    near_by = (ens or a).get("mean_near_zero_by")
     low = min(search.values(), key=lambda r: r["mean_entropy_20"]) if search else None
     out.append(Point(
         "A: mean entropy near zero by tilt", f"about {pa['near_zero_by']}",
-        f"{h20:.2f} bits at tilt 20; not near zero within 50 (mean {(ens or a)['mean'][-1]:.2f} bits at 50)",
-        "not explained",
+        f"{mean[t20]:.2f} bits at tilt {t20}; " + (f"not near zero within {last}" if near_by is None else
+                                                    f"near zero by tilt {near_by}")
+        + f" (mean {mean[-1]:.2f} bits at {last})",
+        "no gap" if near_by is not None and near_by <= pa["near_zero_by"] else "not explained",
         "No physics tried brings the mean near zero by tilt 20" +
         (f" (the lowest, {low['friction']}, gives {low['mean_entropy_20']:.2f} bits against "
          f"{search.get(next(iter(search)), low)['entropy_0']:.2f} at the start)" if low else "") +
@@ -160,7 +165,8 @@ def _b_points(s: dict, study: dict | None) -> list[Point]:
     mean = b["mean"]
     out.append(Point(
         "B: mean entropy near zero by tilt", f"about {pb['near_zero_by']}",
-        f"{mean[-1]:.2f} bits at tilt 50; not near zero within 50" if b.get("mean_near_zero_by") is None else
+        f"{mean[-1]:.2f} bits at tilt {len(mean) - 1}; not near zero within {len(mean) - 1}"
+        if b.get("mean_near_zero_by") is None else
         f"near zero by tilt {b['mean_near_zero_by']}",
         "not explained" if b.get("mean_near_zero_by") is None else "explained",
         f"{n - b['converged']} of our {n} parts never converge and hold the mean up; the paper's 5 "

@@ -102,3 +102,16 @@ def test_rerun_section_renders_differences_from_a_saved_report(tmp_path):
     got = json.loads((tmp_path / "results.json").read_text())["differences"]
     assert got["friction_study"].endswith("friction_study.json") and got["physics"][0]["label"] == "pair"
     assert rerun.main(["--out", str(tmp_path), "--section", "A", "--from-saved"]) == 2
+
+
+def test_short_runs_and_a_mean_that_reaches_zero_are_read_as_they_are():
+    """A quick report's 10-tilt sequences have no tilt 20: the point reads the last tilt; a mean that
+    reaches zero by the paper's tilt is no gap."""
+    s = _saved()
+    s["ensemble"] = dict(s["ensemble"], mean=[5.0] + [0.5] * 10, converged_by_tilt=[0] * 11)
+    s["B"] = dict(s["B"], mean=[4.0] + [0.3] * 10)
+    pts = differences(s)
+    mean_point = _point(pts, "A: mean entropy")
+    assert mean_point.ours.startswith("0.50 bits at tilt 10; not near zero within 10")
+    s["ensemble"] = dict(s["ensemble"], mean=[5.0] + [0.05] * 50, mean_near_zero_by=12)
+    assert _point(differences(s), "A: mean entropy").verdict == "no gap"

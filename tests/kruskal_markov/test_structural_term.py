@@ -264,16 +264,22 @@ def test_every_note_and_error_is_its_whole_line():
     assert structural_term(other).note == (
         "structural delta 0.105: the allen key's calibration; the model's stored calibration is of another "
         "rule ('flow'; `kruskal validate --calibrate` renews it)")
-    cal = with_calibration(m, 0.0123456, steps=60, seeds=[5, 7])
+    cal = with_calibration(m, 0.0123456, steps=60, seeds=[5, 7], sequences=12)
     assert structural_term(cal).to_dict() == {
         "structural_delta": 0.0123456, "structural_source": "calibrated",
-        "structural_note": "structural delta 0.01235 calibrated on this model (60 steps of `kruskal validate "
-                           "--calibrate`, seeds 5, 7)"}
+        "structural_note": "structural delta 0.01235 calibrated on this model (60 steps of 12 sequences of "
+                           "`kruskal validate --calibrate`, seeds 5, 7)"}
+    warning = ("fewer than 12: such a delta is unstable (docs/uncertainty.md); pool more `kruskal validate "
+               "--calibrate` runs of other seeds")
+    few = with_calibration(m, 0.0123456, steps=60, seeds=[5, 7], sequences=4)
+    assert structural_term(few).note == ("structural delta 0.01235 calibrated on this model (60 steps of 4 sequences "
+                                         "of `kruskal validate --calibrate`, seeds 5, 7); calibrated on 4 sequences, "
+                                         + warning)
     bare = _counted(metadata={**BUILT, "structural": {"delta": 0}})
     assert structural_term(bare).to_dict() == {
         "structural_delta": 0.0, "structural_source": "calibrated",
         "structural_note": "structural delta 0 calibrated on this model (? steps of `kruskal validate --calibrate`, "
-                           "seeds ?)"}
+                           "seeds ?); calibrated on an unrecorded number of sequences, " + warning}
     for bad in (-0.1, math.nan, math.inf):
         with pytest.raises(ValueError, match="^" + re.escape(f"structural delta must be a non-negative number, got {bad!r}")
                            + "$"):
