@@ -152,6 +152,14 @@ def test_the_word_synchronizes_and_every_interval_is_its_monte_carlo():
         (ens.mean[10], ens.mean[50], ens.converged / count))
     assert m.intervals["random_tilts"]["value"] == m.random_tilts
     assert m.intervals["random_tilts"]["mc_ci95"] == pytest.approx(list(t["ci95"]))
+    # the cap reaches the intervals too: at 3 tilts every run of C_4 is censored, in both
+    import time
+
+    t0 = time.perf_counter()
+    capped = part_metrics(model, seed=seed, count=count, runs=runs, max_tilts=3, sync_node_budget=10_000, draws=0)
+    elapsed = time.perf_counter() - t0
+    assert capped.random_tilts_censored == capped.intervals["random_tilts"]["censored"] == runs
+    assert 0.0 <= capped.seconds <= elapsed                     # the call's own duration, not a clock reading
 
 
 
@@ -192,3 +200,15 @@ def test_the_deprecated_as_dict_warns_at_the_callers_line_and_equals_to_dict():
     assert d == m.to_dict()
     assert [(x.category, str(x.message), x.filename) for x in w] == [
         (KruskalDeprecationWarning, "PartMetrics.as_dict is deprecated; use to_dict", __file__)]
+
+
+def test_the_tilt_cap_reaches_the_posterior_draws():
+    """``max_tilts`` caps the random tilts of the answers' posterior draws as it caps the point value:
+    at a cap of 2 tilts every run of this model (1.5 bits, about 6 tilts uncapped) is censored at 2, in
+    the model and in every draw, so the posterior interval is the single point 2."""
+    from tests.kruskal_markov.test_answers import _counted_model
+
+    m = part_metrics(_counted_model(seed=5), seed=3, count=100, runs=30, epsilon=1.5, max_tilts=2, draws=2,
+                     sync_node_budget=2000)
+    assert (m.random_tilts, m.random_tilts_censored, m.random_tilts_lower) == (None, 30, 2.0)
+    assert m.intervals["random_tilts"]["posterior_ci90"] == [2.0, 2.0]
