@@ -13,12 +13,10 @@ neighbours) and ``vertex_clipped`` (the vertex kept within half a spacing of the
 """
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 from analysis.fit.model_error import best_point, model_error, weighted_vertex
-from benchmarks.bench_fit_variants import _curve
+from benchmarks.bench_fit_variants import _interval, _kept_fit
 
 SETS = {"tuning": [f"benchmarks/results/fit_tuning/fit_tuning{i}_rep1.json" for i in range(3)]
         + ["benchmarks/results/fit_report_log/fit_report_rep1.json"],
@@ -48,28 +46,15 @@ def vertex_clipped(x, y, n, j) -> float:
 ESTIMATORS = {"vertex": weighted_vertex, "grid": best_point, "q3": q3, "vertex_clipped": vertex_clipped}
 
 
-def _interval(est, x, y, n, err, h, rng, count=2000):
-    out = np.empty(count)
-    for b in range(count):
-        v = err.var * err.dof / rng.chisquare(err.dof) if err.var else 0.0
-        yy = y + rng.normal(0.0, 1.0, len(x)) * np.sqrt(v / n)
-        out[b] = est(x, yy, n, int(np.argmax(yy)))
-    return np.quantile(out + rng.uniform(-h / 2, h / 2, count), [0.05, 0.95])
-
-
 def main() -> dict:
     summary = {}
     for name, files in SETS.items():
         rows = {k: [] for k in ESTIMATORS}
         for f in files:
-            r = json.loads(open(f).read())
-            t = r["truth"]
-            x, y, n, diffs = _curve(r)
-            j = int(np.argmax(y))
-            h = float(min(np.diff(x)[max(0, j - 1):j + 1]))
+            t, x, y, n, diffs, j, h = _kept_fit(f)
             err = model_error(x, y, n, j, diffs, resolution=h)
             for k, e in ESTIMATORS.items():
-                lo, hi = _interval(e, x, y, n, err, h, np.random.default_rng(0))
+                lo, hi = _interval(x, y, n, err.var, err.dof, np.random.default_rng(0), h / 2, est=e)
                 rows[k].append((e(x, y, n, j) - t, bool(lo <= t <= hi), float(hi - lo)))
         for k, v in rows.items():
             e = np.abs([a for a, _, _ in v])

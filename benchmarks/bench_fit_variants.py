@@ -34,12 +34,24 @@ def _curve(r: dict):
     return x, ym, n, me["replicate_differences"]
 
 
-def _interval(x, y, n, var, dof, rng, half, count=2000):
+def _kept_fit(path: str):
+    """A kept fit's truth, its criterion curve (:func:`_curve`), the best point ``j`` and the grid's
+    spacing ``h`` beside it."""
+    with open(path) as f:
+        r = json.load(f)
+    x, y, n, diffs = _curve(r)
+    j = int(np.argmax(y))
+    return r["truth"], x, y, n, diffs, j, float(min(np.diff(x)[max(0, j - 1):j + 1]))
+
+
+def _interval(x, y, n, var, dof, rng, half, count=2000, est=weighted_vertex):
+    """The 90% interval of ``est`` under the model-error bootstrap: a scaled-inverse-chi-square
+    variance, normal noise on the curve, and the resolution term ``U(-half, half)``."""
     out = np.empty(count)
     for b in range(count):
         v = var * dof / rng.chisquare(dof) if var else 0.0
         yy = y + rng.normal(0.0, 1.0, len(x)) * np.sqrt(v / n)
-        out[b] = weighted_vertex(x, yy, n, int(np.argmax(yy)))
+        out[b] = est(x, yy, n, int(np.argmax(yy)))
     return np.quantile(out + rng.uniform(-half, half, count), [0.05, 0.95])
 
 
@@ -47,11 +59,7 @@ def main(paths) -> dict:
     files = [f for p in paths for f in sorted(glob.glob(p))]
     table = {k: [] for k in "ABCD"}
     for f in files:
-        r = json.loads(open(f).read())
-        t = r["truth"]
-        x, y, n, diffs = _curve(r)
-        j = int(np.argmax(y))
-        h = float(min(np.diff(x)[max(0, j - 1):j + 1]))
+        t, x, y, n, diffs, j, h = _kept_fit(f)
         pooled, resid = model_error(x, y, n, j, []), model_error(x, y, n, j, [])
         d = np.asarray(diffs)
         if len(d):                                  # version 1's pooling
