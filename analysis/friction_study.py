@@ -50,7 +50,7 @@ import numpy as np
 
 __all__ = ["FrictionStudySettings", "FrictionStudyResult", "c_reading", "mean_maps", "physics_search",
            "run_friction_study",
-           "criterion", "study_from_parts", "PAPER", "b_search", "B_SEQUENCE", "B_PARTS"]
+           "criterion", "study_from_parts", "PAPER", "b_search", "combined_criterion", "B_SEQUENCE", "B_PARTS"]
 
 #: the paper's numbers (Mannam et al.): A 29 of 43, B 10 of 15, C 10 of 13 / 0 of 3 / 0 of 4.
 PAPER = {"A_converged": 29, "A_sequences": 43, "B_converged": 10, "B_parts": 15,
@@ -234,6 +234,12 @@ def b_search(s: FrictionStudySettings, progress=print, on_item=None, done=None, 
     return out
 
 
+def combined_criterion(a: dict | None, b: dict | None) -> float | None:
+    """``D_AB = D + B distance`` of one candidate from its A search entry ``a`` and B search entry
+    ``b`` (None when either was not measured)."""
+    return None if a is None or b is None else a["D"] + b["B_distance"]
+
+
 def _b_summary(spec, tilt_time, parts: dict, planned: int) -> dict:
     reached = sum(p["reaches_zero"] for p in parts.values())
     return {"friction": spec, "tilt_time_s": tilt_time, "parts": parts, "measured": len(parts), "planned": planned,
@@ -326,11 +332,11 @@ class FrictionStudyResult:
                  "faults | B distance | D (A) | D_AB |", "|---|---|---|---|---|---|---|---|---|---|"]
 
         def d_ab(item):
-            a = self.search.get(item[0], {}).get("D")
-            return (a is None, (a or 0.0) + item[1]["B_distance"])
+            total = combined_criterion(self.search.get(item[0]), item[1])
+            return (total is None, item[1]["B_distance"] if total is None else total)
         for label, r in sorted(self.b_search.items(), key=d_ab):
-            a = self.search.get(label, {}).get("D")
-            a_text, ab_text = ("-", "-") if a is None else (f"{a:.2f}", f"{a + r['B_distance']:.2f}")
+            a, total = self.search.get(label), combined_criterion(self.search.get(label), r)
+            a_text, ab_text = ("-", "-") if a is None else (f"{a['D']:.2f}", f"{total:.2f}")
             part = "" if r["measured"] == r["planned"] else f" (measured {r['measured']} of {r['planned']})"
             lines.append(f"| {label} | `{r['friction']}` | {r['tilt_time_s']:g} | {r['reaches_zero']} of "
                          f"{r['measured']}{part} | {r['ends_zero']} | {r['mean_entropy_50']:.2f} | {r['faults']} | "

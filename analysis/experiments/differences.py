@@ -18,6 +18,7 @@ import json
 import os
 
 from analysis.experiments.paper import PAPER
+from analysis.friction_study import combined_criterion
 from kruskal_markov.answers import wilson_interval
 
 __all__ = ["Result", "run", "markdown", "figures", "from_saved", "differences", "best_physics"]
@@ -247,7 +248,7 @@ def best_physics(study: dict | None) -> tuple:
                      "share_reaching_zero": r["share_reaching_zero"], "mean_entropy_20": r["mean_entropy_20"],
                      "D": r["D"], "B_reaches_zero": None if b is None else b["reaches_zero"],
                      "B_measured": None if b is None else b["measured"],
-                     "D_AB": None if b is None else r["D"] + b["B_distance"]})
+                     "D_AB": combined_criterion(r, b)})
     rows.sort(key=lambda x: (x["D_AB"] is None, x["D"] if x["D_AB"] is None else x["D_AB"]))
     return tuple(rows)
 
