@@ -82,29 +82,34 @@ def _small_build(settings: dict) -> tuple[float, int]:
     return time.process_time() - t, int(r.stats["tilts_simulated"])
 
 
-def cpu_side_by_side() -> dict:
-    """Every variant, alternating, ``ROUNDS`` times: CPU per tilt, agreement with the default."""
+def cpu_side_by_side(variants: dict | None = None, rounds: int | None = None) -> dict:
+    """Every variant (``variants``: label -> SimSettings changes, the first the reference; default
+    :data:`VARIANTS`), alternating, ``rounds`` (default ``ROUNDS``) times: CPU per tilt, agreement
+    with the first variant's landings."""
+    variants = VARIANTS if variants is None else variants
+    rounds = ROUNDS if rounds is None else rounds
+    first = next(iter(variants))
     from transition_builder.sampling import sample_start_poses
     from transition_builder.shapes import parse_shape
     starts = sample_start_poses(parse_shape("allen-key"), 200.0, 200.0, STARTS, np.random.default_rng(31))
-    rows = {k: {"uniform_ms": [], "rest_ms": [], "small_build_tilts_per_cpu_s": []} for k in VARIANTS}
+    rows = {k: {"uniform_ms": [], "rest_ms": [], "small_build_tilts_per_cpu_s": []} for k in variants}
     ref = None
-    for settings in VARIANTS.values():
+    for settings in variants.values():
         _tilts(settings, starts[:5])            # warm up (imports, compiled kernels) outside the timings
-    for rnd in range(ROUNDS):
-        for label, settings in VARIANTS.items():
+    for rnd in range(rounds):
+        for label, settings in variants.items():
             r = _tilts(settings, starts)
-            if label == "default":
+            if label == first:
                 ref = r
             row = rows[label]
             for part in ("uniform", "rest"):
                 row[f"{part}_ms"].append(1e3 * r[part][1] / len(r[part][0]))
-                row[f"{part}_within_1mm_1deg_of_default"] = _agree(r[part][0], ref[part][0])
+                row[f"{part}_within_1mm_1deg_of_{first}"] = _agree(r[part][0], ref[part][0])
             c, n = _small_build(settings)
             row["small_build_tilts_per_cpu_s"].append(n / c)
             print(f"round {rnd + 1}, {label}: uniform {row['uniform_ms'][-1]:.2f} ms/tilt, rest poses "
                   f"{row['rest_ms'][-1]:.2f} ms/tilt, small build {n / c:.0f} tilts/CPU s", flush=True)
-    base = {k: float(np.mean(rows['default'][k])) for k in ("uniform_ms", "rest_ms")}
+    base = {k: float(np.mean(rows[first][k])) for k in ("uniform_ms", "rest_ms")}
     for label, row in rows.items():
         row["uniform_speedup"] = base["uniform_ms"] / float(np.mean(row["uniform_ms"]))
         row["rest_speedup"] = base["rest_ms"] / float(np.mean(row["rest_ms"]))
@@ -112,25 +117,27 @@ def cpu_side_by_side() -> dict:
     return rows
 
 
-def judges() -> dict:
+def judges(settings: dict | None = None) -> dict:
+    """The judges of the variant ``settings`` (default: the candidate)."""
     from transition_builder.judges import JUDGE_TARGETS, judges_table
-    c = VARIANTS["candidate"]
+    c = VARIANTS["candidate"] if settings is None else settings
     j = judges_table(("coulomb",), mu=0.3, refine=16, **c)["coulomb"]
     fails = [k for k, v in j.items() if not v <= JUDGE_TARGETS[k]]
-    print("judges, candidate " + json.dumps(c) + ": " + json.dumps({k: round(v, 5) for k, v in j.items()})
+    print("judges, " + json.dumps(c) + ": " + json.dumps({k: round(v, 5) for k, v in j.items()})
           + f"; failing: {fails or 'none'}", flush=True)
     return j
 
 
-def build(label: str, build_settings=None, friction=None) -> dict:
-    """The key's model with variant ``label`` built from scratch on 2 workers (no cache): wall time,
-    the workers' CPU seconds (from /proc, as ``python -m benchmarks build_profile`` counts them)."""
+def build(label: str, build_settings=None, friction=None, settings: dict | None = None) -> dict:
+    """The key's model with variant ``label`` (its SimSettings changes ``settings``, default
+    ``VARIANTS[label]``) built from scratch on 2 workers (no cache): wall time, the workers' CPU
+    seconds (from /proc, as ``python -m benchmarks build_profile`` counts them)."""
     from benchmarks.bench_build_profile import _proc_cpu, model_digest
     from transition_builder import executors
     from transition_builder.builder import BuildSettings, build_model
     from transition_builder.scene import scene_from_options
     args = (friction,) if friction is not None else ()
-    sc = scene_from_options("allen-key", *args, **VARIANTS[label])
+    sc = scene_from_options("allen-key", *args, **(VARIANTS[label] if settings is None else settings))
     ex = executors.LocalExecutor(2)
     pool = executors._get_pool(2)
     for f in [pool.submit(executors._worker_pid) for _ in range(8)]:
@@ -151,9 +158,9 @@ def build(label: str, build_settings=None, friction=None) -> dict:
     return out
 
 
-def validate(trials: int) -> dict:
-    """Held-out validation of the saved default and candidate models against one direct
-    simulation under the default simulator (seed :data:`VALIDATION_SEED`)."""
+def validate(trials: int, labels=("default", "candidate"), seed: int = VALIDATION_SEED) -> dict:
+    """Held-out validation of the saved models ``labels`` (``KRUSKAL_BENCH_LONG_SAVE``/LABEL.npz)
+    against one direct simulation under the default simulator (seed ``seed``)."""
     from analysis.validate import validate_model
     from kruskal_markov.model import TransitionModel
     from transition_builder.tilting import run_direct
@@ -161,19 +168,20 @@ def validate(trials: int) -> dict:
     refs = {}
 
     def simulate(sc, sq, m, sd, nz):
-        sc = sc.with_settings(contact_pairs="all", long_steps="free")      # ground truth: today's simulator
+        sc = sc.with_settings(contact_pairs="all", long_steps="free",      # ground truth: today's simulator
+                              part_links="per-part")
         key = (tuple(int(a) for a in sq) if not isinstance(sq, str) else sq, m, sd, str(nz))
         if key not in refs:
             refs[key] = run_direct(sc, sq, m, seed=sd, workers=2, noise=nz)
         return refs[key]
 
     out = {}
-    for label in ("default", "candidate"):
+    for label in labels:
         v = validate_model(TransitionModel.load(os.path.join(save, f"{label}.npz")), sequences=3, trials=trials,
-                           seed=VALIDATION_SEED, length=30, bands=0, workers=2, simulate=simulate)
+                           seed=seed, length=30, bands=0, workers=2, simulate=simulate)
         out[label] = {k: v[k] for k in ("mean_abs_error_bits", "max_abs_error_bits", "final_tv_distance",
                                         "reference_noise_bits")}
-        print(f"validation (seed {VALIDATION_SEED}, M = {trials}), {label}: " + json.dumps(out[label]), flush=True)
+        print(f"validation (seed {seed}, M = {trials}), {label}: " + json.dumps(out[label]), flush=True)
     return out
 
 

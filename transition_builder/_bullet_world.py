@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import functools
 import math
+import os
+import tempfile
 
 import numpy as np
 import shapely
@@ -129,6 +131,33 @@ def inset_convex(poly, d: float) -> np.ndarray:
     return out
 
 
+def _hull_obj(vertices) -> str:
+    """Wavefront OBJ text of a prism given as its bottom ring then its top ring of vertices."""
+    n = len(vertices) // 2
+    lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in vertices]
+    lines.append("f " + " ".join(str(n - i) for i in range(n)))
+    lines.append("f " + " ".join(str(n + 1 + i) for i in range(n)))
+    lines += [f"f {i + 1} {(i + 1) % n + 1} {n + (i + 1) % n + 1} {n + i + 1}" for i in range(n)]
+    return "\n".join(lines) + "\n"
+
+
+def _compound_of_hulls(hulls, cid: int) -> int:
+    """One compound collision shape of convex hulls (each a list of vertices, world units).
+
+    ``pybullet.createCollisionShapeArray`` takes meshes only as files, so each hull is written to
+    an OBJ file in a private temporary directory, removed once Bullet has read it (Bullet builds the
+    convex hull of each file's vertices, with the same margin as a hull made from vertices)."""
+    with tempfile.TemporaryDirectory(prefix="kruskal-hull-") as tmp:
+        files = []
+        for k, v in enumerate(hulls):
+            path = os.path.join(tmp, f"hull{k}.obj")
+            with open(path, "w") as fh:
+                fh.write(_hull_obj(v))
+            files.append(path)
+        return pb.createCollisionShapeArray([pb.GEOM_MESH] * len(files), fileNames=files,
+                                            meshScales=[[1.0, 1.0, 1.0]] * len(files), physicsClientId=cid)
+
+
 def _rot(phi):
     c, s = math.cos(phi), math.sin(phi)
     return np.array([[c, -s], [s, c]])
@@ -241,26 +270,41 @@ class BulletWorld:
             self.walls.append(b)
         return mu
 
-    def _build_part(self, scene, st, cid) -> np.ndarray:
-        """The part as a planar joint chain; returns the support legs' offsets (world units; empty
-        for the single support sphere)."""
-        # the part: x, y, z slides, yaw hinge (mass), prism parts, support sphere
+    def _prism_shapes(self, scene, st, cid) -> list:
+        """The prism's collision shape(s): one convex hull per convex part (``part_links="per-part"``),
+        or one compound of those hulls (``compound``, ``yaw-compound``). Each hull is inset by
+        Bullet's margin and spans ``floor_clearance_mm`` to that plus the part's thickness above the
+        floor, in the frame of the support sphere's centre."""
         shape = scene.shape
-        m = shape.mass_kg
-        eps = m * _EPS_MASS_FRACTION
         r = st.support_radius_mm * self.mm
         z0 = st.floor_clearance_mm * self.mm - r          # prism bottom relative to the sphere centre
         t = shape.thickness_mm * self.mm
         margin_mm = BULLET_HULL_MARGIN_UNITS / self.mm
-        part_shapes = []
+        hulls = []
         for part in shape.convex_parts:
             p2 = inset_convex(np.asarray(part, float), margin_mm) * self.mm
-            verts = [[x, y, z0] for x, y in p2] + [[x, y, z0 + t] for x, y in p2]
-            cs = pb.createCollisionShape(pb.GEOM_MESH, vertices=verts, physicsClientId=cid)
-            part_shapes.append(cs)
+            hulls.append([[x, y, z0] for x, y in p2] + [[x, y, z0 + t] for x, y in p2])
+        if st.part_links == "per-part":
+            return [pb.createCollisionShape(pb.GEOM_MESH, vertices=v, physicsClientId=cid) for v in hulls]
+        return [_compound_of_hulls(hulls, cid)]
+
+    def _build_part(self, scene, st, cid) -> np.ndarray:
+        """The part as a planar joint chain; returns the support legs' offsets (world units; empty
+        for the single support sphere).
+
+        ``part_links="per-part"`` (the default): x, y, z slides, the yaw hinge (the part's mass and
+        z inertia; the support sphere is its collision shape), one fixed child link per convex part.
+        ``compound``: the same with one fixed child link holding all convex parts as one compound
+        shape. ``yaw-compound``: the compound is the yaw link's own shape and the support sphere a
+        fixed child link. With ``legs:K`` the legs are prismatic-z children in every layout."""
+        shape = scene.shape
+        m = shape.mass_kg
+        eps = m * _EPS_MASS_FRACTION
+        r = st.support_radius_mm * self.mm
+        part_shapes = self._prism_shapes(scene, st, cid)
         sph = pb.createCollisionShape(pb.GEOM_SPHERE, radius=r, physicsClientId=cid)
-        n_parts = len(part_shapes)
         legs = self.contact.kind == "legs"
+        on_yaw = st.part_links == "yaw-compound"
         izz = shape.inertia_kg_m2 * st.world_units_per_m ** 2
         tiny = izz * _EPS_MASS_FRACTION
         if legs:
@@ -271,13 +315,18 @@ class BulletWorld:
             leg_xy = pts * self.mm
             yaw_m = eps
             yaw_I = max(izz - float(np.sum(leg_m * np.sum(leg_xy ** 2, axis=1))), tiny)
-            n_sup = len(pts)
+            yaw_shape = part_shapes.pop() if on_yaw else -1
+        elif on_yaw:
+            # the prism is the hinge link's shape; the sphere a fixed child of negligible mass
+            leg_m, leg_xy, yaw_m, yaw_I = np.array([eps]), np.zeros((1, 2)), m, izz
+            yaw_shape = part_shapes.pop()
         else:
             # the sphere is the hinge link's own collision shape (one link fewer to step)
-            leg_m, leg_xy, yaw_m, yaw_I, n_sup = np.zeros(0), np.zeros((0, 2)), m, izz, 0
+            leg_m, leg_xy, yaw_m, yaw_I, yaw_shape = np.zeros(0), np.zeros((0, 2)), m, izz, sph
+        n_parts, n_sup = len(part_shapes), len(leg_m)
         n = 4 + n_parts + n_sup
         masses = [eps, eps, eps, yaw_m] + [eps] * n_parts + [float(v) for v in leg_m]
-        shapes = [-1, -1, -1, -1 if legs else sph] + part_shapes + [sph] * n_sup
+        shapes = [-1, -1, -1, yaw_shape] + part_shapes + [sph] * n_sup
         parents = [0, 1, 2, 3] + [4] * (n_parts + n_sup)      # parent = link index + 1 (0 = base)
         types = ([pb.JOINT_PRISMATIC, pb.JOINT_PRISMATIC, pb.JOINT_FIXED if legs else pb.JOINT_PRISMATIC,
                   pb.JOINT_REVOLUTE] + [pb.JOINT_FIXED] * n_parts
@@ -293,7 +342,22 @@ class BulletWorld:
             useMaximalCoordinates=False, physicsClientId=cid)
         self.n_links = n
         self.legs = legs
-        self.support_links = list(range(4 + n_parts, n)) if legs else [J_YAW]
+        self.support_links = list(range(4 + n_parts, n)) if (legs or on_yaw) else [J_YAW]
+        self.prism_links = [J_YAW] if on_yaw else list(range(4, 4 + n_parts))
+        self._configure_links(ob, n, yaw_I, tiny, cid)
+        if st.contact_pairs == "needed":
+            # the prism never touches the floor, the supports never touch a wall: no tests for them
+            for link in range(n):
+                if link in self.prism_links:
+                    pb.setCollisionFilterPair(self.floor, ob, -1, link, 0, physicsClientId=cid)
+                elif link in self.support_links:
+                    for wall in self.walls:
+                        pb.setCollisionFilterPair(wall, ob, -1, link, 0, physicsClientId=cid)
+        return leg_xy
+
+    def _configure_links(self, ob, n, yaw_I, tiny, cid):
+        """Free joints (no motors, no damping), no restitution, friction 1 (the supports' friction is
+        set by :meth:`_set_supports`), the hinge's inertia; checks the hulls' collision margin."""
         pb.changeDynamics(ob, -1, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
         for j in range(n):
             pb.setJointMotorControl2(ob, j, pb.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0,
@@ -302,21 +366,12 @@ class BulletWorld:
                               restitution=0.0, lateralFriction=1.0, spinningFriction=0.0, rollingFriction=0.0,
                               localInertiaDiagonal=[yaw_I] * 3 if j == J_YAW else [tiny, tiny, tiny],
                               physicsClientId=cid)
-        margin = pb.getDynamicsInfo(ob, 4, physicsClientId=cid)[11]
-        if abs(margin - BULLET_HULL_MARGIN_UNITS) > 1e-12:
-            raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
-                               f"expected {BULLET_HULL_MARGIN_UNITS}")
+        if self.scene.settings.part_links == "per-part":     # a compound's own margin is 0
+            margin = pb.getDynamicsInfo(ob, self.prism_links[0], physicsClientId=cid)[11]
+            if abs(margin - BULLET_HULL_MARGIN_UNITS) > 1e-12:
+                raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
+                                   f"expected {BULLET_HULL_MARGIN_UNITS}")
         pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
-        if st.contact_pairs == "needed":
-            # the prism never touches the floor, the supports never touch a wall: no tests for them
-            prism = range(4, 4 + n_parts)
-            for link in range(n):
-                if link in prism:
-                    pb.setCollisionFilterPair(self.floor, ob, -1, link, 0, physicsClientId=cid)
-                elif link in self.support_links:
-                    for wall in self.walls:
-                        pb.setCollisionFilterPair(wall, ob, -1, link, 0, physicsClientId=cid)
-        return leg_xy
 
     def _set_supports(self, shape, mu, leg_xy):
         """Friction of the support contact(s) and the frame conversions the map lookup uses."""
@@ -482,7 +537,7 @@ class BulletWorld:
         limits when they changed, and the explicit friction force (at the support point ``x, y``)."""
         caps = (out[0], out[1])
         if caps != self._cb_caps:
-            pb.changeDynamics(self.body, J_YAW, lateralFriction=caps[0], spinningFriction=caps[1],
+            pb.changeDynamics(self.body, self.support_links[0], lateralFriction=caps[0], spinningFriction=caps[1],
                               physicsClientId=self.cid)
             self._cb_caps = caps
         if out[2] != 0.0 or out[3] != 0.0:

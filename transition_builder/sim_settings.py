@@ -27,9 +27,11 @@ SIMULATOR_VERSION = "planar-chain-4"
 CONTACT_PAIRS = ("all", "needed")
 #: values of :attr:`SimSettings.long_steps`.
 LONG_STEPS = ("free", "free+steady", "free+steady-hold", "free+stick")
+#: values of :attr:`SimSettings.part_links`.
+PART_LINKS = ("per-part", "compound", "yaw-compound")
 
 #: the settings that take one of a few names, the first the default (left out of :meth:`SimSettings.to_dict`)
-_CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS}
+_CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS, "part_links": PART_LINKS}
 
 
 @dataclass(frozen=True)
@@ -153,6 +155,14 @@ class SimSettings:
         not in pure translation.
         Recorded in the cache key only when not ``free`` (docs/builder.md, "Longer steps while the
         contact is steady").
+    part_links : str
+        How the part's prism is made of links of its Featherstone chain (x, y, z slides, the yaw
+        hinge, then fixed children). ``per-part`` (the default): one fixed link per convex part.
+        ``compound``: one fixed link whose shape is the compound of all convex parts (one
+        collision object in the broadphase instead of one per part). ``yaw-compound``: the
+        compound is the yaw link's own shape and the support sphere a fixed child (the same
+        number of links as ``compound``). Recorded in the cache key only when not ``per-part``
+        (docs/builder.md, "A lighter multibody").
     """
 
     time_step_s: float = 1.0 / 480.0
@@ -176,6 +186,7 @@ class SimSettings:
     lift_tolerance_mm: float = 2.0
     contact_pairs: str = "all"
     long_steps: str = "free"
+    part_links: str = "per-part"
 
     def __post_init__(self):
         for f in fields(self):
@@ -207,7 +218,7 @@ class SimSettings:
             raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 
     def to_dict(self) -> dict:
-        """All fields, JSON-able (``contact_pairs`` and ``long_steps`` only when not at their
+        """All fields, JSON-able (``contact_pairs``, ``long_steps`` and ``part_links`` only when not at their
         defaults: the content hash of every scene simulated before the settings existed stays as it
         was)."""
         d = asdict(self)
