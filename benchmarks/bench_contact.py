@@ -40,7 +40,10 @@ VARIANTS = {"coulomb": {"contact": "coulomb"},
             "coulomb-needed-stick": {"contact": "coulomb", "contact_pairs": "needed", "long_steps": "free+stick"},
             "coulomb-compound": {"contact": "coulomb", "part_links": "compound"},
             "coulomb-needed-compound": {"contact": "coulomb", "contact_pairs": "needed", "part_links": "compound"},
-            "coulomb-needed-yaw": {"contact": "coulomb", "contact_pairs": "needed", "part_links": "yaw-compound"}}
+            "coulomb-needed-yaw": {"contact": "coulomb", "contact_pairs": "needed", "part_links": "yaw-compound"},
+            "coulomb-needed-floating": {"contact": "coulomb", "contact_pairs": "needed", "part_links": "floating"},
+            "coulomb-needed-floating-stick": {"contact": "coulomb", "contact_pairs": "needed", "part_links": "floating",
+                                              "long_steps": "free+stick"}}
 MODELS = os.environ.get("KRUSKAL_BENCH_CONTACT_MODELS", "coulomb,sphere-240").split(",")
 REFINE = tuple(int(r) for r in os.environ.get("KRUSKAL_BENCH_CONTACT_REFINE", "1,2,16,32").split(","))
 FLOOR = os.environ.get("KRUSKAL_BENCH_CONTACT_FLOOR", "1") == "1"

@@ -4,11 +4,13 @@ today's chain of one fixed link per convex part (docs/builder.md, "A lighter mul
 The variants (:data:`VARIANTS`, SimSettings changes): today's default, ``contact_pairs=needed``
 alone, the convex parts as one compound link (``compound``) with all pairs and with ``needed``, and
 the compound as the yaw link's own shape with the support sphere a fixed child (``yaw-compound``,
-with ``needed``).
+with ``needed``), and the part as the multibody's free base with no slide or hinge links
+(``floating``; with ``needed``, and with ``needed`` and ``long_steps=free+stick``).
 
 Parts (``KRUSKAL_BENCH_LINKS_PART``, comma-separated; default ``cpu``):
 
-- ``cpu``: :func:`benchmarks.bench_long_steps.cpu_side_by_side` over :data:`VARIANTS`: CPU seconds
+- ``cpu``: :func:`benchmarks.bench_long_steps.cpu_side_by_side` over the variants named in
+  ``KRUSKAL_BENCH_LINKS_CPU`` (default: the first five; the first is the reference): CPU seconds
   per tilt side by side in alternating rounds (``KRUSKAL_BENCH_LONG_ROUNDS``, 2), on
   ``KRUSKAL_BENCH_LONG_STARTS`` (300) uniform allen-key starts of seed 31 tilted E and NE and on
   their rest poses under E tilted N, NE, W and SW; landings within 1 mm / 1 degree of the default's;
@@ -33,7 +35,10 @@ VARIANTS = {"default": {},
             "needed": {"contact_pairs": "needed"},
             "compound": {"part_links": "compound"},
             "needed-compound": {"contact_pairs": "needed", "part_links": "compound"},
-            "needed-yaw": {"contact_pairs": "needed", "part_links": "yaw-compound"}}
+            "needed-yaw": {"contact_pairs": "needed", "part_links": "yaw-compound"},
+            "floating": {"part_links": "floating"},
+            "needed-floating": {"contact_pairs": "needed", "part_links": "floating"},
+            "needed-floating-stick": {"contact_pairs": "needed", "part_links": "floating", "long_steps": "free+stick"}}
 #: the held-out seed of this round's validation (named in docs/builder.md before its first run)
 VALIDATION_SEED = 7411
 
@@ -45,7 +50,8 @@ def main():
         if label and label not in VARIANTS:
             raise SystemExit(f"unknown variant {label!r}: {', '.join(VARIANTS)}")
         if kind == "cpu":
-            ls.cpu_side_by_side(VARIANTS)
+            chosen = os.environ.get("KRUSKAL_BENCH_LINKS_CPU", "default,needed,compound,needed-compound,needed-yaw")
+            ls.cpu_side_by_side({k: VARIANTS[k] for k in chosen.split(",")})
         elif kind == "judges" and label:
             ls.judges(VARIANTS[label])
         elif kind == "build" and label:

@@ -33,6 +33,10 @@ G = 9.81
 #: PyBullet's collision margin of a convex hull made from vertices, in world units.
 BULLET_HULL_MARGIN_UNITS = 0.001
 _EPS_MASS_FRACTION = 1e-4      # mass of each massless-in-spirit link, relative to the part
+#: ``part_links="floating"``: roll and pitch inertia of the free base, relative to its yaw inertia
+#: (large enough that wall contacts above the centroid tilt the part by far less than a degree: at
+#: 1e6 a key thrown into a wall at 0.5 m/s rolled 1.2 degrees, at 1e8 under 0.1)
+_ROLL_INERTIA_FACTOR = 1e8
 _FLOOR_T_MM = 10.0              # floor slab thickness (mm)
 J_X, J_Y, J_Z, J_YAW = 0, 1, 2, 3
 _JOINTS = (J_X, J_Y, J_Z, J_YAW)
@@ -272,7 +276,7 @@ class BulletWorld:
 
     def _prism_shapes(self, scene, st, cid) -> list:
         """The prism's collision shape(s): one convex hull per convex part (``part_links="per-part"``),
-        or one compound of those hulls (``compound``, ``yaw-compound``). Each hull is inset by
+        (also ``floating``), or one compound of those hulls (``compound``, ``yaw-compound``). Each hull is inset by
         Bullet's margin and spans ``floor_clearance_mm`` to that plus the part's thickness above the
         floor, in the frame of the support sphere's centre."""
         shape = scene.shape
@@ -284,7 +288,7 @@ class BulletWorld:
         for part in shape.convex_parts:
             p2 = inset_convex(np.asarray(part, float), margin_mm) * self.mm
             hulls.append([[x, y, z0] for x, y in p2] + [[x, y, z0 + t] for x, y in p2])
-        if st.part_links == "per-part":
+        if st.part_links in ("per-part", "floating"):
             return [pb.createCollisionShape(pb.GEOM_MESH, vertices=v, physicsClientId=cid) for v in hulls]
         return [_compound_of_hulls(hulls, cid)]
 
@@ -304,6 +308,11 @@ class BulletWorld:
         part_shapes = self._prism_shapes(scene, st, cid)
         sph = pb.createCollisionShape(pb.GEOM_SPHERE, radius=r, physicsClientId=cid)
         legs = self.contact.kind == "legs"
+        self.floating = st.part_links == "floating"
+        self._get_states = self._base_states if self.floating else pb.getJointStates
+        self._force_link = -1 if self.floating else J_YAW
+        if self.floating:
+            return self._build_floating(shape, st, cid, part_shapes, sph)
         on_yaw = st.part_links == "yaw-compound"
         izz = shape.inertia_kg_m2 * st.world_units_per_m ** 2
         tiny = izz * _EPS_MASS_FRACTION
@@ -345,15 +354,73 @@ class BulletWorld:
         self.support_links = list(range(4 + n_parts, n)) if (legs or on_yaw) else [J_YAW]
         self.prism_links = [J_YAW] if on_yaw else list(range(4, 4 + n_parts))
         self._configure_links(ob, n, yaw_I, tiny, cid)
-        if st.contact_pairs == "needed":
-            # the prism never touches the floor, the supports never touch a wall: no tests for them
-            for link in range(n):
-                if link in self.prism_links:
-                    pb.setCollisionFilterPair(self.floor, ob, -1, link, 0, physicsClientId=cid)
-                elif link in self.support_links:
-                    for wall in self.walls:
-                        pb.setCollisionFilterPair(wall, ob, -1, link, 0, physicsClientId=cid)
+        self._filter_pairs(st, ob, range(n), cid)
         return leg_xy
+
+    def _filter_pairs(self, st, ob, links, cid):
+        """``contact_pairs="needed"``: the prism never touches the floor, the supports never touch a
+        wall: no collision tests for those pairs (``links``: the part's links, in order)."""
+        if st.contact_pairs != "needed":
+            return
+        for link in links:
+            if link in self.prism_links:
+                pb.setCollisionFilterPair(self.floor, ob, -1, link, 0, physicsClientId=cid)
+            elif link in self.support_links:
+                for wall in self.walls:
+                    pb.setCollisionFilterPair(wall, ob, -1, link, 0, physicsClientId=cid)
+
+    def _build_floating(self, shape, st, cid, part_shapes, sph) -> np.ndarray:
+        """``part_links="floating"``: the part as a free (floating) base whose shape is the support
+        sphere, carrying the part's mass, its z inertia and a roll and pitch inertia
+        ``_ROLL_INERTIA_FACTOR`` times larger (so it stays flat), with one fixed child link per
+        convex part. No slide or hinge links: the base's six degrees of freedom replace the four
+        joints of the chain. Not for ``legs:K``."""
+        if self.contact.kind == "legs":
+            raise ValueError("SimSettings.part_links='floating' does not support the legs contact")
+        m = shape.mass_kg
+        eps = m * _EPS_MASS_FRACTION
+        izz = shape.inertia_kg_m2 * st.world_units_per_m ** 2
+        tiny = izz * _EPS_MASS_FRACTION
+        r = st.support_radius_mm * self.mm
+        n = len(part_shapes)
+        self._base_z = r
+        self._yaw_prev = 0.0
+        self.body = ob = pb.createMultiBody(
+            baseMass=m, baseCollisionShapeIndex=sph, basePosition=[0, 0, r],
+            linkMasses=[eps] * n, linkCollisionShapeIndices=part_shapes, linkVisualShapeIndices=[-1] * n,
+            linkPositions=[[0, 0, 0]] * n, linkOrientations=[[0, 0, 0, 1]] * n,
+            linkInertialFramePositions=[[0, 0, 0]] * n, linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
+            linkParentIndices=[0] * n, linkJointTypes=[pb.JOINT_FIXED] * n, linkJointAxis=[[0, 0, 1]] * n,
+            useMaximalCoordinates=False, physicsClientId=cid)
+        self.n_links = n
+        self.legs = False
+        self.support_links = [-1]
+        self.prism_links = list(range(n))
+        for j in range(-1, n):
+            inertia = [izz * _ROLL_INERTIA_FACTOR, izz * _ROLL_INERTIA_FACTOR, izz] if j < 0 else [tiny] * 3
+            pb.changeDynamics(ob, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
+                              restitution=0.0, lateralFriction=1.0, spinningFriction=0.0, rollingFriction=0.0,
+                              localInertiaDiagonal=inertia, physicsClientId=cid)
+        margin = pb.getDynamicsInfo(ob, 0, physicsClientId=cid)[11]
+        if abs(margin - BULLET_HULL_MARGIN_UNITS) > 1e-12:
+            raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
+                               f"expected {BULLET_HULL_MARGIN_UNITS}")
+        pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
+        self._filter_pairs(st, ob, range(-1, n), cid)
+        return np.zeros((0, 2))
+
+    def _base_states(self, ob, joints=None, physicsClientId=0):
+        """The floating base's state in the joint-state layout of the chain: ((x, vx), (y, vy),
+        (z, vz), (yaw, yaw rate)), z relative to the resting height, yaw continuous (unwrapped
+        against the last value read) like the chain's hinge angle."""
+        pos, q = pb.getBasePositionAndOrientation(ob, physicsClientId=physicsClientId)
+        lin, ang = pb.getBaseVelocity(ob, physicsClientId=physicsClientId)
+        qx, qy, qz, qw = q
+        yaw = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+        prev = self._yaw_prev
+        yaw = prev + (yaw - prev + math.pi) % (2.0 * math.pi) - math.pi
+        self._yaw_prev = yaw
+        return ((pos[0], lin[0]), (pos[1], lin[1]), (pos[2] - self._base_z, lin[2]), (yaw, ang[2]))
 
     def _configure_links(self, ob, n, yaw_I, tiny, cid):
         """Free joints (no motors, no damping), no restitution, friction 1 (the supports' friction is
@@ -430,7 +497,11 @@ class BulletWorld:
         cid, ob = self.cid, self.body
         # Move away and run collision detection first: drops every cached contact (and its
         # warm-start impulse), so a trial never depends on the trial before it.
-        pb.resetJointState(ob, J_X, 1000.0 * self.mm, 0.0, physicsClientId=cid)   # 1 m away: touches nothing
+        if self.floating:
+            pb.resetBasePositionAndOrientation(ob, [1000.0 * self.mm, 0.0, self._base_z], [0, 0, 0, 1],
+                                               physicsClientId=cid)
+        else:
+            pb.resetJointState(ob, J_X, 1000.0 * self.mm, 0.0, physicsClientId=cid)   # 1 m away: touches nothing
         pb.performCollisionDetection(physicsClientId=cid)
         wx, wy = self._world_xy(pose_mm[:2])
         yaw = float(pose_mm[2]) - self.phi
@@ -438,8 +509,14 @@ class BulletWorld:
         if twist is not None:
             vx, vy = self.R @ np.asarray(twist[:2], float) * self.mm
             vel = (float(vx), float(vy), float(twist[2]))
-        for j, q, v in ((J_X, wx, vel[0]), (J_Y, wy, vel[1]), (J_Z, 0.0, 0.0), (J_YAW, yaw, vel[2])):
-            pb.resetJointState(ob, j, float(q), v, physicsClientId=cid)
+        if self.floating:
+            pb.resetBasePositionAndOrientation(ob, [float(wx), float(wy), self._base_z], self._quat(yaw),
+                                               physicsClientId=cid)
+            pb.resetBaseVelocity(ob, [vel[0], vel[1], 0.0], [0.0, 0.0, vel[2]], physicsClientId=cid)
+            self._yaw_prev = yaw
+        else:
+            for j, q, v in ((J_X, wx, vel[0]), (J_Y, wy, vel[1]), (J_Z, 0.0, 0.0), (J_YAW, yaw, vel[2])):
+                pb.resetJointState(ob, j, float(q), v, physicsClientId=cid)
         if self.legs:
             for j in self.support_links:
                 pb.resetJointState(ob, j, 0.0, 0.0, physicsClientId=cid)
@@ -452,7 +529,9 @@ class BulletWorld:
         """Largest height of a support above its resting height (mm)."""
         if not self.legs:
             s = self._after
-            z = s[2][0] if s is not None else pb.getJointState(self.body, J_Z, physicsClientId=self.cid)[0]
+            if s is None:
+                s = self._get_states(self.body, _JOINTS, physicsClientId=self.cid)
+            z = s[2][0]
             return z / self.mm
         s = pb.getJointStates(self.body, self.support_links, physicsClientId=self.cid)
         return max(abs(v[0]) for v in s) / self.mm
@@ -464,7 +543,7 @@ class BulletWorld:
         has moved since): one PyBullet call fewer per rest-test interval."""
         s = self._after
         if s is None:
-            s = pb.getJointStates(self.body, _JOINTS, physicsClientId=self.cid)
+            s = self._get_states(self.body, _JOINTS, physicsClientId=self.cid)
         k = self.inv_scale
         return (s[0][0] * k, s[1][0] * k, s[2][0] * k, s[3][0], s[0][1] * k, s[1][1] * k, s[3][1])
 
@@ -485,8 +564,8 @@ class BulletWorld:
     def _apply_map(self):
         """Give every support the coefficient of the map tile under it."""
         cid, ob = self.cid, self.body
-        s = pb.getJointStates(ob, (J_X, J_Y, J_YAW), physicsClientId=cid)
-        x, y, yaw = s[0][0], s[1][0], s[2][0]
+        s = self._get_states(ob, _JOINTS, physicsClientId=cid)
+        x, y, yaw = s[0][0], s[1][0], s[3][0]
         cy, sy = math.cos(yaw), math.sin(yaw)
         a, b, c, d = self._to_tray
         cx, cyy = self.centre
@@ -509,7 +588,7 @@ class BulletWorld:
         cid, ob = self.cid, self.body
         mem, geom, grid, params, out = self._cb_mem, self._cb_geom, self._cb_grid, self._cb_params, self._cb_out
         joints = _JOINTS
-        get_states, step = pb.getJointStates, pb.stepSimulation
+        get_states, step = self._get_states, pb.stepSimulation
         mode = 0
         s = self._after
         if s is None:
@@ -542,7 +621,7 @@ class BulletWorld:
             self._cb_caps = caps
         if out[2] != 0.0 or out[3] != 0.0:
             n = self.normal_force
-            pb.applyExternalForce(self.body, J_YAW, (out[2] * n, out[3] * n, 0.0), (x, y, self._cb_z),
+            pb.applyExternalForce(self.body, self._force_link, (out[2] * n, out[3] * n, 0.0), (x, y, self._cb_z),
                                   pb.WORLD_FRAME, physicsClientId=self.cid)
 
     def _step_steady(self, free: int, s):
@@ -555,7 +634,7 @@ class BulletWorld:
         cid, ob = self.cid, self.body
         mem, geom, grid, params, out = self._cb_mem, self._cb_geom, self._cb_grid, self._cb_params, self._cb_out
         joints, modes = _JOINTS, self._cb_modes
-        get_states, step = pb.getJointStates, pb.stepSimulation
+        get_states, step = self._get_states, pb.stepSimulation
         unit, steady_units, left = self._cb_units
         stick_only = self._cb_stick_only
         first = True

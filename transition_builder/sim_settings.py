@@ -28,7 +28,7 @@ CONTACT_PAIRS = ("all", "needed")
 #: values of :attr:`SimSettings.long_steps`.
 LONG_STEPS = ("free", "free+steady", "free+steady-hold", "free+stick")
 #: values of :attr:`SimSettings.part_links`.
-PART_LINKS = ("per-part", "compound", "yaw-compound")
+PART_LINKS = ("per-part", "compound", "yaw-compound", "floating")
 
 #: the settings that take one of a few names, the first the default (left out of :meth:`SimSettings.to_dict`)
 _CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS, "part_links": PART_LINKS}
@@ -161,7 +161,10 @@ class SimSettings:
         ``compound``: one fixed link whose shape is the compound of all convex parts (one
         collision object in the broadphase instead of one per part). ``yaw-compound``: the
         compound is the yaw link's own shape and the support sphere a fixed child (the same
-        number of links as ``compound``). Recorded in the cache key only when not ``per-part``
+        number of links as ``compound``). ``floating``: no slides and no hinge: the part is the
+        free base of the multibody (the support sphere its shape; the part's mass, its z inertia,
+        and a roll and pitch inertia 1e8 times larger, so that it stays flat), with one
+        fixed link per convex part; not with ``legs:K``. Recorded in the cache key only when not ``per-part``
         (docs/builder.md, "A lighter multibody").
     """
 
@@ -214,6 +217,8 @@ class SimSettings:
                              f"and friction_substeps ({self.friction_substeps})")
         if self.floor_clearance_mm <= self.contact_threshold_mm:
             raise ValueError("SimSettings.floor_clearance_mm must exceed contact_threshold_mm")
+        if self.part_links == "floating" and self.contact.startswith("legs"):
+            raise ValueError("SimSettings.part_links='floating' does not support the legs contact")
         if self.max_time_s < self.dwell_s:
             raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 

@@ -24,7 +24,7 @@ def _landings(starts, **settings):
     return np.concatenate([r for r, _ in out]), np.concatenate([s for _, s in out])
 
 
-@pytest.mark.parametrize("links", ["compound", "yaw-compound"])
+@pytest.mark.parametrize("links", ["compound", "yaw-compound", "floating"])
 def test_compound_prism_lands_where_the_per_part_chain_lands(links):
     starts = sample_start_poses(scene_from_options("allen-key").shape, 200.0, 200.0, 40, np.random.default_rng(41))
     ra, sa = _landings(starts)
@@ -37,7 +37,8 @@ def test_compound_prism_lands_where_the_per_part_chain_lands(links):
     assert np.mean((d <= 1.0) & (th <= math.radians(1.0))) >= 0.95
 
 
-@pytest.mark.parametrize("links, n_links, support", [("per-part", 6, 3), ("compound", 5, 3), ("yaw-compound", 5, 4)])
+@pytest.mark.parametrize("links, n_links, support", [("per-part", 6, 3), ("compound", 5, 3), ("yaw-compound", 5, 4),
+                                                     ("floating", 2, -1)])
 def test_layout_of_the_chain(links, n_links, support):
     sc = scene_from_options("allen-key", part_links=links)
     w = BulletWorld(sc, 0.0)
@@ -51,6 +52,37 @@ def test_layout_of_the_chain(links, n_links, support):
         assert abs(w.lift_mm()) < 0.05
     finally:
         w.close()
+
+
+def test_floating_part_stays_flat_and_reads_its_yaw_like_the_hinge():
+    """The free base's roll and pitch stay far below a degree while it slides into a wall and along
+    it; its yaw reads like the chain's hinge angle, continuous past pi (a quaternion alone would
+    give -pi + 0.01 for pi + 0.01), so the rest test never sees a jump of 2 pi."""
+    import pybullet as pb
+    sc = scene_from_options("allen-key", part_links="floating")
+    w = BulletWorld(sc, 0.0)
+    try:
+        w.set_pose((150.0, 100.0, 0.3), twist=(400.0, 300.0, 0.0))
+        worst = 0.0
+        for _ in range(120):
+            w.step()
+            q = pb.getBasePositionAndOrientation(w.body, physicsClientId=w.cid)[1]
+            worst = max(worst, *np.abs(pb.getEulerFromQuaternion(q)[:2]))
+        x, y = w.to_tray(*w.state()[:2], 0.3)[:2]
+        assert x == pytest.approx(200.0 - 46.51, abs=0.5)  # at rest against the east wall (the key reaches 46.51 mm east)
+        assert y > 105.0                                     # after sliding north along it
+        assert worst < math.radians(0.1)
+        w.set_pose((100.0, 100.0, math.pi + 0.01))
+        for _ in range(5):
+            w.step()
+            assert w.state()[3] == pytest.approx(math.pi + 0.01, abs=1e-3)
+    finally:
+        w.close()
+
+
+def test_floating_does_not_take_legs():
+    with pytest.raises(ValueError, match="legs"):
+        SimSettings(part_links="floating", contact="legs:4")
 
 
 def test_part_links_enters_the_content_hash_only_when_not_the_default():
