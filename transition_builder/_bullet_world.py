@@ -8,7 +8,9 @@ The part is a planar joint chain on a fixed base: prismatic x, prismatic y, pris
 yaw (the part's mass and z inertia), then fixed child links: one per convex part of the prism
 (it floats ``floor_clearance_mm`` above the floor, farther than the contact threshold, so it only
 ever touches walls) and one support sphere under the centroid (the only floor contact; it carries
-the part's weight, its lateral and its spinning friction).
+the part's weight, its lateral and its spinning friction). ``SimSettings.part_links`` chooses
+other layouts of the same part: the prism as one compound link, or the part as the multibody's free
+base with no slide or hinge links (docs/builder.md, "A lighter multibody").
 """
 from __future__ import annotations
 
