@@ -158,9 +158,11 @@ def build(label: str, build_settings=None, friction=None, settings: dict | None 
     return out
 
 
-def validate(trials: int, labels=("default", "candidate"), seed: int = VALIDATION_SEED) -> dict:
+def validate(trials: int, labels=("default", "candidate"), seed: int = VALIDATION_SEED, own: bool = False) -> dict:
     """Held-out validation of the saved models ``labels`` (``KRUSKAL_BENCH_LONG_SAVE``/LABEL.npz)
-    against one direct simulation under the default simulator (seed ``seed``)."""
+    against one direct simulation under the default simulator (seed ``seed``); with ``own``, each
+    model against a direct simulation under its own simulator settings instead (how well the
+    builder represents its physics, apart from the change of physics)."""
     from analysis.validate import validate_model
     from kruskal_markov.model import TransitionModel
     from transition_builder.tilting import run_direct
@@ -168,9 +170,10 @@ def validate(trials: int, labels=("default", "candidate"), seed: int = VALIDATIO
     refs = {}
 
     def simulate(sc, sq, m, sd, nz):
-        sc = sc.with_settings(contact_pairs="all", long_steps="free",      # ground truth: today's simulator
-                              part_links="per-part")
-        key = (tuple(int(a) for a in sq) if not isinstance(sq, str) else sq, m, sd, str(nz))
+        if not own:
+            sc = sc.with_settings(contact_pairs="all", long_steps="free",      # ground truth: today's simulator
+                                  part_links="per-part")
+        key = (tuple(int(a) for a in sq) if not isinstance(sq, str) else sq, m, sd, str(nz), sc.content_hash())
         if key not in refs:
             refs[key] = run_direct(sc, sq, m, seed=sd, workers=2, noise=nz)
         return refs[key]
@@ -181,7 +184,7 @@ def validate(trials: int, labels=("default", "candidate"), seed: int = VALIDATIO
                            seed=seed, length=30, bands=0, workers=2, simulate=simulate)
         out[label] = {k: v[k] for k in ("mean_abs_error_bits", "max_abs_error_bits", "final_tv_distance",
                                         "reference_noise_bits")}
-        print(f"validation (seed {seed}, M = {trials}), {label}: " + json.dumps(out[label]), flush=True)
+        print(f"validation (seed {seed}, M = {trials}{', own simulator' if own else ''}), {label}: " + json.dumps(out[label]), flush=True)
     return out
 
 

@@ -24,6 +24,8 @@ Parts (``KRUSKAL_BENCH_LINKS_PART``, comma-separated; default ``cpu``):
 - ``validate:LABEL``: the held-out validation (seed :data:`VALIDATION_SEED`, 3 sequences x 30
   tilts, ``KRUSKAL_BENCH_LONG_TRIALS`` trials) of the saved ``default`` and ``LABEL`` models against
   one direct simulation under the default simulator.
+- ``validate-own:LABEL``: the same validation of the saved ``LABEL`` model against a direct
+  simulation under its own simulator settings (the builder's error apart from the physics change).
 
 The step convergence is ``python -m benchmarks contact`` with
 ``KRUSKAL_BENCH_CONTACT_MODELS=coulomb,coulomb-needed,coulomb-needed-compound``.
@@ -108,10 +110,13 @@ def main():
             ls.judges(VARIANTS[label])
         elif kind == "build" and label:
             ls.build(label, settings=VARIANTS[label])
+        elif kind == "validate-own" and label:
+            ls.validate(int(os.environ.get("KRUSKAL_BENCH_LONG_TRIALS", "1000")), (label,), VALIDATION_SEED, own=True)
         elif kind == "validate" and label:
             ls.validate(int(os.environ.get("KRUSKAL_BENCH_LONG_TRIALS", "1000")), ("default", label), VALIDATION_SEED)
         else:
-            raise SystemExit(f"unknown part {part!r}: cpu, links, judges:LABEL, build:LABEL, validate:LABEL")
+            raise SystemExit(f"unknown part {part!r}: cpu, links, judges:LABEL, build:LABEL, validate:LABEL, "
+                             "validate-own:LABEL")
 
 
 if __name__ == "__main__":
