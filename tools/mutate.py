@@ -50,10 +50,12 @@ _FAULT_TESTS = [f"tests/transition_builder/test_sim_faults.py::{t}" for t in (
 #: test_searches.py; the byte step tables of sync/automaton.py are checked in test_exact.py)
 _SYNC_TESTS = ["tests/kruskal_markov/sync/"]
 
-#: the tilt-time ramp of the trial loop (``_run``, ``tilt``): the instant tilt unchanged, the ramp a
-#: valid landing of its own
+#: the tilt-time ramp of the trial loop (``_run``, ``tilt``, ``_ramp``): the instant tilt unchanged, the
+#: ramp a valid landing of its own, and the pair judges, whose onset judge reads the slope at which a
+#: part starts to slide on a ramping tray against atan(mu_s) (the ramp's schedule)
 _RAMP_TESTS = [f"tests/transition_builder/test_friction_pair.py::{t}" for t in (
-    "test_tilt_time_zero_is_the_instant_tilt", "test_slow_tilt_changes_the_landing_but_stays_valid")]
+    "test_tilt_time_zero_is_the_instant_tilt", "test_slow_tilt_changes_the_landing_but_stays_valid",
+    "test_static_kinetic_judges_pass")]
 
 #: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
 MODULES = {
