@@ -1,0 +1,53 @@
+"""The plan search's argument limits, its duration, and the random-word success intervals."""
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from kruskal_markov.generators import cerny_model
+from kruskal_markov.sync import random_word_success, shortest_plan, state_plan
+
+
+@pytest.mark.parametrize("time_budget", [0, 0.0, -1.0])
+def test_a_time_budget_must_be_positive(time_budget):
+    with pytest.raises(ValueError) as err:
+        shortest_plan(cerny_model(4), "state", time_budget=time_budget)
+    assert str(err.value) == "memory and time budgets must be positive"
+
+
+def _ticking():
+    """A clock reading 0, 1, 2, ... seconds, one second per reading."""
+    return itertools.count().__next__
+
+
+def test_state_plan_reports_the_searchs_duration():
+    """The same search on two fresh clocks that tick once per reading: the SyncResult's seconds are
+    the plan's."""
+    model = cerny_model(4)
+    plan = shortest_plan(model, "state", time_budget=1e9, clock=_ticking())
+    res = state_plan(model, time_budget=1e9, clock=_ticking())
+    assert plan.seconds > 0 and res.seconds == plan.seconds
+
+
+def test_random_word_success_at_length_zero_is_the_start():
+    """``max_length=0`` is allowed: only the empty word, which meets the state target of C_4's uniform
+    start never."""
+    r = random_word_success(cerny_model(4), "state", max_length=0, words=10)
+    assert r["lengths"] == [0] and r["probability"] == [0.0] and r["ci95"] == [[0.0, 0.0]]
+
+
+def test_random_word_success_intervals_are_clipped_to_probabilities():
+    """Normal intervals p +- 1.96 sqrt(p (1 - p) / words), clipped to [0, 1]; with 20 words some
+    length has p high enough that the unclipped upper end passes 1."""
+    words = 20
+    r = random_word_success(cerny_model(4), "state", max_length=150, words=words, seed=3)
+    p = np.asarray(r["probability"])
+    se = np.sqrt(p * (1 - p) / words)
+    assert np.any(p + 1.96 * se > 1) and np.any(p - 1.96 * se < 0)
+    for (lo, hi), pl, s in zip(r["ci95"], p, se):
+        assert lo == pytest.approx(max(0.0, pl - 1.96 * s), abs=1e-15)
+        assert hi == pytest.approx(min(1.0, pl + 1.96 * s), abs=1e-15)
+        assert 0.0 <= lo <= hi <= 1.0 and not math.isnan(hi)
