@@ -51,3 +51,21 @@ def test_random_word_success_intervals_are_clipped_to_probabilities():
         assert lo == pytest.approx(max(0.0, pl - 1.96 * s), abs=1e-15)
         assert hi == pytest.approx(min(1.0, pl + 1.96 * s), abs=1e-15)
         assert 0.0 <= lo <= hi <= 1.0 and not math.isnan(hi)
+
+
+def test_a_state_plans_final_cell_is_the_cell_of_its_final_state():
+    """Cerny C_4 with cells {0, 1} -> 0 and {2, 3} -> 1: the state plan ends every start in one state
+    with probability 1, and its final cell is that state's cell (found by running the word by hand),
+    not the state's index."""
+    from kruskal_markov.automaton_json import model_from_automaton
+    from kruskal_markov.generators import cerny_table
+
+    t = cerny_table(4)
+    model = model_from_automaton({"states": 4, "actions": {"a": t[0].tolist(), "b": t[1].tolist()},
+                                  "partition": [0, 0, 1, 1]})
+    r = shortest_plan(model, "state")
+    states = set(range(4))
+    for name in r.word:
+        states = {int(t["ab".index(name)][q]) for q in states}
+    (final,) = states
+    assert r.final_cell == [0, 0, 1, 1][final] and r.success_probability == pytest.approx(1.0, abs=1e-12)
