@@ -54,18 +54,39 @@ def test_random_word_success_intervals_are_clipped_to_probabilities():
 
 
 def test_a_state_plans_final_cell_is_the_cell_of_its_final_state():
-    """Cerny C_4 with cells {0, 1} -> 0 and {2, 3} -> 1: the state plan ends every start in one state
-    with probability 1, and its final cell is that state's cell (found by running the word by hand),
-    not the state's index."""
+    """Cerny C_4 with cells {1, 3} -> 0 and {0, 2} -> 1 (no state is its own cell's number): the state
+    plan ends every start in one state with probability 1, and its final cell is that state's cell
+    (found by running the word by hand), not the state's index."""
     from kruskal_markov.automaton_json import model_from_automaton
     from kruskal_markov.generators import cerny_table
 
     t = cerny_table(4)
     model = model_from_automaton({"states": 4, "actions": {"a": t[0].tolist(), "b": t[1].tolist()},
-                                  "partition": [0, 0, 1, 1]})
+                                  "partition": [1, 0, 1, 0]})
     r = shortest_plan(model, "state")
     states = set(range(4))
     for name in r.word:
         states = {int(t["ab".index(name)][q]) for q in states}
     (final,) = states
-    assert r.final_cell == [0, 0, 1, 1][final] and r.success_probability == pytest.approx(1.0, abs=1e-12)
+    assert r.final_cell == [1, 0, 1, 0][final] and r.success_probability == pytest.approx(1.0, abs=1e-12)
+
+
+def test_a_state_plans_success_is_its_final_states_probability():
+    """C_4 whose every row leaks 1% uniformly, searched on its support above 0.05 (C_4 itself): the
+    plan's success probability is the final distribution's largest state probability (propagated by
+    hand), and its final cell that state's cell (cells numbered so that no state is its own cell's
+    number), not the state's index."""
+    from kruskal_markov.generators import cerny_table
+    from kruskal_markov.model import TransitionModel
+
+    t = cerny_table(4)
+    mats = [0.99 * np.eye(4)[t[a]] + 0.01 / 4 for a in range(2)]
+    partition = [1, 0, 1, 0]
+    model = TransitionModel(["a", "b"], mats, partition=partition)
+    r = shortest_plan(model, "state", threshold=0.05)
+    p = np.full(4, 0.25)
+    for name in r.word:
+        p = mats["ab".index(name)].T @ p
+    q = int(np.argmax(p))
+    assert r.final_cell == partition[q]
+    assert r.success_probability == pytest.approx(p[q], abs=1e-12) and p[q] < 0.99
