@@ -197,13 +197,13 @@ def run_ours(only: tuple = (), max_budget: float | None = None, instances=None, 
         ok = r.word is not None and is_synchronizing_word(aut, r.word)
         rows[key(inst)] = {"length": r.length, "exact": r.exact, "lower_bound": r.lower_bound, "method": r.method,
                            "seconds": round(sec, 3), "cpu": round(cpu, 3), "time_budget": budget, "word_checked": ok,
-                           "subsets": r.states_explored}
+                           "subsets": r.states_explored, "threads": r.threads}
         swl = "-" if sw is None else f"{sw.get('length')} {'exact' if sw.get('exact') else ''} {sw.get('seconds')} s"
         target = sw is not None and sw.get("exact") and sw["seconds"] <= SW_LIMIT
         met = (r.exact and r.length == sw["length"] and sec <= 3 * sw["seconds"]) if target else None
         rows[key(inst)]["target_met"] = met
         print(f"{key(inst):24s} ours {r.length} exact={r.exact} lb={r.lower_bound} {sec:7.2f} s cpu {cpu:7.2f} s "
-              f"{r.method:24s} | synchrowords {swl} | target met: {met}", flush=True)
+              f"{r.method:24s} threads {r.threads} | synchrowords {swl} | target met: {met}", flush=True)
     return rows
 
 
@@ -238,10 +238,38 @@ def run_side_by_side(binary: str, config: str, only: tuple = (), max_budget: flo
                   f"load {load:.2f}", flush=True)
 
 
+def run_work(only: tuple = (), memory_mb: float = MEMORY_MB) -> dict:
+    """The search's answer and work on each instance, without a time budget: length, ``exact``,
+    method, lower bound and the subsets generated (which a change that only makes the search
+    faster leaves unchanged), with the CPU time (this process, every thread) and the threads.
+    ``--work`` (optionally ``--memory-mb M``: a small memory budget sends the search into its
+    depth-first phases)."""
+    _warm_up()
+    rows = {}
+    for inst in INSTANCES:
+        if only and not key(inst).startswith(only):
+            continue
+        aut = SyncAutomaton.from_table(instance_table(*inst))
+        c0 = time.process_time()
+        r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=memory_mb)
+        cpu = time.process_time() - c0
+        ok = r.word is not None and is_synchronizing_word(aut, r.word)
+        rows[key(inst)] = {"length": r.length, "exact": r.exact, "method": r.method, "lower_bound": r.lower_bound,
+                           "subsets": r.states_explored, "word_checked": ok, "cpu": round(cpu, 3),
+                           "threads": r.threads}
+        print(f"{key(inst):24s} memory {memory_mb:g} MB: {r.length} exact={r.exact} lb={r.lower_bound} "
+              f"{r.method} subsets {r.states_explored} word checked {ok} cpu {cpu:.2f} s threads {r.threads}",
+              flush=True)
+    return rows
+
+
 def main(argv=()) -> None:
     argv = list(argv)
     only = tuple(argv[argv.index("--only") + 1].split(",")) if "--only" in argv else ()
     cap = float(argv[argv.index("--max-budget") + 1]) if "--max-budget" in argv else None
+    if "--work" in argv:
+        run_work(only, float(argv[argv.index("--memory-mb") + 1]) if "--memory-mb" in argv else MEMORY_MB)
+        return
     if "--side-by-side" in argv:
         i = argv.index("--side-by-side")
         run_side_by_side(argv[i + 1], argv[i + 2], only, cap)

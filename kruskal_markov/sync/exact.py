@@ -705,20 +705,20 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
             raise AssertionError("internal error: exact search returned a non-synchronizing word")
         return SyncResult(word, len(word), True,
                           "bidirectional-bfs" + ("+dfs" if status == "found-dfs" else ""), states_explored=explored,
-                          lower_bound=len(word), seconds=clock() - t0)
+                          lower_bound=len(word), seconds=clock() - t0, threads=opts.threads)
     if status == "none":
         return SyncResult(None, None, True, "bidirectional-bfs", states_explored=explored,
                           witness={"kind": "exhaustive", "subsets_explored": explored,
                                    "reason": "exhaustive subset search: no image of the start set "
                                              "is a single state"},
-                          seconds=clock() - t0)
+                          seconds=clock() - t0, threads=opts.threads)
     method = "beam" if from_beam else "greedy-eppstein" if eppstein else "greedy"
     if status == "budget" and word is not None and (best is None or len(word) < len(best)):
         best, method = word, "bidirectional-bfs+dfs"   # a word the inverse depth-first phase found, unproven
     if status == "upper":       # proven: nothing shorter than the beam's or the greedy word
         return SyncResult(best, len(best), True, method + "+lower-bound", lower_bound=len(best),
                           states_explored=explored, greedy_length=None if greedy is None else len(greedy),
-                          seconds=clock() - t0)
+                          seconds=clock() - t0, threads=opts.threads)
     notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
     if skipped:
         notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
@@ -733,4 +733,4 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
                       method + "+lower-bound" if meets_bound else method,
                       lower_bound=lower, states_explored=explored,
                       greedy_length=None if greedy is None else len(greedy),
-                      seconds=clock() - t0, notes=notes)
+                      seconds=clock() - t0, notes=notes, threads=opts.threads)
