@@ -263,12 +263,61 @@ def run_work(only: tuple = (), memory_mb: float = MEMORY_MB) -> dict:
     return rows
 
 
+def run_trace(only: tuple = (), max_budget: float | None = None, memory_mb: float = MEMORY_MB) -> None:
+    """Where one solve's time goes: every stage the search reports
+    (:class:`~kruskal_markov.sync.options.ExactSearchOptions`' ``observe`` events: the fast path, the
+    beams' words, each breadth-first level's sets, each meet test, the last level, the depth-first
+    phases), printed with the wall clock and CPU time since the solve's start and since the
+    previous event; the depth-first phases' batches are summed (a progress line every 30 s), and
+    the process's peak memory is printed at the end. ``--trace`` (with ``--only``, ``--max-budget``
+    and ``--memory-mb``); the time budget is the benchmark row's."""
+    import resource
+
+    from kruskal_markov.sync import ExactSearchOptions
+
+    sw_all = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
+    _warm_up()
+    for inst in INSTANCES:
+        if only and not key(inst).startswith(only):
+            continue
+        aut = SyncAutomaton.from_table(instance_table(*inst))
+        budget = _time_budget(inst, sw_all.get(key(inst)))
+        budget = budget if max_budget is None else min(max_budget, budget)
+        print(f"{key(inst)}: time budget {budget:g} s, memory {memory_mb:g} MB", flush=True)
+        t0, c0 = time.perf_counter(), time.process_time()
+        last = [t0, t0]               # the previous event, the previous progress line
+        dfs = [0, 0]                  # depth-first batches, sets in them
+
+        def observe(event, value):
+            now = time.perf_counter()
+            if event == "dfs-batch":
+                dfs[0] += 1
+                dfs[1] += value
+                if now - last[1] < 30:
+                    return
+                event, value = "depth-first progress: batches, sets", f"{dfs[0]} {dfs[1]}"
+            print(f"  {now - t0:9.2f} s (+{now - last[0]:7.2f}) cpu {time.process_time() - c0:9.2f} s  {event} {value}",
+                  flush=True)
+            last[:] = now, now
+
+        r = shortest_synchronizing_word(aut, time_budget=budget, memory_budget_mb=memory_mb,
+                                        options=ExactSearchOptions(observe=observe))
+        print(f"  => {r.length} exact={r.exact} lb={r.lower_bound} {r.method} subsets {r.states_explored} "
+              f"{time.perf_counter() - t0:.2f} s cpu {time.process_time() - c0:.2f} s threads {r.threads}; "
+              f"depth-first batches {dfs[0]}, sets {dfs[1]}; peak RSS "
+              f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB", flush=True)
+
+
 def main(argv=()) -> None:
     argv = list(argv)
     only = tuple(argv[argv.index("--only") + 1].split(",")) if "--only" in argv else ()
     cap = float(argv[argv.index("--max-budget") + 1]) if "--max-budget" in argv else None
+    memory_mb = float(argv[argv.index("--memory-mb") + 1]) if "--memory-mb" in argv else MEMORY_MB
     if "--work" in argv:
-        run_work(only, float(argv[argv.index("--memory-mb") + 1]) if "--memory-mb" in argv else MEMORY_MB)
+        run_work(only, memory_mb)
+        return
+    if "--trace" in argv:
+        run_trace(only, cap, memory_mb)
         return
     if "--side-by-side" in argv:
         i = argv.index("--side-by-side")

@@ -384,6 +384,7 @@ class _Bidirectional:
         pairs = (fhi - flo) * (bhi - blo)
         if pairs > 10_000_000:
             self.rate_pair = (self.clock() - tm) / pairs
+        self.opts.emit("meet", self.total)
         if f >= 0:
             u, _ = self.fwd.path(f)
             v, _ = self.bwd.path(b)
@@ -413,6 +414,7 @@ class _Bidirectional:
         if opts.last_side is not None:
             forward = opts.last_side == "forward"
         word, generated = _last_level(self.aut, fwd, bwd, forward, self.cache, self.deadline, self.clock, opts.tasks)
+        opts.emit("last-level", generated)
         if generated < 0:
             return None, (None, "budget", self.count, self.total + 1)
         if word is not None:
@@ -420,6 +422,7 @@ class _Bidirectional:
         return None, (None, "upper", self.count + generated, self.upper)
 
     def _depth_first(self):
+        self.opts.emit("depth-first", self.total)
         return _depth_first_phase(self.aut, self.fwd, self.bwd, self.total, self.deadline, self.node_budget,
                                   self.upper, self.memory_budget_mb / 4, _BLOCK, self.opts, self.clock)
 

@@ -95,7 +95,10 @@ class ExactSearchOptions:
         Called as ``observe(event, value)`` when the search reaches a stage: ``"fast-path"`` (sets
         generated), ``"beam"`` (the word's length, or -1), ``"inverse-dfs"`` (1 if it found a word,
         else 0), ``"dfs-batch"`` (sets expanded together in a depth-first phase),
-        ``"forward-level"`` / ``"backward-level"`` (sets of a new breadth-first level). For measurements
+        ``"forward-level"`` / ``"backward-level"`` (sets of a new breadth-first level), ``"meet"``
+        (the length whose breadth-first meet test is done), ``"last-level"`` (sets of the last
+        level, generated unhashed; -1 at the deadline), ``"depth-first"`` (the length the
+        depth-first phase starts after). For measurements
         and tests; it does not change the search.
 
     Examples
