@@ -7,19 +7,30 @@ automata of 256-1,024 states (:func:`kruskal_markov.generators.contracting_table
 
 Ours: :func:`kruskal_markov.sync.shortest_synchronizing_word` with a 4,000 MB memory budget and the
 time budget of the row (the issue's target: 3x synchrowords' time, 10 minutes for 8 letters and
-200 states), on both cores; Numba compile time is excluded (warm-up first). synchrowords
-(Szykula and Zyzik, ESA 2022; github.com/marekesz/synchrowords v1.1.0, built outside the
-repository, its ``configs/exact.json`` with ``threads`` 2 and ``max_memory_mb`` 4096) was run once
-on the same instances with ``python -m benchmarks.bench_sync_record --synchrowords PATH``; its
-times (its own per-algorithm timers, JIT compilation excluded) and lengths are stored in
-``benchmarks/data/sync_record_synchrowords.json`` and printed beside ours. It returns lengths only.
+200 states), on the cores the process may run on; Numba compile time is excluded (warm-up first).
+synchrowords (Szykula and Zyzik, ESA 2022) returns lengths only; its times (its own
+per-algorithm timers, JIT compilation excluded) and lengths are stored in
+``benchmarks/data/sync_record_synchrowords.json`` and printed beside ours.
 
-``python -m benchmarks sync_record`` (all rows) or ``python -m benchmarks.bench_sync_record
---only random-2-200,cerny`` (key prefixes, comma-separated; ``--max-budget S`` caps every time
-budget at S s). Results go to ``benchmarks/data/sync_record.json``. ``--side-by-side PATH CONFIG``
-runs synchrowords and ours alternately, instance by instance, in one process, and prints the
-ratios of wall clock and of CPU time (both files updated). There is no ``--help``: the
-arguments are read from ``sys.argv`` as above.
+synchrowords is not a dependency; to compare with it, build it outside the repository:
+``git clone https://github.com/marekesz/synchrowords`` (v1.1.0, commit 964f55a), then ``make`` in
+it (it needs ``g++`` with ``-pthread``, ``make`` and ``libtbb-dev``; it compiles each automaton
+size just in time on its first run). ``PATH`` below is its ``synchro`` script. ``CONFIG``
+defaults to ``benchmarks/data/synchrowords_exact.json``: its ``configs/exact.json`` with
+``threads`` 2 and ``max_memory_mb`` 4096 (the issue's 2 cores and 4 GB).
+
+Modes (arguments read from ``sys.argv``; there is no ``--help``; ``--only`` takes key prefixes,
+comma-separated, e.g. ``--only random-2-200,cerny``; ``--max-budget S`` caps every time budget at
+S s):
+
+- no mode (``python -m benchmarks sync_record``): our solver on every row, results in
+  ``benchmarks/data/sync_record.json``;
+- ``--synchrowords PATH [CONFIG]``: synchrowords on the rows, stored in its file;
+- ``--side-by-side PATH [CONFIG]``: synchrowords and ours alternately, instance by instance, in
+  one process, printing the ratios of wall clock and of CPU time (both files updated);
+- ``--work [--memory-mb M]``: our answer and the subsets generated without a time budget (a
+  change that only makes the search faster leaves them unchanged), with the CPU time;
+- ``--trace [--memory-mb M]``: where one solve's time goes, stage by stage (:func:`run_trace`).
 """
 from __future__ import annotations
 
@@ -41,6 +52,7 @@ from kruskal_markov.sync import SyncAutomaton, is_synchronizing_word, shortest_s
 DATA = pathlib.Path(__file__).parent / "data"
 SW_FILE = DATA / "sync_record_synchrowords.json"
 OUT_FILE = DATA / "sync_record.json"
+SW_CONFIG = DATA / "synchrowords_exact.json"      # synchrowords' exact config: 2 threads, 4,096 MB
 MEMORY_MB = 4000.0
 SW_LIMIT = 120.0        # synchrowords' time limit in the target (seconds)
 
@@ -308,6 +320,13 @@ def run_trace(only: tuple = (), max_budget: float | None = None, memory_mb: floa
               f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB", flush=True)
 
 
+def _solver_args(argv, flag):
+    """``(PATH, CONFIG)`` after ``flag``; CONFIG defaults to :data:`SW_CONFIG`."""
+    i = argv.index(flag)
+    config = argv[i + 2] if len(argv) > i + 2 and not argv[i + 2].startswith("--") else str(SW_CONFIG)
+    return argv[i + 1], config
+
+
 def main(argv=()) -> None:
     argv = list(argv)
     only = tuple(argv[argv.index("--only") + 1].split(",")) if "--only" in argv else ()
@@ -320,12 +339,10 @@ def main(argv=()) -> None:
         run_trace(only, cap, memory_mb)
         return
     if "--side-by-side" in argv:
-        i = argv.index("--side-by-side")
-        run_side_by_side(argv[i + 1], argv[i + 2], only, cap)
+        run_side_by_side(*_solver_args(argv, "--side-by-side"), only, cap)
         return
     if "--synchrowords" in argv:
-        i = argv.index("--synchrowords")
-        res = run_synchrowords(argv[i + 1], argv[i + 2], only)
+        res = run_synchrowords(*_solver_args(argv, "--synchrowords"), only)
         old = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
         old.update(res)
         tmp = SW_FILE.with_suffix(".tmp")
