@@ -494,7 +494,8 @@ def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memor
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
     if opts.inverse_dfs and upper is not None and fhi - flo >= bhi - blo:
-        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock)
+        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock,
+                                          deepen=opts.deepen)
     dfs = _ForwardDepthFirst(aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock)
     if dfs.no_word():
         return None, "none", dfs.used[0], total
@@ -614,7 +615,7 @@ def _descend(rec, aut, cap, forward, used, rows, rid, words, x, split=None, x_ch
 
 
 def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock,
-                               cache=None):
+                               cache=None, deepen=False):
     """The depth-first phase from the backward side (synchrowords' inverse DFS, Szykula and Zyzik
     2022): the newest backward level is extended by preimages, chunk by chunk and depth-first
     (memory bounded), up to ``upper - 1 - total`` more levels, and every generated level asks the
@@ -626,67 +627,104 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
     singleton's own root already gives a shorter one; synchrowords does the same). Entered when
     the forward level is the larger one, or when :func:`_decide` predicts it cheapest. Returns like
     :func:`_exact_search`; at a budget stop the word is the shortest found so far (or None), with
-    the lower bound ``total + 1``."""
-    W = aut.n_words
+    the lower bound ``total + 1``.
+
+    With ``deepen`` the lengths are tested one at a time instead (iterative deepening): every
+    chunk is grown to depth 1 and tested, then every chunk to depth 2 (the shallower levels grown
+    again, not tested), and so on; the first hit is a shortest word, and a budget stop at depth
+    ``m`` has proven the lower bound ``total + m``. It regenerates the shallower levels (about
+    ``1 / k`` more sets) but never grows a level deeper than the shortest word, and its bound
+    rises as it goes (used when the stores are full: :func:`_depth_first_phase`)."""
     flo, fhi = fwd.levels[-1]
-    blo, bhi = bwd.levels[-1]
     cache = {} if cache is None else cache
-    fsorted = _sorted_forward(fwd, cache)
-    fsplit = cache["split"]
-    row_bytes = 8 * W + 8 + 4 + 32
-    cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
-    used = [fwd.count + bwd.count]
-    best = [None]                       # (depth, forward row, extra letters, backward row)
-    limit = [upper - 1 - total]         # the deepest level still worth generating
+    dfs = _InverseDepthFirst(aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock, cache)
+    depths = range(1, upper - total) if deepen else (upper - 1 - total,)
+    res, lower = None, total + 1
+    for m in depths:
+        res = dfs.run(m, m if deepen else 0)
+        if res is not None or dfs.limit < 1:
+            break
+        if deepen:
+            opts.emit("deepened", total + m)
+            lower = total + m + 1
+    word = None
+    if dfs.best is not None:
+        x, f, extra, b = dfs.best
+        u, _ = fwd.path(f)
+        v, _ = bwd.path(b)
+        word = u[::-1] + extra + v
+    opts.emit("inverse-dfs", word is not None)
+    if res == "budget":
+        return word, "budget", dfs.used[0], lower
+    if word is not None:
+        return word, "found-dfs", dfs.used[0], len(word)
+    return None, "upper", dfs.used[0], upper
 
-    def over_budget():
-        return (node_budget is not None and used[0] >= node_budget) or \
-            (deadline is not None and clock() > deadline)
 
-    def grow(rows, rid, words, x):
+class _InverseDepthFirst:
+    """The preimage descent of :func:`_inverse_depth_first_phase` from the newest backward level,
+    tested against the newest forward level's trie. ``used[0]`` counts the sets generated (both
+    stores' included); ``best`` is ``(depth, forward row, extra letters, backward row)`` of the
+    shortest hit so far; ``limit`` the deepest level still worth generating."""
+
+    def __init__(self, aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock, cache):
+        self.aut, self.fwd, self.bwd, self.opts, self.clock = aut, fwd, bwd, opts, clock
+        self.deadline, self.node_budget = deadline, node_budget
+        self.fsorted = _sorted_forward(fwd, cache)
+        self.fsplit = cache["split"]
+        row_bytes = 8 * aut.n_words + 8 + 4 + 32
+        self.cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
+        self.used = [fwd.count + bwd.count]
+        self.best = None
+        self.limit = 0
+        self.test_from = 0
+
+    def over_budget(self):
+        return (self.node_budget is not None and self.used[0] >= self.node_budget) or \
+            (self.deadline is not None and self.clock() > self.deadline)
+
+    def run(self, limit, test_from):
+        """Every chunk of the newest backward level grown to depth ``limit``, the levels from
+        ``test_from`` on tested; "budget", "hit" (a hit while deepening), or None."""
+        self.limit, self.test_from = limit, test_from
+        blo, bhi = self.bwd.levels[-1]
+        for lo in range(blo, bhi, self.opts.dfs_chunk):
+            hi = min(bhi, lo + self.opts.dfs_chunk)
+            res = self.grow(self.bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
+            if res is not None or self.limit < 1:
+                return res
+        return None
+
+    def grow(self, rows, rid, words, x):
         """Extend sets at depth ``x`` by one level (or split them), unless ``x`` is the limit."""
-        if x >= limit[0]:
+        if x >= self.limit:
             return None
-        return _descend(rec, aut, cap, False, used, rows, rid, words, x, split=grow, x_child=x + 1, emit=opts.emit)
+        return _descend(self.rec, self.aut, self.cap, False, self.used, rows, rid, words, x, split=self.grow,
+                        x_child=x + 1, emit=self.opts.emit)
 
-    def rec(rows, rid, words, x):
+    def rec(self, rows, rid, words, x):
         """Backward sets ``x`` levels below the newest backward level, the rows they grew from and
         the letters of their preimage steps in the order taken (reversed, they are the word from
-        the set to that row): tested against the forward trie, then grown."""
-        if over_budget():
+        the set to that row): tested against the forward trie (from depth ``test_from`` on), then
+        grown."""
+        if self.over_budget():
             return "budget"
         keep = _k._level_sizes(rows, 0, rows.shape[0]) >= 2
         if not keep.all():
             rows, rid, words = rows[keep], rid[keep], words[keep]
         if rows.shape[0] == 0:
             return None
-        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True, tasks=opts.tasks, split=fsplit))
-        if hit.size:
-            q = int(hit[0])
-            inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)
-            best[0] = (x, flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q]))
-            limit[0] = x - 1
-            return None
-        return grow(rows, rid, words, x)
-
-    res = None
-    for lo in range(blo, bhi, opts.dfs_chunk):
-        hi = min(bhi, lo + opts.dfs_chunk)
-        res = grow(bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
-        if res is not None or limit[0] < 1:
-            break
-    word = None
-    if best[0] is not None:
-        x, f, extra, b = best[0]
-        u, _ = fwd.path(f)
-        v, _ = bwd.path(b)
-        word = u[::-1] + extra + v
-    opts.emit("inverse-dfs", word is not None)
-    if res == "budget":
-        return word, "budget", used[0], total + 1
-    if word is not None:
-        return word, "found-dfs", used[0], len(word)
-    return None, "upper", used[0], upper
+        if x >= self.test_from:
+            hit = np.flatnonzero(_trie.superset_mask(self.fsorted, rows, sorted_stored=True, tasks=self.opts.tasks,
+                                                     split=self.fsplit))
+            if hit.size:
+                q = int(hit[0])
+                flo, fhi = self.fwd.levels[-1]
+                inside = ~np.any(self.fwd.rows[flo:fhi] & ~rows[q], axis=1)
+                self.best = (x, flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q]))
+                self.limit = x - 1
+                return "hit" if self.test_from > 0 else None
+        return self.grow(rows, rid, words, x)
 
 
 def _budget_notes(aut, lower, pair_mb, eppstein, no_greedy):

@@ -74,6 +74,11 @@ class ExactSearchOptions:
     dfs_switch_rows : int or None, default None
         Enter the depth-first phase once a breadth-first level would hold more sets than this
         (None: only when memory or time run out, or the cost model says so).
+    deepen : bool, default True
+        When the breadth-first stores are full (or a level would not fit the time), the inverse
+        depth-first phase tests one length at a time (iterative deepening), so that its lower
+        bound rises as it goes and no level deeper than the shortest word is grown; off: one
+        descent to the longest length, as the cost model's phase does.
     dfs_chunk : int, default 4,096
         Sets of the newest level per chunk of a depth-first phase.
     cost_model : bool, default True
@@ -98,7 +103,8 @@ class ExactSearchOptions:
         ``"forward-level"`` / ``"backward-level"`` (sets of a new breadth-first level), ``"meet"``
         (the length whose breadth-first meet test is done), ``"last-level"`` (sets of the last
         level, generated unhashed; -1 at the deadline), ``"depth-first"`` (the length the
-        depth-first phase starts after). For measurements
+        depth-first phase starts after), ``"deepened"`` (a length the deepening phase has ruled
+        out). For measurements
         and tests; it does not change the search.
 
     Examples
@@ -119,6 +125,7 @@ class ExactSearchOptions:
     restrict_roots: bool = True
     inverse_dfs: bool = True
     dfs_switch_rows: int | None = None
+    deepen: bool = True
     dfs_chunk: int = 4096
     cost_model: bool = True
     step_by_cost: bool = False
