@@ -424,7 +424,7 @@ class _Bidirectional:
     def _depth_first(self):
         self.opts.emit("depth-first", self.total)
         return _depth_first_phase(self.aut, self.fwd, self.bwd, self.total, self.deadline, self.node_budget,
-                                  self.upper, self.memory_budget_mb / 4, _BLOCK, self.opts, self.clock)
+                                  self.upper, self.memory_budget_mb / 4, _BLOCK, self.opts, self.clock, self.cache)
 
     def _before_level(self, forward):
         """A result when the next level of ``forward``'s side should not be grown breadth-first:
@@ -485,17 +485,18 @@ class _Bidirectional:
         return None
 
 
-def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block, opts, clock):
+def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block, opts, clock, cache=None):
     """Both stores are full: words of length ``t = total + 1, total + 2, ...`` are tested by expanding
     the forward frontier ``t - total`` more levels chunk by chunk (depth-first over chunks, memory
     bounded) and meeting the newest backward level, as synchrowords does after its breadth-first
     phase (Szykula and Zyzik 2022). Sets whose largest pair-merging distance exceeds the remaining
-    length are pruned (admissible). Returns like :func:`_exact_search`."""
+    length are pruned (admissible). ``cache``: the breadth-first search's sorted newest forward
+    level (:func:`_sorted_forward`), reused by the inverse phase. Returns like :func:`_exact_search`."""
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
     if opts.inverse_dfs and upper is not None and fhi - flo >= bhi - blo:
         return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock,
-                                          deepen=opts.deepen)
+                                          cache, deepen=opts.deepen)
     dfs = _ForwardDepthFirst(aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock)
     if dfs.no_word():
         return None, "none", dfs.used[0], total
