@@ -7,19 +7,30 @@ automata of 256-1,024 states (:func:`kruskal_markov.generators.contracting_table
 
 Ours: :func:`kruskal_markov.sync.shortest_synchronizing_word` with a 4,000 MB memory budget and the
 time budget of the row (the issue's target: 3x synchrowords' time, 10 minutes for 8 letters and
-200 states), on both cores; Numba compile time is excluded (warm-up first). synchrowords
-(Szykula and Zyzik, ESA 2022; github.com/marekesz/synchrowords v1.1.0, built outside the
-repository, its ``configs/exact.json`` with ``threads`` 2 and ``max_memory_mb`` 4096) was run once
-on the same instances with ``python -m benchmarks.bench_sync_record --synchrowords PATH``; its
-times (its own per-algorithm timers, JIT compilation excluded) and lengths are stored in
-``benchmarks/data/sync_record_synchrowords.json`` and printed beside ours. It returns lengths only.
+200 states), on the cores the process may run on; Numba compile time is excluded (warm-up first).
+synchrowords (Szykula and Zyzik, ESA 2022) returns lengths only; its times (its own
+per-algorithm timers, JIT compilation excluded) and lengths are stored in
+``benchmarks/data/sync_record_synchrowords.json`` and printed beside ours.
 
-``python -m benchmarks sync_record`` (all rows) or ``python -m benchmarks.bench_sync_record
---only random-2-200,cerny`` (key prefixes, comma-separated; ``--max-budget S`` caps every time
-budget at S s). Results go to ``benchmarks/data/sync_record.json``. ``--side-by-side PATH CONFIG``
-runs synchrowords and ours alternately, instance by instance, in one process, and prints the
-ratios of wall clock and of CPU time (both files updated). There is no ``--help``: the
-arguments are read from ``sys.argv`` as above.
+synchrowords is not a dependency; to compare with it, build it outside the repository:
+``git clone https://github.com/marekesz/synchrowords`` (v1.1.0, commit 964f55a), then ``make`` in
+it (it needs ``g++`` with ``-pthread``, ``make`` and ``libtbb-dev``; it compiles each automaton
+size just in time on its first run). ``PATH`` below is its ``synchro`` script. ``CONFIG``
+defaults to ``benchmarks/data/synchrowords_exact.json``: its ``configs/exact.json`` with
+``threads`` 2 and ``max_memory_mb`` 4096 (the issue's 2 cores and 4 GB).
+
+Modes (arguments read from ``sys.argv``; there is no ``--help``; ``--only`` takes key prefixes,
+comma-separated, e.g. ``--only random-2-200,cerny``; ``--max-budget S`` caps every time budget at
+S s):
+
+- no mode (``python -m benchmarks sync_record``): our solver on every row, results in
+  ``benchmarks/data/sync_record.json``;
+- ``--synchrowords PATH [CONFIG]``: synchrowords on the rows, stored in its file;
+- ``--side-by-side PATH [CONFIG]``: synchrowords and ours alternately, instance by instance, in
+  one process, printing the ratios of wall clock and of CPU time (both files updated);
+- ``--work [--memory-mb M]``: our answer and the subsets generated without a time budget (a
+  change that only makes the search faster leaves them unchanged), with the CPU time;
+- ``--trace [--memory-mb M]``: where one solve's time goes, stage by stage (:func:`run_trace`).
 """
 from __future__ import annotations
 
@@ -41,6 +52,7 @@ from kruskal_markov.sync import SyncAutomaton, is_synchronizing_word, shortest_s
 DATA = pathlib.Path(__file__).parent / "data"
 SW_FILE = DATA / "sync_record_synchrowords.json"
 OUT_FILE = DATA / "sync_record.json"
+SW_CONFIG = DATA / "synchrowords_exact.json"      # synchrowords' exact config: 2 threads, 4,096 MB
 MEMORY_MB = 4000.0
 SW_LIMIT = 120.0        # synchrowords' time limit in the target (seconds)
 
@@ -197,13 +209,13 @@ def run_ours(only: tuple = (), max_budget: float | None = None, instances=None, 
         ok = r.word is not None and is_synchronizing_word(aut, r.word)
         rows[key(inst)] = {"length": r.length, "exact": r.exact, "lower_bound": r.lower_bound, "method": r.method,
                            "seconds": round(sec, 3), "cpu": round(cpu, 3), "time_budget": budget, "word_checked": ok,
-                           "subsets": r.states_explored}
+                           "subsets": r.states_explored, "threads": r.threads}
         swl = "-" if sw is None else f"{sw.get('length')} {'exact' if sw.get('exact') else ''} {sw.get('seconds')} s"
         target = sw is not None and sw.get("exact") and sw["seconds"] <= SW_LIMIT
         met = (r.exact and r.length == sw["length"] and sec <= 3 * sw["seconds"]) if target else None
         rows[key(inst)]["target_met"] = met
         print(f"{key(inst):24s} ours {r.length} exact={r.exact} lb={r.lower_bound} {sec:7.2f} s cpu {cpu:7.2f} s "
-              f"{r.method:24s} | synchrowords {swl} | target met: {met}", flush=True)
+              f"{r.method:24s} threads {r.threads} | synchrowords {swl} | target met: {met}", flush=True)
     return rows
 
 
@@ -238,17 +250,99 @@ def run_side_by_side(binary: str, config: str, only: tuple = (), max_budget: flo
                   f"load {load:.2f}", flush=True)
 
 
+def run_work(only: tuple = (), memory_mb: float = MEMORY_MB) -> dict:
+    """The search's answer and work on each instance, without a time budget: length, ``exact``,
+    method, lower bound and the subsets generated (which a change that only makes the search
+    faster leaves unchanged), with the CPU time (this process, every thread) and the threads.
+    ``--work`` (optionally ``--memory-mb M``: a small memory budget sends the search into its
+    depth-first phases)."""
+    _warm_up()
+    rows = {}
+    for inst in INSTANCES:
+        if only and not key(inst).startswith(only):
+            continue
+        aut = SyncAutomaton.from_table(instance_table(*inst))
+        c0 = time.process_time()
+        r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=memory_mb)
+        cpu = time.process_time() - c0
+        ok = r.word is not None and is_synchronizing_word(aut, r.word)
+        rows[key(inst)] = {"length": r.length, "exact": r.exact, "method": r.method, "lower_bound": r.lower_bound,
+                           "subsets": r.states_explored, "word_checked": ok, "cpu": round(cpu, 3),
+                           "threads": r.threads}
+        print(f"{key(inst):24s} memory {memory_mb:g} MB: {r.length} exact={r.exact} lb={r.lower_bound} "
+              f"{r.method} subsets {r.states_explored} word checked {ok} cpu {cpu:.2f} s threads {r.threads}",
+              flush=True)
+    return rows
+
+
+def run_trace(only: tuple = (), max_budget: float | None = None, memory_mb: float = MEMORY_MB) -> None:
+    """Where one solve's time goes: every stage the search reports
+    (:class:`~kruskal_markov.sync.options.ExactSearchOptions`' ``observe`` events: the fast path, the
+    beams' words, each breadth-first level's sets, each meet test, the last level, the depth-first
+    phases), printed with the wall clock and CPU time since the solve's start and since the
+    previous event; the depth-first phases' batches are summed (a progress line every 30 s), and
+    the process's peak memory is printed at the end. ``--trace`` (with ``--only``, ``--max-budget``
+    and ``--memory-mb``); the time budget is the benchmark row's."""
+    import resource
+
+    from kruskal_markov.sync import ExactSearchOptions
+
+    sw_all = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
+    _warm_up()
+    for inst in INSTANCES:
+        if only and not key(inst).startswith(only):
+            continue
+        aut = SyncAutomaton.from_table(instance_table(*inst))
+        budget = _time_budget(inst, sw_all.get(key(inst)))
+        budget = budget if max_budget is None else min(max_budget, budget)
+        print(f"{key(inst)}: time budget {budget:g} s, memory {memory_mb:g} MB", flush=True)
+        t0, c0 = time.perf_counter(), time.process_time()
+        last = [t0, t0]               # the previous event, the previous progress line
+        dfs = [0, 0]                  # depth-first batches, sets in them
+
+        def observe(event, value):
+            now = time.perf_counter()
+            if event == "dfs-batch":
+                dfs[0] += 1
+                dfs[1] += value
+                if now - last[1] < 30:
+                    return
+                event, value = "depth-first progress: batches, sets", f"{dfs[0]} {dfs[1]}"
+            print(f"  {now - t0:9.2f} s (+{now - last[0]:7.2f}) cpu {time.process_time() - c0:9.2f} s  {event} {value}",
+                  flush=True)
+            last[:] = now, now
+
+        r = shortest_synchronizing_word(aut, time_budget=budget, memory_budget_mb=memory_mb,
+                                        options=ExactSearchOptions(observe=observe))
+        print(f"  => {r.length} exact={r.exact} lb={r.lower_bound} {r.method} subsets {r.states_explored} "
+              f"{time.perf_counter() - t0:.2f} s cpu {time.process_time() - c0:.2f} s threads {r.threads}; "
+              f"depth-first batches {dfs[0]}, sets {dfs[1]}; peak RSS "
+              f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB", flush=True)
+
+
+def _solver_args(argv, flag):
+    """``(PATH, CONFIG)`` after ``flag``; CONFIG defaults to :data:`SW_CONFIG`."""
+    i = argv.index(flag)
+    config = argv[i + 2] if len(argv) > i + 2 and not argv[i + 2].startswith("--") else str(SW_CONFIG)
+    return argv[i + 1], config
+
+
 def main(argv=()) -> None:
     argv = list(argv)
     only = tuple(argv[argv.index("--only") + 1].split(",")) if "--only" in argv else ()
     cap = float(argv[argv.index("--max-budget") + 1]) if "--max-budget" in argv else None
+    memory_mb = float(argv[argv.index("--memory-mb") + 1]) if "--memory-mb" in argv else MEMORY_MB
+    if "--work" in argv:
+        run_work(only, memory_mb)
+        return
+    if "--trace" in argv:
+        run_trace(only, cap, memory_mb)
+        return
     if "--side-by-side" in argv:
-        i = argv.index("--side-by-side")
-        run_side_by_side(argv[i + 1], argv[i + 2], only, cap)
+        run_side_by_side(*_solver_args(argv, "--side-by-side"), only, cap)
         return
     if "--synchrowords" in argv:
-        i = argv.index("--synchrowords")
-        res = run_synchrowords(argv[i + 1], argv[i + 2], only)
+        res = run_synchrowords(*_solver_args(argv, "--synchrowords"), only)
         old = json.loads(SW_FILE.read_text()) if SW_FILE.exists() else {}
         old.update(res)
         tmp = SW_FILE.with_suffix(".tmp")

@@ -46,7 +46,16 @@ _FAULT_TESTS = [f"tests/transition_builder/test_sim_faults.py::{t}" for t in (
     "test_rest_needs_the_dwell_in_consecutive_still_intervals", "test_escape_and_tip_thresholds_by_construction",
     "test_an_invalid_start_does_not_stop_the_batch")]
 
-_SYNC_TESTS = ["tests/kruskal_markov/sync/test_searches.py", "tests/kruskal_markov/sync/test_plan.py"]
+#: every test file of the sync package (test_exact.py, test_shortest.py and test_trie.py were split off
+#: test_searches.py; the byte step tables of sync/automaton.py are checked in test_exact.py)
+_SYNC_TESTS = ["tests/kruskal_markov/sync/"]
+
+#: the tilt-time ramp of the trial loop (``_run``, ``tilt``, ``_ramp``): the instant tilt unchanged, the
+#: ramp a valid landing of its own, and the pair judges, whose onset judge reads the slope at which a
+#: part starts to slide on a ramping tray against atan(mu_s) (the ramp's schedule)
+_RAMP_TESTS = [f"tests/transition_builder/test_friction_pair.py::{t}" for t in (
+    "test_tilt_time_zero_is_the_instant_tilt", "test_slow_tilt_changes_the_landing_but_stays_valid",
+    "test_static_kinetic_judges_pass")]
 
 #: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
 MODULES = {
@@ -66,10 +75,11 @@ MODULES = {
     # the builder's assembly (counts -> model), against its unit tests on hand-made explorations
     # (test_build_model.py's physics builds read the assembled model too, but a build per mutant does not fit)
     "assembly": ("transition_builder/builder/assembly.py", ["tests/transition_builder/builder/test_assembly.py"], None),
-    # the simulator: its fault classification only (the trial loop and the batch's landing check)
-    "sim": ("transition_builder/sim.py", _FAULT_TESTS,
+    # the simulator: its fault classification only (the trial loop, the batch's landing check and the
+    # tilt-time ramp of the loop)
+    "sim": ("transition_builder/sim.py", _FAULT_TESTS + _RAMP_TESTS,
             ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
-             "transition_builder.sim.x_valid_start__mutmut_*"]),
+             "transition_builder.sim.x_valid_start__mutmut_*", "transition_builder.sim.*_ramp__mutmut_*"]),
     # the figures the product reports: intervals, the structural term, validation and the part metrics
     "structural": ("kruskal_markov/structural.py", ["tests/kruskal_markov/test_structural_term.py", "tests/kruskal_markov/test_structural.py"], None),
     "answers": ("kruskal_markov/answers.py", ["tests/kruskal_markov/test_structural_term.py", "tests/kruskal_markov/test_answers.py"], None),

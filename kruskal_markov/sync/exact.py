@@ -298,195 +298,289 @@ def _exact_search(aut: SyncAutomaton, start, time_budget, memory_budget_mb, node
     ``clock``: the seconds the time budget is measured on.
     """
     opts = (ExactSearchOptions() if options is None else options).resolved()
-    t0 = clock()
-    deadline = None if time_budget is None else t0 + time_budget
     W = aut.n_words
     row_bytes = 8 * W + 8 + 4 + 16 * 2      # rows + parent + letter + hash table (load <= 1/2, x2 growth)
     # three eighths of the memory per direction; the last quarter for the depth-first phase
     max_rows = max(1024, int(memory_budget_mb * 2 ** 20 / row_bytes * 3 / 8))
     if aut.n >= max_rows:       # not even the n backward roots fit: no exact search in this budget
         return None, "budget", 0, 1
-    fwd = SubsetStore(W, 1024, max_rows)
-    bwd = SubsetStore(W, max(1024, aut.n), max_rows)
-    fwd.add_roots([aut.bits(start)])
-    singletons = []
-    for q in _backward_roots(aut, start, opts.restrict_roots):
-        b = np.zeros(W, dtype=np.uint64)
-        b[q >> 6] = np.uint64(1) << np.uint64(q & 63)
-        singletons.append(b)
-    bwd.add_roots(singletons)
-    total = 0
-    pruned = 0
-    dist = aut.pair_distances()[0] if (upper is not None and aut.n <= _PRUNE_MAX_N) else None
-    dmax = -1 if dist is None else int(dist.max())      # pruning can only bite below this remaining length
-    block = _BLOCK
-    full = {True: False, False: False}      # forward / backward store full
-    # first guesses (updated from measurements); both grow with the bitset width W
-    rate_row = 2e-7 * max(1.0, W / 16)     # seconds per generated row
-    rate_pair = 5e-11 * max(1.0, W / 4)    # seconds per (forward set x backward set) pair in the meet test
-    tested = -1                             # the largest total whose meet test is done
-    cache = {}                              # the newest forward level, sorted for the meet test
-    while True:
-        (flo, fhi), (blo, bhi) = fwd.levels[-1], bwd.levels[-1]
-        if tested < total:
-            tm = clock()
-            # the meet test in slices of the forward level, so that the budget is checked between them
-            f, b = _meet_levels(aut, fwd, bwd, total, deadline, cache, opts.trie_meet, clock, opts.tasks)
-            if f == -2:
-                return None, "budget", fwd.count + bwd.count, total
-            pairs = (fhi - flo) * (bhi - blo)
-            if pairs > 10_000_000:
-                rate_pair = (clock() - tm) / pairs
-            if f >= 0:
-                u, _ = fwd.path(f)
-                v, _ = bwd.path(b)
-                return u[::-1] + v, "found", fwd.count + bwd.count, total
-            tested = total
-        if upper is not None and total + 1 >= upper:
-            return None, "upper", fwd.count + bwd.count, upper
-        if node_budget is not None and fwd.count + bwd.count >= node_budget:
-            return None, "budget", fwd.count + bwd.count, total + 1
-        # expand the side with the smaller newest level (inverse steps cost ~ n per set), or the one
-        # synchrowords' cost model picks, unless full
-        if opts.cost_model and opts.inverse_dfs and upper is not None and not any(full.values()):
-            step = _decide(aut, fwd, bwd, total, upper, opts.step_by_cost)
-            if step == "idfs":
-                return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper,
-                                                  memory_budget_mb / 4, opts, clock, cache)
-            forward = step == "forward"
-            if opts.last_unhashed and total + 2 == upper and not full[forward] and \
-                    (node_budget is None or fwd.count + bwd.count + aut.k * (
-                        (fwd if forward else bwd).levels[-1][1] - (fwd if forward else bwd).levels[-1][0])
-                     <= node_budget):
-                if opts.last_side is not None:
-                    forward = opts.last_side == "forward"
-                word, generated = _last_level(aut, fwd, bwd, forward, cache, deadline, clock, opts.tasks)
-                if generated < 0:
-                    return None, "budget", fwd.count + bwd.count, total + 1
-                if word is not None:
-                    return word, "found", fwd.count + bwd.count + generated, total + 1
-                return None, "upper", fwd.count + bwd.count + generated, upper
-        else:
-            forward = _choose_forward(fwd, bwd, aut.k)
-        if full[forward]:
+    return _Bidirectional(aut, start, time_budget, memory_budget_mb, max_rows, node_budget, upper, strict, opts,
+                          clock).run()
+
+
+class _Bidirectional:
+    """One bidirectional breadth-first search (:func:`_exact_search`): the two stores, the lengths
+    met so far and the measured rates that predict the next level's time. :meth:`run` steps until
+    a step returns ``(word | None, status, explored, lower_bound)``."""
+
+    def __init__(self, aut, start, time_budget, memory_budget_mb, max_rows, node_budget, upper, strict, opts, clock):
+        self.aut, self.opts, self.clock = aut, opts, clock
+        self.node_budget, self.upper, self.strict = node_budget, upper, strict
+        self.memory_budget_mb = memory_budget_mb
+        self.deadline = None if time_budget is None else clock() + time_budget
+        W = aut.n_words
+        self.fwd = SubsetStore(W, 1024, max_rows)
+        self.bwd = SubsetStore(W, max(1024, aut.n), max_rows)
+        self.fwd.add_roots([aut.bits(start)])
+        singletons = []
+        for q in _backward_roots(aut, start, opts.restrict_roots):
+            b = np.zeros(W, dtype=np.uint64)
+            b[q >> 6] = np.uint64(1) << np.uint64(q & 63)
+            singletons.append(b)
+        self.bwd.add_roots(singletons)
+        self.total = 0
+        self.pruned = 0
+        self.dist = aut.pair_distances()[0] if (upper is not None and aut.n <= _PRUNE_MAX_N) else None
+        self.dmax = -1 if self.dist is None else int(self.dist.max())  # pruning bites only below this length
+        self.full = {True: False, False: False}      # forward / backward store full
+        # first guesses (updated from measurements); both grow with the bitset width W
+        self.rate_row = 2e-7 * max(1.0, W / 16)     # seconds per generated row
+        self.rate_pair = 5e-11 * max(1.0, W / 4)    # seconds per (forward set x backward set) pair in the meet test
+        self.tested = -1                             # the largest total whose meet test is done
+        self.cache = {}                              # the newest forward level, sorted for the meet test
+
+    @property
+    def count(self):
+        """Sets generated so far (both stores)."""
+        return self.fwd.count + self.bwd.count
+
+    def run(self):
+        while True:
+            res = self._step()
+            if res is not None:
+                return res
+
+    def _step(self):
+        """One round: the meet test of the newest levels (once per total), then one level grown;
+        None when the search goes on."""
+        if self.tested < self.total:
+            res = self._meet()
+            if res is not None:
+                return res
+        if self.upper is not None and self.total + 1 >= self.upper:
+            return None, "upper", self.count, self.upper
+        if self.node_budget is not None and self.count >= self.node_budget:
+            return None, "budget", self.count, self.total + 1
+        forward, res = self._direction()
+        if res is not None:
+            return res
+        if self.full[forward]:
             forward = not forward
-        if full[forward]:
-            return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
-                                      block, opts, clock)
-        store = fwd if forward else bwd
-        # predicted cost of the next level (expansion + meet test); stop before the budget is blown
+        if self.full[forward]:
+            return self._depth_first()
+        res = self._before_level(forward)
+        if res is not None:
+            return res
+        return self._level(forward)
+
+    def _meet(self):
+        """The meet test of the newest levels (in slices, the budget checked between them)."""
+        (flo, fhi), (blo, bhi) = self.fwd.levels[-1], self.bwd.levels[-1]
+        tm = self.clock()
+        f, b = _meet_levels(self.aut, self.fwd, self.bwd, self.total, self.deadline, self.cache, self.opts.trie_meet,
+                            self.clock, self.opts.tasks)
+        if f == -2:
+            return None, "budget", self.count, self.total
+        pairs = (fhi - flo) * (bhi - blo)
+        if pairs > 10_000_000:
+            self.rate_pair = (self.clock() - tm) / pairs
+        self.opts.emit("meet", self.total)
+        if f >= 0:
+            u, _ = self.fwd.path(f)
+            v, _ = self.bwd.path(b)
+            return u[::-1] + v, "found", self.count, self.total
+        self.tested = self.total
+        return None
+
+    def _direction(self):
+        """``(forward, None)``: the side to expand -- the one with the smaller newest level (inverse
+        steps cost ~ n per set), or the one synchrowords' cost model picks -- or ``(None, result)``
+        when the cost model's choice (the inverse depth-first phase, or the last level met
+        unhashed) answers the search."""
+        fwd, bwd, opts = self.fwd, self.bwd, self.opts
+        if not (opts.cost_model and opts.inverse_dfs and self.upper is not None and not any(self.full.values())):
+            return _choose_forward(fwd, bwd, self.aut.k), None
+        step = _decide(self.aut, fwd, bwd, self.total, self.upper, opts.step_by_cost)
+        if step == "idfs":
+            return None, _inverse_depth_first_phase(self.aut, fwd, bwd, self.total, self.deadline, self.node_budget,
+                                                    self.upper, self.memory_budget_mb / 4, opts, self.clock,
+                                                    self.cache)
+        forward = step == "forward"
+        if not (opts.last_unhashed and self.total + 2 == self.upper and not self.full[forward]):
+            return forward, None
+        lo, hi = (fwd if forward else bwd).levels[-1]
+        if self.node_budget is not None and self.count + self.aut.k * (hi - lo) > self.node_budget:
+            return forward, None
+        if opts.last_side is not None:
+            forward = opts.last_side == "forward"
+        word, generated = _last_level(self.aut, fwd, bwd, forward, self.cache, self.deadline, self.clock, opts.tasks)
+        opts.emit("last-level", generated)
+        if generated < 0:
+            return None, (None, "budget", self.count, self.total + 1)
+        if word is not None:
+            return None, (word, "found", self.count + generated, self.total + 1)
+        return None, (None, "upper", self.count + generated, self.upper)
+
+    def _depth_first(self):
+        self.opts.emit("depth-first", self.total)
+        return _depth_first_phase(self.aut, self.fwd, self.bwd, self.total, self.deadline, self.node_budget,
+                                  self.upper, self.memory_budget_mb / 4, _BLOCK, self.opts, self.clock, self.cache)
+
+    def _before_level(self, forward):
+        """A result when the next level of ``forward``'s side should not be grown breadth-first:
+        the node budget (``strict``), ``dfs_switch_rows``, or a predicted time (expansion + meet
+        test) past the deadline -- then the level is tested streaming, depth-first, so that a word
+        at it is still found in time. None: grow it."""
+        aut, store = self.aut, self.fwd if forward else self.bwd
         lo, hi = store.levels[-1]
-        if strict and node_budget is not None and fwd.count + bwd.count + aut.k * (hi - lo) > node_budget:
-            return None, "budget", fwd.count + bwd.count, total + 1
+        if self.strict and self.node_budget is not None and self.count + aut.k * (hi - lo) > self.node_budget:
+            return None, "budget", self.count, self.total + 1
         growth = aut.k if len(store.levels) < 2 else \
             max(1.0, (hi - lo) / max(1, store.levels[-2][1] - store.levels[-2][0]))
         new_rows = (hi - lo) * min(growth, aut.k)
-        other = (bhi - blo) if forward else (fhi - flo)
-        predicted = new_rows * rate_row + new_rows * other * rate_pair
-        if opts.dfs_switch_rows is not None and upper is not None and new_rows > opts.dfs_switch_rows:
-            return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
-                                      block, opts, clock)
-        if deadline is not None and clock() + predicted > deadline:
-            if upper is None and not aut.deterministic:     # no bound on the streaming phase's length
-                return None, "budget", fwd.count + bwd.count, total + 1
-            # the next level would not be done in time: test it (and the following ones) streaming,
-            # chunk by chunk, so that a word at it is still found before the deadline
-            return _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_budget_mb / 4,
-                                      block, opts, clock)
-        te = clock()
-        grown = store.expand(aut, forward, opts.tasks)
+        olo, ohi = (self.bwd if forward else self.fwd).levels[-1]
+        predicted = new_rows * self.rate_row + new_rows * (ohi - olo) * self.rate_pair
+        if self.opts.dfs_switch_rows is not None and self.upper is not None and new_rows > self.opts.dfs_switch_rows:
+            return self._depth_first()
+        if self.deadline is not None and self.clock() + predicted > self.deadline:
+            if self.upper is None and not aut.deterministic:     # no bound on the streaming phase's length
+                return None, "budget", self.count, self.total + 1
+            return self._depth_first()
+        return None
+
+    def _level(self, forward):
+        """Grow the next level of ``forward``'s side (dominance and pair-distance pruning after);
+        a result when that ends the search, else None."""
+        store = self.fwd if forward else self.bwd
+        te = self.clock()
+        grown = store.expand(self.aut, forward, self.opts.tasks)
         if grown is None:
-            full[forward] = True
-            continue
+            self.full[forward] = True
+            return None
         if grown > 10_000:
-            rate_row = max(1e-9, (clock() - te) / grown)
+            self.rate_row = max(1e-9, (self.clock() - te) / grown)
         if grown == 0:      # a direction exhausted: no word (shorter than ``upper``, once sets were pruned)
-            if upper is not None:
-                return None, "upper", fwd.count + bwd.count, upper
-            return None, "none", fwd.count + bwd.count, total
-        total += 1
-        if opts.forward_dominance if forward else opts.backward_dominance:
-            pruned += _dominance(aut, store, forward, opts)
-        if forward and dist is not None and upper - 1 - (len(fwd.levels) - 1) < dmax:
-            # a forward set at depth i whose largest pair-merging distance exceeds upper - 1 - i
-            # cannot start a word shorter than ``upper``: dropped (admissible)
-            lo, hi = fwd.levels[-1]
-            h = np.empty(hi - lo, dtype=np.int64)
-            _k.max_pair_distance_rows(fwd.rows[lo:hi], dist, aut.n, h)
-            pruned += fwd.keep_last((h >= 0) & (h <= upper - 1 - (len(fwd.levels) - 1)))
-            if fwd.levels[-1][0] == fwd.levels[-1][1]:
-                return None, "upper", fwd.count + bwd.count, upper
+            if self.upper is not None:
+                return None, "upper", self.count, self.upper
+            return None, "none", self.count, self.total
+        self.total += 1
+        self.opts.emit("forward-level" if forward else "backward-level", grown)
+        if self.opts.forward_dominance if forward else self.opts.backward_dominance:
+            self.pruned += _dominance(self.aut, store, forward, self.opts)
+        if forward and self.dist is not None and self.upper - 1 - (len(self.fwd.levels) - 1) < self.dmax:
+            return self._prune_forward()
+        return None
+
+    def _prune_forward(self):
+        """Drop the newest forward level's sets whose largest pair-merging distance exceeds
+        ``upper - 1 - i`` at depth ``i``: they cannot start a word shorter than ``upper``
+        (admissible). A result ('upper') when none is left."""
+        fwd, upper = self.fwd, self.upper
+        lo, hi = fwd.levels[-1]
+        h = np.empty(hi - lo, dtype=np.int64)
+        _k.max_pair_distance_rows(fwd.rows[lo:hi], self.dist, self.aut.n, h)
+        self.pruned += fwd.keep_last((h >= 0) & (h <= upper - 1 - (len(fwd.levels) - 1)))
+        if fwd.levels[-1][0] == fwd.levels[-1][1]:
+            return None, "upper", self.count, upper
+        return None
 
 
-def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block, opts, clock):
+def _depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, block, opts, clock, cache=None):
     """Both stores are full: words of length ``t = total + 1, total + 2, ...`` are tested by expanding
     the forward frontier ``t - total`` more levels chunk by chunk (depth-first over chunks, memory
     bounded) and meeting the newest backward level, as synchrowords does after its breadth-first
     phase (Szykula and Zyzik 2022). Sets whose largest pair-merging distance exceeds the remaining
-    length are pruned (admissible). Returns like :func:`_exact_search`."""
-    W = aut.n_words
+    length are pruned (admissible). ``cache``: the breadth-first search's sorted newest forward
+    level (:func:`_sorted_forward`), reused by the inverse phase. Returns like :func:`_exact_search`."""
     flo, fhi = fwd.levels[-1]
     blo, bhi = bwd.levels[-1]
     if opts.inverse_dfs and upper is not None and fhi - flo >= bhi - blo:
-        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock)
-    i_b = len(bwd.levels) - 1
-    row_bytes = 8 * W + 8 + 4 + 32
-    cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
-    dist = None
-    if aut.n <= 4096:
-        dist, _ = aut.pair_distances()
-    used = [fwd.count + bwd.count]
-    index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # the newest backward level, for every chunk
-    if dist is not None:    # every frontier set holds a pair no word merges: no word at any length
-        h = np.empty(fhi - flo, dtype=np.int64)
-        _k.max_pair_distance_rows(fwd.rows[flo:fhi], dist, aut.n, h)
-        if (h < 0).all():
-            return None, "none", used[0], total
-
-    def over_budget():
-        return (node_budget is not None and used[0] >= node_budget) or \
-            (deadline is not None and clock() > deadline)
-
-    def rec(rows, rid, words, x):
-        """Rows (forward sets ``x`` levels above the meet depth), their frontier rows and extra letters."""
-        if over_budget():
-            return "budget"
-        if dist is not None:
-            h = np.empty(rows.shape[0], dtype=np.int64)
-            _k.max_pair_distance_rows(rows, dist, aut.n, h)
-            keep = (h >= 0) & (h <= x + i_b)
-            if not keep.all():
-                rows, rid, words = rows[keep], rid[keep], words[keep]
-            if rows.shape[0] == 0:
-                return None
-        if x == 0:
-            for lo in range(0, rows.shape[0], _MEET_SLICE):
-                f, b = index.query(rows, lo, min(rows.shape[0], lo + _MEET_SLICE))
-                if f >= 0:
-                    return int(rid[f]), [int(a) for a in words[f]], int(b)
-                if over_budget():
-                    return "budget"
-            return None
-        return _descend(rec, aut, cap, True, used, rows, rid, words, x, emit=opts.emit)
-
+        return _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock,
+                                          cache, deepen=opts.deepen)
+    dfs = _ForwardDepthFirst(aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock)
+    if dfs.no_word():
+        return None, "none", dfs.used[0], total
     t = total + 1
     while upper is None or t < upper:
-        x = t - total
-        res = None
-        for lo in range(flo, fhi, opts.dfs_chunk):
-            hi = min(fhi, lo + opts.dfs_chunk)
-            res = rec(fwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
-            if res is not None:
-                break
+        res = dfs.length(t - total)
         if res == "budget":
-            return None, "budget", used[0], t
+            return None, "budget", dfs.used[0], t
         if res is not None:
             f, extra, b = res
             u, _ = fwd.path(f)
             v, _ = bwd.path(b)
-            return u[::-1] + extra + v, "found-dfs", used[0], t
+            return u[::-1] + extra + v, "found-dfs", dfs.used[0], t
         t += 1
-    return None, "upper", used[0], upper
+    return None, "upper", dfs.used[0], upper
+
+
+class _ForwardDepthFirst:
+    """The forward depth-first phase of :func:`_depth_first_phase`: the newest forward level grown
+    ``x`` more levels, chunk by chunk, and met against the newest backward level (its rarest-member
+    index, built once). ``used[0]`` counts the sets generated (both stores' included)."""
+
+    def __init__(self, aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock):
+        self.aut, self.fwd, self.opts, self.clock = aut, fwd, opts, clock
+        self.deadline, self.node_budget = deadline, node_budget
+        self.i_b = len(bwd.levels) - 1
+        row_bytes = 8 * aut.n_words + 8 + 4 + 32
+        self.cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
+        self.dist = aut.pair_distances()[0] if aut.n <= 4096 else None
+        self.used = [fwd.count + bwd.count]
+        blo, bhi = bwd.levels[-1]
+        self.index = _k.RarestMeetIndex(bwd.rows, blo, bhi, aut.n)     # the newest backward level, for every chunk
+
+    def no_word(self):
+        """Every frontier set holds a pair no word merges: no word at any length."""
+        if self.dist is None:
+            return False
+        flo, fhi = self.fwd.levels[-1]
+        h = np.empty(fhi - flo, dtype=np.int64)
+        _k.max_pair_distance_rows(self.fwd.rows[flo:fhi], self.dist, self.aut.n, h)
+        return bool((h < 0).all())
+
+    def over_budget(self):
+        return (self.node_budget is not None and self.used[0] >= self.node_budget) or \
+            (self.deadline is not None and self.clock() > self.deadline)
+
+    def length(self, x):
+        """Words ``x`` letters longer than the breadth-first total: ``(frontier row, extra letters,
+        backward row)`` of the first found, "budget", or None."""
+        flo, fhi = self.fwd.levels[-1]
+        for lo in range(flo, fhi, self.opts.dfs_chunk):
+            hi = min(fhi, lo + self.opts.dfs_chunk)
+            res = self.rec(self.fwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), x)
+            if res is not None:
+                return res
+        return None
+
+    def _prune(self, rows, rid, words, x):
+        """The rows whose largest pair-merging distance is at most the remaining length."""
+        if self.dist is None:
+            return rows, rid, words
+        h = np.empty(rows.shape[0], dtype=np.int64)
+        _k.max_pair_distance_rows(rows, self.dist, self.aut.n, h)
+        keep = (h >= 0) & (h <= x + self.i_b)
+        if keep.all():
+            return rows, rid, words
+        return rows[keep], rid[keep], words[keep]
+
+    def rec(self, rows, rid, words, x):
+        """Rows (forward sets ``x`` levels above the meet depth), their frontier rows and extra letters."""
+        if self.over_budget():
+            return "budget"
+        rows, rid, words = self._prune(rows, rid, words, x)
+        if rows.shape[0] == 0:
+            return None
+        if x > 0:
+            return _descend(self.rec, self.aut, self.cap, True, self.used, rows, rid, words, x, emit=self.opts.emit)
+        for lo in range(0, rows.shape[0], _MEET_SLICE):
+            f, b = self.index.query(rows, lo, min(rows.shape[0], lo + _MEET_SLICE))
+            if f >= 0:
+                return int(rid[f]), [int(a) for a in words[f]], int(b)
+            if self.over_budget():
+                return "budget"
+        return None
 
 
 def _descend(rec, aut, cap, forward, used, rows, rid, words, x, split=None, x_child=None, emit=None):
@@ -522,7 +616,7 @@ def _descend(rec, aut, cap, forward, used, rows, rid, words, x, split=None, x_ch
 
 
 def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, upper, memory_mb, opts, clock,
-                               cache=None):
+                               cache=None, deepen=False):
     """The depth-first phase from the backward side (synchrowords' inverse DFS, Szykula and Zyzik
     2022): the newest backward level is extended by preimages, chunk by chunk and depth-first
     (memory bounded), up to ``upper - 1 - total`` more levels, and every generated level asks the
@@ -534,67 +628,120 @@ def _inverse_depth_first_phase(aut, fwd, bwd, total, deadline, node_budget, uppe
     singleton's own root already gives a shorter one; synchrowords does the same). Entered when
     the forward level is the larger one, or when :func:`_decide` predicts it cheapest. Returns like
     :func:`_exact_search`; at a budget stop the word is the shortest found so far (or None), with
-    the lower bound ``total + 1``."""
-    W = aut.n_words
+    the lower bound ``total + 1``.
+
+    With ``deepen`` the lengths are tested one at a time instead (iterative deepening): every
+    chunk is grown to depth 1 and tested, then every chunk to depth 2 (the shallower levels grown
+    again, not tested), and so on; the first hit is a shortest word, and a budget stop at depth
+    ``m`` has proven the lower bound ``total + m``. It regenerates the shallower levels (about
+    ``1 / k`` more sets) but never grows a level deeper than the shortest word, and its bound
+    rises as it goes (used when the stores are full: :func:`_depth_first_phase`)."""
     flo, fhi = fwd.levels[-1]
-    blo, bhi = bwd.levels[-1]
     cache = {} if cache is None else cache
-    fsorted = _sorted_forward(fwd, cache)
-    fsplit = cache["split"]
-    row_bytes = 8 * W + 8 + 4 + 32
-    cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
-    used = [fwd.count + bwd.count]
-    best = [None]                       # (depth, forward row, extra letters, backward row)
-    limit = [upper - 1 - total]         # the deepest level still worth generating
+    dfs = _InverseDepthFirst(aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock, cache)
+    depths = range(1, upper - total) if deepen else (upper - 1 - total,)
+    res, lower = None, total + 1
+    for m in depths:
+        res = dfs.run(m, m if deepen else 0)
+        if res is not None or dfs.limit < 1:
+            break
+        if deepen:
+            opts.emit("deepened", total + m)
+            lower = total + m + 1
+    word = None
+    if dfs.best is not None:
+        x, f, extra, b = dfs.best
+        u, _ = fwd.path(f)
+        v, _ = bwd.path(b)
+        word = u[::-1] + extra + v
+    opts.emit("inverse-dfs", word is not None)
+    if res == "budget":
+        return word, "budget", dfs.used[0], lower
+    if word is not None:
+        return word, "found-dfs", dfs.used[0], len(word)
+    return None, "upper", dfs.used[0], upper
 
-    def over_budget():
-        return (node_budget is not None and used[0] >= node_budget) or \
-            (deadline is not None and clock() > deadline)
 
-    def grow(rows, rid, words, x):
+class _InverseDepthFirst:
+    """The preimage descent of :func:`_inverse_depth_first_phase` from the newest backward level,
+    tested against the newest forward level's trie. ``used[0]`` counts the sets generated (both
+    stores' included); ``best`` is ``(depth, forward row, extra letters, backward row)`` of the
+    shortest hit so far; ``limit`` the deepest level still worth generating."""
+
+    def __init__(self, aut, fwd, bwd, deadline, node_budget, memory_mb, opts, clock, cache):
+        self.aut, self.fwd, self.bwd, self.opts, self.clock = aut, fwd, bwd, opts, clock
+        self.deadline, self.node_budget = deadline, node_budget
+        self.fsorted = _sorted_forward(fwd, cache)
+        self.fsplit = cache["split"]
+        row_bytes = 8 * aut.n_words + 8 + 4 + 32
+        self.cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
+        self.used = [fwd.count + bwd.count]
+        self.best = None
+        self.limit = 0
+        self.test_from = 0
+
+    def over_budget(self):
+        return (self.node_budget is not None and self.used[0] >= self.node_budget) or \
+            (self.deadline is not None and self.clock() > self.deadline)
+
+    def run(self, limit, test_from):
+        """Every chunk of the newest backward level grown to depth ``limit``, the levels from
+        ``test_from`` on tested; "budget", "hit" (a hit while deepening), or None."""
+        self.limit, self.test_from = limit, test_from
+        blo, bhi = self.bwd.levels[-1]
+        for lo in range(blo, bhi, self.opts.dfs_chunk):
+            hi = min(bhi, lo + self.opts.dfs_chunk)
+            res = self.grow(self.bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
+            if res is not None or self.limit < 1:
+                return res
+        return None
+
+    def grow(self, rows, rid, words, x):
         """Extend sets at depth ``x`` by one level (or split them), unless ``x`` is the limit."""
-        if x >= limit[0]:
+        if x >= self.limit:
             return None
-        return _descend(rec, aut, cap, False, used, rows, rid, words, x, split=grow, x_child=x + 1, emit=opts.emit)
+        return _descend(self.rec, self.aut, self.cap, False, self.used, rows, rid, words, x, split=self.grow,
+                        x_child=x + 1, emit=self.opts.emit)
 
-    def rec(rows, rid, words, x):
+    def rec(self, rows, rid, words, x):
         """Backward sets ``x`` levels below the newest backward level, the rows they grew from and
         the letters of their preimage steps in the order taken (reversed, they are the word from
-        the set to that row): tested against the forward trie, then grown."""
-        if over_budget():
+        the set to that row): tested against the forward trie (from depth ``test_from`` on), then
+        grown."""
+        if self.over_budget():
             return "budget"
         keep = _k._level_sizes(rows, 0, rows.shape[0]) >= 2
         if not keep.all():
             rows, rid, words = rows[keep], rid[keep], words[keep]
         if rows.shape[0] == 0:
             return None
-        hit = np.flatnonzero(_trie.superset_mask(fsorted, rows, sorted_stored=True, tasks=opts.tasks, split=fsplit))
-        if hit.size:
-            q = int(hit[0])
-            inside = ~np.any(fwd.rows[flo:fhi] & ~rows[q], axis=1)
-            best[0] = (x, flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q]))
-            limit[0] = x - 1
-            return None
-        return grow(rows, rid, words, x)
+        if x >= self.test_from:
+            hit = np.flatnonzero(_trie.superset_mask(self.fsorted, rows, sorted_stored=True, tasks=self.opts.tasks,
+                                                     split=self.fsplit))
+            if hit.size:
+                q = int(hit[0])
+                flo, fhi = self.fwd.levels[-1]
+                inside = ~np.any(self.fwd.rows[flo:fhi] & ~rows[q], axis=1)
+                self.best = (x, flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q]))
+                self.limit = x - 1
+                return "hit" if self.test_from > 0 else None
+        return self.grow(rows, rid, words, x)
 
-    res = None
-    for lo in range(blo, bhi, opts.dfs_chunk):
-        hi = min(bhi, lo + opts.dfs_chunk)
-        res = grow(bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
-        if res is not None or limit[0] < 1:
-            break
-    word = None
-    if best[0] is not None:
-        x, f, extra, b = best[0]
-        u, _ = fwd.path(f)
-        v, _ = bwd.path(b)
-        word = u[::-1] + extra + v
-    opts.emit("inverse-dfs", word is not None)
-    if res == "budget":
-        return word, "budget", used[0], total + 1
-    if word is not None:
-        return word, "found-dfs", used[0], len(word)
-    return None, "upper", used[0], upper
+
+def _budget_notes(aut, lower, pair_mb, eppstein, no_greedy):
+    """The notes of a search stopped by its budget: the proven bound, the pair-graph check skipped
+    (``pair_mb``: the memory it would have needed, or None when it ran), the slower greedy used
+    (Eppstein's tables did not fit), no greedy word found."""
+    notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
+    if pair_mb is not None:
+        notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
+                     f"{pair_mb:,.0f} MB (over half the memory budget)")
+    if aut.deterministic and not eppstein:
+        notes.append(f"greedy by merging one pair at a time (pair graph searched from each pair): Eppstein's "
+                     f"tables would need about {eppstein_memory_mb(aut.n):,.0f} MB (over the memory budget)")
+    if no_greedy:
+        notes.append(f"greedy word not found within {_GREEDY_SHARE:.0%} of the time budget")
+    return notes
 
 
 def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None, time_budget: float | None = 60.0,
@@ -705,32 +852,24 @@ def shortest_synchronizing_word(aut: SyncAutomaton | TransitionModel, start=None
             raise AssertionError("internal error: exact search returned a non-synchronizing word")
         return SyncResult(word, len(word), True,
                           "bidirectional-bfs" + ("+dfs" if status == "found-dfs" else ""), states_explored=explored,
-                          lower_bound=len(word), seconds=clock() - t0)
+                          lower_bound=len(word), seconds=clock() - t0, threads=opts.threads)
     if status == "none":
         return SyncResult(None, None, True, "bidirectional-bfs", states_explored=explored,
                           witness={"kind": "exhaustive", "subsets_explored": explored,
                                    "reason": "exhaustive subset search: no image of the start set "
                                              "is a single state"},
-                          seconds=clock() - t0)
+                          seconds=clock() - t0, threads=opts.threads)
     method = "beam" if from_beam else "greedy-eppstein" if eppstein else "greedy"
     if status == "budget" and word is not None and (best is None or len(word) < len(best)):
         best, method = word, "bidirectional-bfs+dfs"   # a word the inverse depth-first phase found, unproven
     if status == "upper":       # proven: nothing shorter than the beam's or the greedy word
         return SyncResult(best, len(best), True, method + "+lower-bound", lower_bound=len(best),
                           states_explored=explored, greedy_length=None if greedy is None else len(greedy),
-                          seconds=clock() - t0)
-    notes = [f"exact search stopped by its budget; no synchronizing word is shorter than {lower}"]
-    if skipped:
-        notes.append(f"pair-graph synchronizability check skipped: {aut.n} states would need about "
-                     f"{pair_mb:,.0f} MB (over half the memory budget)")
-    if aut.deterministic and not eppstein:
-        notes.append(f"greedy by merging one pair at a time (pair graph searched from each pair): Eppstein's "
-                     f"tables would need about {eppstein_memory_mb(aut.n):,.0f} MB (over the memory budget)")
-    if greedy is None:
-        notes.append(f"greedy word not found within {_GREEDY_SHARE:.0%} of the time budget")
+                          seconds=clock() - t0, threads=opts.threads)
+    notes = _budget_notes(aut, lower, pair_mb if skipped else None, eppstein, greedy is None)
     meets_bound = best is not None and len(best) <= lower   # the best word meets the proven lower bound
     return SyncResult(best, None if best is None else len(best), meets_bound,
                       method + "+lower-bound" if meets_bound else method,
                       lower_bound=lower, states_explored=explored,
                       greedy_length=None if greedy is None else len(greedy),
-                      seconds=clock() - t0, notes=notes)
+                      seconds=clock() - t0, notes=notes, threads=opts.threads)

@@ -12,9 +12,39 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-__all__ = ["ExactSearchOptions"]
+__all__ = ["ExactSearchOptions", "default_parallel", "usable_cores"]
 
 _LAST_SIDES = (None, "forward", "backward")
+
+
+def usable_cores() -> int:
+    """CPU cores this process may run on (its affinity set; ``os.cpu_count()`` where the platform
+    has no affinity)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:      # not on Linux
+        return os.cpu_count() or 1
+
+
+def default_parallel(cores: int | None = None, threads: int | None = None) -> bool:
+    """Whether the exact search splits its kernels over threads by default: with at least two
+    ``cores`` (default :func:`usable_cores`) and two Numba ``threads`` (default
+    ``numba.get_num_threads()``). Deterministic for given inputs; it replaces a rule on the load
+    average (docs/plans.md, issue 43), which turned threads off under other jobs' load even when
+    the cores were the search's own.
+
+    Examples
+    --------
+    >>> default_parallel(cores=1, threads=2), default_parallel(cores=2, threads=2)
+    (False, True)
+    """
+    if cores is None:
+        cores = usable_cores()
+    if threads is None:
+        import numba
+
+        threads = numba.get_num_threads()
+    return min(int(cores), int(threads)) >= 2
 
 
 @dataclass(frozen=True)
@@ -44,6 +74,11 @@ class ExactSearchOptions:
     dfs_switch_rows : int or None, default None
         Enter the depth-first phase once a breadth-first level would hold more sets than this
         (None: only when memory or time run out, or the cost model says so).
+    deepen : bool, default True
+        When the breadth-first stores are full (or a level would not fit the time), the inverse
+        depth-first phase tests one length at a time (iterative deepening), so that its lower
+        bound rises as it goes and no level deeper than the shortest word is grown; off: one
+        descent to the longest length, as the cost model's phase does.
     dfs_chunk : int, default 4,096
         Sets of the newest level per chunk of a depth-first phase.
     cost_model : bool, default True
@@ -55,13 +90,21 @@ class ExactSearchOptions:
     last_side : {None, "forward", "backward"}, default None
         The direction of that last level (None: the step rule's).
     parallel : bool or None, default None
-        Split large levels' images and the meet test's trie walks over Numba's threads. None:
-        only when the load average leaves a core idle at the search's start (a split walk costs
-        about 1.45 times the CPU of one batch, so on busy cores it is slower; docs/plans.md).
+        Split large levels' images and the meet test's trie walks over Numba's threads (each
+        kernel splits only calls large enough: 16,384 sets or more). None: decided by
+        :func:`default_parallel`, when the process may run on two cores or more and Numba has two
+        threads or more (one core: the threads would only take turns, and a split walk costs about
+        1.45 times the CPU of one batch; docs/plans.md). The choice is reported on the result
+        (``SyncResult.threads``).
     observe : callable or None, default None
         Called as ``observe(event, value)`` when the search reaches a stage: ``"fast-path"`` (sets
         generated), ``"beam"`` (the word's length, or -1), ``"inverse-dfs"`` (1 if it found a word,
-        else 0), ``"dfs-batch"`` (sets expanded together in a depth-first phase). For measurements
+        else 0), ``"dfs-batch"`` (sets expanded together in a depth-first phase),
+        ``"forward-level"`` / ``"backward-level"`` (sets of a new breadth-first level), ``"meet"``
+        (the length whose breadth-first meet test is done), ``"last-level"`` (sets of the last
+        level, generated unhashed; -1 at the deadline), ``"depth-first"`` (the length the
+        depth-first phase starts after), ``"deepened"`` (a length the deepening phase has ruled
+        out). For measurements
         and tests; it does not change the search.
 
     Examples
@@ -82,6 +125,7 @@ class ExactSearchOptions:
     restrict_roots: bool = True
     inverse_dfs: bool = True
     dfs_switch_rows: int | None = None
+    deepen: bool = True
     dfs_chunk: int = 4096
     cost_model: bool = True
     step_by_cost: bool = False
@@ -105,12 +149,21 @@ class ExactSearchOptions:
         """Slices per parallel kernel call: 8 with :attr:`parallel`, else 1 (one thread)."""
         return 8 if self.parallel else 1
 
-    def resolved(self) -> ExactSearchOptions:
-        """These options with ``parallel`` decided (None: True when the 1-minute load average is
-        at most the number of CPUs less one)."""
+    @property
+    def threads(self) -> int:
+        """Threads the kernels are split over: Numba's thread count with :attr:`parallel`, else 1."""
+        if not self.parallel:
+            return 1
+        import numba
+
+        return int(numba.get_num_threads())
+
+    def resolved(self, cores: int | None = None) -> ExactSearchOptions:
+        """These options with ``parallel`` decided (None: :func:`default_parallel` for ``cores``,
+        default the cores this process may run on)."""
         if self.parallel is not None:
             return self
-        return replace(self, parallel=os.getloadavg()[0] <= (os.cpu_count() or 1) - 1)
+        return replace(self, parallel=default_parallel(cores))
 
     def emit(self, event: str, value: int) -> None:
         """Pass ``(event, value)`` to :attr:`observe`, if set."""

@@ -89,6 +89,8 @@ class PlanResult:
         Why no plan exists, when none does.
     greedy_length : int or None
         The greedy word's length when the subset search found one (:meth:`from_sync`).
+    threads : int
+        Threads the exact subset search split its kernels over (:meth:`from_sync`; 1 otherwise).
 
     See Also
     --------
@@ -109,6 +111,7 @@ class PlanResult:
     witness: dict | None = None
     notes: tuple = field(default=())
     greedy_length: int | None = None
+    threads: int = 1
 
     def __post_init__(self):
         object.__setattr__(self, "notes", tuple(self.notes))
@@ -121,7 +124,7 @@ class PlanResult:
                 "exact": self.exact, "lower_bound": self.lower_bound, "target": self.target,
                 "method": self.method, "final_cell": self.final_cell,
                 "success_probability": self.success_probability, "upper_bound": self.upper_bound,
-                "nodes": self.nodes, "witness": self.witness, "notes": list(self.notes)}
+                "nodes": self.nodes, "witness": self.witness, "notes": list(self.notes), "threads": self.threads}
 
     @classmethod
     def from_sync(cls, res, actions=None, target: str = "state") -> "PlanResult":
@@ -131,13 +134,15 @@ class PlanResult:
         if word is not None and actions is not None:
             word = [actions[a] for a in word]
         return cls(word, res.length, res.exact, res.lower_bound, str(target), res.method, nodes=res.states_explored,
-                   seconds=res.seconds, witness=res.witness, notes=res.notes, greedy_length=res.greedy_length)
+                   seconds=res.seconds, witness=res.witness, notes=res.notes, greedy_length=res.greedy_length,
+                   threads=res.threads)
 
     def sync_dict(self) -> dict:
         """The keys of ``kruskal sync`` (:meth:`SyncResult.as_dict <kruskal_markov.sync.result.SyncResult.as_dict>`)."""
         return {"word": None if self.word is None else list(self.word), "length": self.length, "exact": self.exact,
                 "method": self.method, "witness": self.witness, "lower_bound": self.lower_bound,
-                "greedy_length": self.greedy_length, "states_explored": self.nodes, "notes": list(self.notes)}
+                "greedy_length": self.greedy_length, "states_explored": self.nodes, "notes": list(self.notes),
+                "threads": self.threads}
 
 
 # ----------------------------------------------------------------------------- the joint problem

@@ -41,6 +41,9 @@ class SyncResult:
         What else the search has to say (budgets hit, entropies reached).
     best_word : list of int or None
         The lowest-entropy word an epsilon search had seen when its budget ran out (else None).
+    threads : int
+        Threads the exact search split its large kernels over (1: one thread; the rule is
+        :func:`~kruskal_markov.sync.options.default_parallel`). It never changes the answer.
     """
 
     word: list | None
@@ -54,6 +57,7 @@ class SyncResult:
     seconds: float = 0.0
     notes: tuple = ()
     best_word: list | None = None
+    threads: int = 1
 
     def __post_init__(self):
         object.__setattr__(self, "notes", tuple(self.notes))
@@ -66,4 +70,4 @@ class SyncResult:
         return {"word": word, "length": self.length, "exact": self.exact, "method": self.method,
                 "witness": self.witness, "lower_bound": self.lower_bound,
                 "greedy_length": self.greedy_length, "states_explored": self.states_explored,
-                "notes": list(self.notes)}
+                "notes": list(self.notes), "threads": self.threads}

@@ -30,8 +30,9 @@ def test_part_metrics_as_dict_is_to_dict():
 
 def test_epsilon_search_max_nodes_is_node_budget():
     model = cerny_model(4)
-    with pytest.warns(KruskalDeprecationWarning, match="max_nodes is deprecated; use node_budget"):
+    with pytest.warns(KruskalDeprecationWarning, match="max_nodes is deprecated; use node_budget") as rec:
         old = epsilon_synchronizing_word(model, 0.01, max_nodes=500)
+    assert rec[0].filename == __file__          # the warning points at the caller's line
     new = epsilon_synchronizing_word(model, 0.01, node_budget=500)
     assert (old.word, old.length, old.exact, old.states_explored) == (new.word, new.length, new.exact,
                                                                      new.states_explored)

@@ -654,6 +654,13 @@ def test_censored_mean_whole_answers():
         "mean": 3.0, "ci95": [3.0, 3.0], "runs": 1, "censored": 0, "std": 0.0, "lower": 3.0}
     one = monte_carlo_entropy_tilts(_two_action_model(), 0.0, weights=[1, 0], runs=1)
     assert one["std"] == 0.0 and one["ci95"] == [1.0, 1.0]
+    # two runs already have a spread: sd = sqrt(2) (ddof=1), half-width 1.96 sd / sqrt(2) = 1.96
+    two = censored_mean(np.array([2.0, 4.0]), np.array([True, True]))
+    assert two["std"] == pytest.approx(math.sqrt(2), abs=1e-15)
+    assert two["ci95"] == pytest.approx([3.0 - 1.96, 3.0 + 1.96], abs=1e-15)
+    # no run at all: nothing to average, not a NaN
+    assert censored_mean(np.zeros(0), np.zeros(0, dtype=bool)) == {
+        "mean": None, "ci95": [None, None], "runs": 0, "censored": 0, "std": None, "lower": None}
 
 
 def test_monte_carlo_with_one_letter_allowed():

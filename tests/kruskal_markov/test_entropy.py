@@ -111,6 +111,10 @@ def test_batch_edge_shapes():
     model = random_model(np.random.default_rng(1), 5, 2)
     empty = batch_entropy(model, np.zeros((0, 4), dtype=np.int64))
     assert empty.entropy_bits.shape == (0, 5)
+    cells = random_model(np.random.default_rng(1), 5, 2, cells=2)
+    empty = batch_entropy(cells, np.zeros((0, 4), dtype=np.int64))
+    assert empty.entropy_bits.shape == empty.entropy_bits_states.shape == (0, 5)
+    assert empty.mass_drift.shape == (0,) and empty.engine in ("images", "trie", "independent")
     zero_len = batch_entropy(model, np.zeros((3, 0), dtype=np.int64))
     np.testing.assert_allclose(zero_len.entropy_bits[:, 0], brute_entropy(model.initial), atol=1e-12)
     single_action = TransitionModel(["only"], [model.matrices[0]], initial=model.initial)
@@ -224,8 +228,22 @@ def test_entropy_bounds_uniform_and_point():
 def test_histogram_entropy_unchanged():
     assert histogram_entropy_bits([5, 5, 0, 0]) == 1.0
     assert histogram_entropy_bits([0, 0]) == 0.0
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="^histogram counts must be finite and non-negative$"):
         histogram_entropy_bits([1, -1])
+
+
+def test_histogram_entropy_below_one_bit_by_its_definition():
+    """Histograms of less than one bit: one full bin is 0, a 3:1 split is -(3/4 log 3/4 + 1/4 log 1/4)."""
+    assert histogram_entropy_bits([7]) == 0.0
+    assert histogram_entropy_bits([0, 4, 0]) == 0.0
+    want = -(0.75 * math.log2(0.75) + 0.25 * math.log2(0.25))
+    assert histogram_entropy_bits([3, 1]) == pytest.approx(want, abs=1e-15) and want < 1
+
+
+def test_trajectory_keeps_no_distributions_unless_asked():
+    model = random_model(np.random.default_rng(2), 6, 2)
+    assert entropy_trajectory(model, [0, 1]).distributions is None
+    assert entropy_trajectory(model, [0, 1], return_distributions=True).distributions.shape == (3, 6)
 
 
 def test_uniform_start_entropy_is_log2_n_and_partition_log2_cells():

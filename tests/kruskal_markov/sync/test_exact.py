@@ -310,4 +310,35 @@ def test_options_are_checked():
         ExactSearchOptions(fast_nodes=-1)
     assert ExactSearchOptions(parallel=False).resolved().tasks == 1
     assert ExactSearchOptions(parallel=True).resolved().tasks == 8
-    assert ExactSearchOptions().resolved().parallel in (True, False)
+
+
+def test_the_thread_rule_depends_on_the_cores_only():
+    """The default (``parallel=None``) splits kernels over threads exactly when the process may run
+    on two cores or more (and Numba has two threads): the same inputs give the same choice, and an
+    explicit choice is kept whatever the cores."""
+    import numba
+
+    from kruskal_markov.sync.options import default_parallel
+
+    assert default_parallel(cores=1, threads=8) is False
+    assert default_parallel(cores=2, threads=1) is False
+    assert default_parallel(cores=2, threads=2) is True
+    many = numba.get_num_threads() >= 2
+    assert ExactSearchOptions().resolved(cores=1).parallel is False
+    assert ExactSearchOptions().resolved(cores=4).parallel is many
+    assert ExactSearchOptions(parallel=True).resolved(cores=1).parallel is True
+    assert ExactSearchOptions(parallel=False).resolved(cores=4).parallel is False
+
+
+def test_the_result_says_how_many_threads_the_search_used():
+    """``SyncResult.threads`` (and the ``threads`` key of ``kruskal sync``'s JSON) reports the
+    choice: 1 with ``parallel=False``, Numba's thread count with ``parallel=True``; the answer is
+    the same."""
+    import numba
+
+    aut = SyncAutomaton.from_table(generators.random_table(30, 3, 4374))
+    one = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(parallel=False))
+    split = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(parallel=True))
+    assert one.threads == 1 and one.as_dict()["threads"] == 1
+    assert split.threads == numba.get_num_threads()
+    assert (one.word, one.exact, one.states_explored) == (split.word, split.exact, split.states_explored)

@@ -383,7 +383,7 @@ def test_a_plan_result_whole():
     r = shortest_plan(_cerny4(), "state")
     assert r.to_dict() == {"word": list("baaabaaab"), "length": 9, "exact": True, "lower_bound": 9, "target": "state",
                            "method": "beam+ida*", "final_cell": 0, "success_probability": 1.0, "upper_bound": 9,
-                           "nodes": r.nodes, "witness": None, "notes": []}
+                           "nodes": r.nodes, "witness": None, "notes": [], "threads": 1}
     assert r.nodes > 0
     # the defaults are the documented ones (beam width 64, 64 letters, threshold 0)
     same = shortest_plan(_cerny4(), "state", beam_width=64, max_length=64, threshold=0.0)

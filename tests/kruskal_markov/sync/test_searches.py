@@ -995,7 +995,7 @@ def test_sync_result_as_dict_whole():
                    states_explored=17, seconds=0.5, notes=["a note"])
     assert r.notes == ("a note",)
     want = {"word": [1, 0, 1], "length": 3, "exact": False, "method": "greedy", "witness": {"kind": "x"},
-            "lower_bound": 2, "greedy_length": 3, "states_explored": 17, "notes": ["a note"]}
+            "lower_bound": 2, "greedy_length": 3, "states_explored": 17, "notes": ["a note"], "threads": 1}
     assert r.as_dict() == want
     assert r.as_dict(("N", "E")) == {**want, "word": ["E", "N", "E"]}
     none = SyncResult(None, None, True, "pair-graph")

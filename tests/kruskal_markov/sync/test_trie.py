@@ -122,20 +122,22 @@ def test_dominance_prunes_and_keeps_the_answer_on_a_larger_automaton():
     assert got[True].states_explored < got[False].states_explored
 
 
+@pytest.mark.parametrize("deepen", [True, False])
 @pytest.mark.parametrize("switch_rows", [4, 40])
-def test_inverse_depth_first_phase_keeps_every_shortest_length(switch_rows):
+def test_inverse_depth_first_phase_keeps_every_shortest_length(switch_rows, deepen):
     """The depth-first phase from the backward side (entered early: once a breadth-first level
-    would exceed ``switch_rows`` sets), its chunks (the module's constant patched to 3 sets) and
-    the trie's meet test: on 60 small random automata and Cerny C_5..C_8, with the greedy word as
-    the bound (beam off, so the search has words to find below it), the answer is the brute-force
-    length, exact, with a word that synchronizes; some answers come from the inverse phase (seen
-    through ``ExactSearchOptions.observe``)."""
+    would exceed ``switch_rows`` sets), its chunks (3 sets) and the trie's meet test, one length at
+    a time (``deepen``) or in one descent: on 60 small random automata and Cerny C_5..C_8, with the
+    greedy word as the bound (beam off, so the search has words to find below it), the answer is
+    the brute-force length, exact, with a word that synchronizes; some answers come from the
+    inverse phase (seen through ``ExactSearchOptions.observe``)."""
     inverse_found = []
 
     def observe(event, value):
         if event == "inverse-dfs":
             inverse_found.append(value == 1)
-    options = ExactSearchOptions(use_beam=False, dfs_switch_rows=switch_rows, dfs_chunk=3, observe=observe)
+    options = ExactSearchOptions(use_beam=False, dfs_switch_rows=switch_rows, dfs_chunk=3, deepen=deepen,
+                                 observe=observe)
     rng = np.random.default_rng(4364)
     tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
     tables += [generators.cerny_table(n) for n in range(5, 9)]
@@ -149,6 +151,34 @@ def test_inverse_depth_first_phase_keeps_every_shortest_length(switch_rows):
             assert is_synchronizing_word(aut, r.word)
         methods.add(r.method)
     assert "bidirectional-bfs+dfs" in methods and any(inverse_found)
+
+
+def test_the_deepening_phase_proves_each_length_it_finishes():
+    """Stopped by node budgets (every budget from 1 to 3,000 sets in steps of 29) inside the
+    deepening phase (entered once a level would exceed 30 sets, chunks of 3 sets, beam off), the
+    lower bound is one more than the last length the phase reported ruled out (``deepened``), and
+    never above the brute-force length; an exact answer has that length. On 8 random 4-letter
+    automata of 20-29 states (where the phase runs from the backward side and stops in it)."""
+    rng = np.random.default_rng(4375)
+    checked = 0
+    for _ in range(8):
+        table = generators.random_table(int(rng.integers(20, 30)), 4, rng)
+        aut = SyncAutomaton.from_table(table)
+        want = brute(table)
+        for budget in range(1, 3000, 29):
+            events = []
+            options = ExactSearchOptions(use_beam=False, dfs_switch_rows=30, dfs_chunk=3,
+                                         observe=lambda e, v: events.append((e, v)))
+            r = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget, options=options)
+            ruled_out = [v for e, v in events if e == "deepened"]
+            if r.exact:
+                assert r.length == want
+                continue
+            assert r.lower_bound <= want
+            if ruled_out and not any(e == "inverse-dfs" and v == 1 for e, v in events):
+                assert r.lower_bound == max(ruled_out) + 1
+                checked += 1
+    assert checked > 100
 
 
 @pytest.mark.parametrize("max_small", [0, 3, 256])

@@ -147,6 +147,21 @@ def judge(case):
     kind[:n_start] = STATE_START
     for o in np.flatnonzero(explored):
         kind[state(o, 0):state(o, 0) + G] = STATE_REST
+    P, imputed, stay = _judge_rows(counts, n_start, case.borrow)
+    initial = np.zeros(n)
+    for (j, i), s in start_state.items():
+        initial[s] += 1.0 / (G * len(STARTS))
+    partition = np.concatenate([cells, grid.voxel_index(_with_rotations(sym, ORBITS))])
+    return {"n_start": n_start, "n": n, "counts": counts, "P": P, "samples": samples, "faults": faults,
+            "kinds": kinds, "kind": kind, "initial": initial, "partition": partition, "imputed": imputed,
+            "stay": stay, "explored": int(explored.sum())}
+
+
+def _judge_rows(counts, n_start, borrow):
+    """The matrices from the counts, row by row: a row with samples is its normalised counts, a start
+    row without any takes the action's pooled start landings (imputed), a rest row without any stays
+    put unless it borrows; borrowed rows copy their lender's. Returns ``(P, imputed, stay)``."""
+    n_act, n = counts.shape[:2]
     P = np.zeros_like(counts)
     imputed = stay = 0
     for a in range(n_act):
@@ -158,18 +173,12 @@ def judge(case):
             elif s < n_start:
                 P[a, s] = pooled / pooled.sum()
                 imputed += 1
-            elif case.borrow.get(s) is None:
+            elif borrow.get(s) is None:
                 P[a, s, s] = 1.0
                 stay += 1
-    for s, lender in case.borrow.items():
+    for s, lender in borrow.items():
         P[:, s] = P[:, lender]
-    initial = np.zeros(n)
-    for (j, i), s in start_state.items():
-        initial[s] += 1.0 / (G * len(STARTS))
-    partition = np.concatenate([cells, grid.voxel_index(_with_rotations(sym, ORBITS))])
-    return {"n_start": n_start, "n": n, "counts": counts, "P": P, "samples": samples, "faults": faults,
-            "kinds": kinds, "kind": kind, "initial": initial, "partition": partition, "imputed": imputed,
-            "stay": stay, "explored": int(explored.sum())}
+    return P, imputed, stay
 
 
 def _check(case, model, stats, j):

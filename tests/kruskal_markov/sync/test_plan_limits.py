@@ -1,0 +1,92 @@
+"""The plan search's argument limits, its duration, and the random-word success intervals."""
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from kruskal_markov.generators import cerny_model
+from kruskal_markov.sync import random_word_success, shortest_plan, state_plan
+
+
+@pytest.mark.parametrize("time_budget", [0, 0.0, -1.0])
+def test_a_time_budget_must_be_positive(time_budget):
+    with pytest.raises(ValueError) as err:
+        shortest_plan(cerny_model(4), "state", time_budget=time_budget)
+    assert str(err.value) == "memory and time budgets must be positive"
+
+
+def _ticking():
+    """A clock reading 0, 1, 2, ... seconds, one second per reading."""
+    return itertools.count().__next__
+
+
+def test_state_plan_reports_the_searchs_duration():
+    """The same search on two fresh clocks that tick once per reading: the SyncResult's seconds are
+    the plan's."""
+    model = cerny_model(4)
+    plan = shortest_plan(model, "state", time_budget=1e9, clock=_ticking())
+    res = state_plan(model, time_budget=1e9, clock=_ticking())
+    assert plan.seconds > 0 and res.seconds == plan.seconds
+
+
+def test_random_word_success_at_length_zero_is_the_start():
+    """``max_length=0`` is allowed: only the empty word, which meets the state target of C_4's uniform
+    start never."""
+    r = random_word_success(cerny_model(4), "state", max_length=0, words=10)
+    assert r["lengths"] == [0] and r["probability"] == [0.0] and r["ci95"] == [[0.0, 0.0]]
+
+
+def test_random_word_success_intervals_are_clipped_to_probabilities():
+    """Normal intervals p +- 1.96 sqrt(p (1 - p) / words), clipped to [0, 1]; with 20 words some
+    length has p high enough that the unclipped upper end passes 1."""
+    words = 20
+    r = random_word_success(cerny_model(4), "state", max_length=150, words=words, seed=3)
+    p = np.asarray(r["probability"])
+    se = np.sqrt(p * (1 - p) / words)
+    assert np.any(p + 1.96 * se > 1) and np.any(p - 1.96 * se < 0)
+    for (lo, hi), pl, s in zip(r["ci95"], p, se):
+        assert lo == pytest.approx(max(0.0, pl - 1.96 * s), abs=1e-15)
+        assert hi == pytest.approx(min(1.0, pl + 1.96 * s), abs=1e-15)
+        assert 0.0 <= lo <= hi <= 1.0 and not math.isnan(hi)
+
+
+def test_a_state_plans_final_cell_is_the_cell_of_its_final_state():
+    """Cerny C_4 with cells {1, 3} -> 0 and {0, 2} -> 1 (no state is its own cell's number): the state
+    plan ends every start in one state with probability 1, and its final cell is that state's cell
+    (found by running the word by hand), not the state's index."""
+    from kruskal_markov.automaton_json import model_from_automaton
+    from kruskal_markov.generators import cerny_table
+
+    t = cerny_table(4)
+    model = model_from_automaton({"states": 4, "actions": {"a": t[0].tolist(), "b": t[1].tolist()},
+                                  "partition": [1, 0, 1, 0]})
+    r = shortest_plan(model, "state")
+    states = set(range(4))
+    for name in r.word:
+        states = {int(t["ab".index(name)][q]) for q in states}
+    (final,) = states
+    assert r.final_cell == [1, 0, 1, 0][final] and r.success_probability == pytest.approx(1.0, abs=1e-12)
+
+
+def test_a_state_plans_success_is_its_final_states_probability():
+    """C_4 whose every row leaks 1% uniformly, searched on its support above 0.05 (C_4 itself): the
+    plan's success probability is the final distribution's largest state probability (propagated by
+    hand), and its final cell that state's cell (cells numbered so that no state is its own cell's
+    number), not the state's index."""
+    from kruskal_markov.generators import cerny_table
+    from kruskal_markov.model import TransitionModel
+
+    t = cerny_table(4)
+    mats = [0.99 * np.eye(4)[t[a]] + 0.01 / 4 for a in range(2)]
+    partition = [1, 0, 1, 0]
+    model = TransitionModel(["a", "b"], mats, partition=partition)
+    r = shortest_plan(model, "state", threshold=0.05)
+    p = np.full(4, 0.25)
+    for name in r.word:
+        p = mats["ab".index(name)].T @ p
+    q = int(np.argmax(p))
+    assert r.final_cell == partition[q]
+    assert r.success_probability == pytest.approx(p[q], abs=1e-12) and p[q] < 0.99
