@@ -1,6 +1,7 @@
 """SimSettings.part_links: the prism as one compound link (``compound``) or as the yaw link's own
-shape (``yaw-compound``) is the same geometry, so landings agree with today's chain of one link per
-convex part to the documented tolerance (docs/builder.md, "A lighter multibody": at least 95% of
+shape (``yaw-compound``), and the part as the multibody's free base (``floating``), are the same
+geometry and mass, so landings agree with today's chain of one link per convex part to the
+documented tolerance (docs/builder.md, "A lighter multibody": at least 95% of
 landings within 1 mm / 1 degree, the step convergence's tolerance; the hulls are read back from
 OBJ text, so sensitive tilts move as under any floating-point change); the setting is part of a
 scene's content hash only when not the default."""
