@@ -50,12 +50,12 @@ _FAULT_TESTS = [f"tests/transition_builder/test_sim_faults.py::{t}" for t in (
 #: test_searches.py; the byte step tables of sync/automaton.py are checked in test_exact.py)
 _SYNC_TESTS = ["tests/kruskal_markov/sync/"]
 
-#: the tilt-time ramp of the trial loop (``_run``, ``tilt``, ``_ramp``): the instant tilt unchanged, the
-#: ramp a valid landing of its own, and the pair judges, whose onset judge reads the slope at which a
+#: the tilt-time ramp of the trial loop (``_run``, ``tilt``, ``_ramp``, its schedule ``ramp_fractions``):
+#: the instant tilt unchanged, the ramp a valid landing of its own, the schedule by value, and the pair judges, whose onset judge reads the slope at which a
 #: part starts to slide on a ramping tray against atan(mu_s) (the ramp's schedule)
 _RAMP_TESTS = [f"tests/transition_builder/test_friction_pair.py::{t}" for t in (
     "test_tilt_time_zero_is_the_instant_tilt", "test_slow_tilt_changes_the_landing_but_stays_valid",
-    "test_static_kinetic_judges_pass")]
+    "test_static_kinetic_judges_pass")] + ["tests/transition_builder/test_ramp_schedule.py"]
 
 #: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
 MODULES = {
@@ -79,7 +79,8 @@ MODULES = {
     # tilt-time ramp of the loop)
     "sim": ("transition_builder/sim.py", _FAULT_TESTS + _RAMP_TESTS,
             ["transition_builder.sim.*_run__mutmut_*", "transition_builder.sim.*tilt__mutmut_*",
-             "transition_builder.sim.x_valid_start__mutmut_*", "transition_builder.sim.*_ramp__mutmut_*"]),
+             "transition_builder.sim.x_valid_start__mutmut_*", "transition_builder.sim.*_ramp__mutmut_*",
+             "transition_builder.sim.x_ramp_fractions__mutmut_*"]),
     # the figures the product reports: intervals, the structural term, validation and the part metrics
     "structural": ("kruskal_markov/structural.py", ["tests/kruskal_markov/test_structural_term.py", "tests/kruskal_markov/test_structural.py"], None),
     "answers": ("kruskal_markov/answers.py", ["tests/kruskal_markov/test_structural_term.py", "tests/kruskal_markov/test_answers.py"], None),

@@ -49,8 +49,49 @@ from transition_builder.sampling import is_collision_free
 from transition_builder.scene import Scene
 from transition_builder.sim_settings import SIMULATOR_VERSION
 
-__all__ = ["TraySimulator", "SIMULATOR_VERSION", "valid_start"]
+__all__ = ["TraySimulator", "SIMULATOR_VERSION", "valid_start", "ramp_fractions"]
 
+
+
+def ramp_fractions(tilt_time_s: float, check_interval_s: float) -> np.ndarray:
+    """The tilt-time ramp's schedule: the fraction of the full tilt set for each rest-test interval.
+
+    The tray turns from level to its tilt linearly in ``tilt_time_s``; interval ``i`` (of length
+    ``check_interval_s``) takes the slope at its midpoint, ``min((i + 1/2) dt / tilt_time, 1)``, for
+    ``i < k = ceil(tilt_time / dt)``, and the full tilt from interval ``k`` on (docs/simulator.md,
+    "The tilt's own motion"). The rest test starts at interval ``k``.
+
+    Parameters
+    ----------
+    tilt_time_s : float
+        Time from level to the full tilt (s); 0 is an instant tilt.
+    check_interval_s : float
+        The rest test's interval ``dt`` (s), > 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``k + 1`` fractions in (0, 1], the last exactly 1 (``k`` the ramp's intervals); empty for an
+        instant tilt.
+
+    Examples
+    --------
+    >>> ramp_fractions(0.35, 0.1).round(4).tolist()
+    [0.1429, 0.4286, 0.7143, 1.0, 1.0]
+    >>> ramp_fractions(0.0, 0.1).size
+    0
+    """
+    if not (check_interval_s > 0 and math.isfinite(check_interval_s)):
+        raise ValueError(f"check_interval_s must be a positive number, got {check_interval_s}")
+    if not (tilt_time_s >= 0 and math.isfinite(tilt_time_s)):
+        raise ValueError(f"tilt_time_s must be a number >= 0, got {tilt_time_s}")
+    k = int(math.ceil(tilt_time_s / check_interval_s - 1e-9))
+    if k <= 0:
+        return np.zeros(0)
+    out = np.ones(k + 1)
+    for i in range(k):
+        out[i] = min((i + 0.5) * check_interval_s / tilt_time_s, 1.0)
+    return out
 
 
 def valid_start(scene: Scene, poses) -> np.ndarray:
@@ -102,8 +143,10 @@ class TraySimulator:
         self._w_rest = st.rest_angular_speed_rad_s
         half = 0.5 * math.hypot(scene.tray_x_mm, scene.tray_y_mm) / 1000.0
         self._r_out = half + scene.wall_thickness_mm / 1000.0     # centroid beyond this: escaped
-        # tilt-time ramp: rest-test intervals from level to the tilt (0: an instant tilt, no ramp calls)
-        self._ramp_checks = int(math.ceil(scene.tilt_time_s / self._dt_check - 1e-9))
+        # tilt-time ramp: the slope of each rest-test interval from level to the tilt (empty: an
+        # instant tilt, no ramp calls)
+        self._ramp_slopes = math.radians(scene.tilt_deg) * ramp_fractions(scene.tilt_time_s, self._dt_check)
+        self._ramp_checks = len(self._ramp_slopes) - 1 if len(self._ramp_slopes) else 0
 
     # ------------------------------------------------------------------ worlds
     def _world(self, action) -> BulletWorld:
@@ -166,14 +209,10 @@ class TraySimulator:
 
     # ------------------------------------------------------------------ one trial
     def _ramp(self, w: BulletWorld, i: int):
-        """Set the tray's slope for rest-test interval ``i`` of a tilt-time ramp: the tilt at the
-        interval's midpoint, ``tilt * min((i + 1/2) dt / tilt_time, 1)`` (linear in time, from level),
-        and the full tilt from the first interval after the ramp on."""
-        a = math.radians(self.scene.tilt_deg)
-        if i < self._ramp_checks:
-            w.set_slope(a * min((i + 0.5) * self._dt_check / self.scene.tilt_time_s, 1.0))
-        elif i == self._ramp_checks:
-            w.set_slope(a)
+        """Set the tray's slope for rest-test interval ``i`` of a tilt-time ramp (:func:`ramp_fractions`
+        of the tilt); from the first interval after the ramp on the slope stays the full tilt."""
+        if i <= self._ramp_checks:
+            w.set_slope(float(self._ramp_slopes[i]))
 
     def _run(self, w: BulletWorld, pose) -> tuple[tuple[float, float, float], int]:
         w.set_pose(pose)
