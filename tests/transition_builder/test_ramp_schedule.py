@@ -31,11 +31,23 @@ def test_a_tilt_time_of_one_and_a_half_intervals():
     np.testing.assert_allclose(ramp_fractions(0.15, 0.1), [1 / 3, 1.0, 1.0], rtol=0, atol=1e-15)
 
 
+def test_a_ramp_shorter_than_one_interval_is_one_interval():
+    # 0.05 s at 0.1 s: k = 1; its midpoint (0.05 s) is the tilt time itself, so the full tilt at once
+    np.testing.assert_array_equal(ramp_fractions(0.05, 0.1), [1.0, 1.0])
+    np.testing.assert_allclose(ramp_fractions(0.2, 0.1), [0.25, 0.75, 1.0], rtol=0, atol=1e-15)
+
+
 def test_an_instant_tilt_has_no_ramp():
     assert ramp_fractions(0.0, 0.1).size == 0
 
 
-@pytest.mark.parametrize("tilt_time, dt", [(-0.1, 0.1), (math.nan, 0.1), (0.3, 0.0), (0.3, -1.0), (0.3, math.inf)])
-def test_bad_arguments_are_refused(tilt_time, dt):
-    with pytest.raises(ValueError):
+@pytest.mark.parametrize("tilt_time, dt, message", [
+    (-0.1, 0.1, "tilt_time_s must be a number >= 0, got -0.1"),
+    (math.nan, 0.1, "tilt_time_s must be a number >= 0, got nan"),
+    (0.3, 0.0, "check_interval_s must be a positive number, got 0.0"),
+    (0.3, -1.0, "check_interval_s must be a positive number, got -1.0"),
+    (0.3, math.inf, "check_interval_s must be a positive number, got inf")])
+def test_bad_arguments_are_refused_with_the_argument_named(tilt_time, dt, message):
+    with pytest.raises(ValueError) as err:
         ramp_fractions(tilt_time, dt)
+    assert str(err.value) == message
