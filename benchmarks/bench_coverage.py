@@ -277,6 +277,28 @@ def calibration_study(per_sequence: list[np.ndarray], sizes=(2, 4, 8, 12), resam
     return out
 
 
+def sequence_risk_delta(per_sequence: list[np.ndarray], alpha: float = 0.1) -> float:
+    """The sequence-as-unit calibration (considered, not adopted: docs/uncertainty.md): the smallest delta
+    with ``(sum_i L_i(delta) + 1) / (k + 1) <= alpha``, ``L_i`` the share of sequence i's steps outside the
+    band (score above delta), ``k`` the number of sequences; ``inf`` if there is none (always below
+    ``1 / alpha - 1`` sequences). Conformal risk control with a loss in [0, 1] per sequence (Angelopoulos
+    et al., "Conformal risk control", ICLR 2024, Theorem 1), valid for exchangeable sequences.
+
+    Parameters
+    ----------
+    per_sequence : list of numpy.ndarray
+        Per sequence, its steps' relative-rule scores (``inf`` for a step no finite delta covers).
+    """
+    seqs = [np.asarray(x, dtype=np.float64) for x in per_sequence]
+    if not seqs or any(len(x) == 0 for x in seqs):
+        raise ValueError("need sequences with at least one step each")
+    k = len(seqs)
+    for d in np.unique(np.concatenate([[0.0], *[x[np.isfinite(x)] for x in seqs]])):
+        if (sum(float(np.mean(x > d)) for x in seqs) + 1) / (k + 1) <= alpha:
+            return float(d)
+    return math.inf
+
+
 def _split(res: dict, inside: np.ndarray) -> list[np.ndarray]:
     """``inside`` (steps 1..N of every sequence of a kept run, concatenated) cut back into sequences."""
     ends = np.cumsum([len(s["reference"]) - 1 for s in res["per_sequence"]])
@@ -333,7 +355,10 @@ def study(files: list[str], model_path: str) -> dict:
         res = json.load(open(f))
         seqs += _split(res, _steps(res, 0.0, model)[1])
     out = calibration_study(seqs)
-    print(f"{len(seqs)} sequences; coverage at 0.105: {np.mean(np.concatenate(seqs) <= 0.105):.3f}")
+    from kruskal_markov.structural import conformal_quantile
+    every = np.concatenate(seqs)
+    print(f"{len(seqs)} sequences; coverage at 0.105: {np.mean(every <= 0.105):.3f}; pooled calibration of all: "
+          f"{conformal_quantile(every, 0.9):.4f}; sequence-as-unit delta of all: {sequence_risk_delta(seqs):.4f}")
     print("| calibration sequences | held out: median (5-95%) | in 85-95% | all: median (5-95%) | in 85-95% |")
     print("|---|---|---|---|---|")
     for k, v in out.items():

@@ -1,8 +1,16 @@
 """The sequence-level bootstrap interval of pooled band coverage (benchmarks.bench_coverage)."""
+import math
+
 import numpy as np
 import pytest
 
-from benchmarks.bench_coverage import _split, calibration_study, kept_references, sequence_bootstrap_interval
+from benchmarks.bench_coverage import (
+    _split,
+    calibration_study,
+    kept_references,
+    sequence_bootstrap_interval,
+    sequence_risk_delta,
+)
 
 
 def test_all_or_nothing_sequences_give_the_binomial_spread_of_sequences():
@@ -61,6 +69,27 @@ def test_calibration_study_spreads_with_few_sequences_and_not_with_identical_one
     assert np.ptp(same["held_out"]) == 0 and np.ptp(same["all"]) == 0
     with pytest.raises(ValueError):
         calibration_study([np.zeros(3)])
+
+
+def test_sequence_risk_delta_by_its_definition():
+    """The smallest delta with (sum of the sequences' shares outside + 1) / (k + 1) <= 0.1, worked by hand."""
+    # below 9 sequences no delta is small enough even with every step inside: 1 / (k + 1) > 0.1
+    assert sequence_risk_delta([np.zeros(5)] * 8) == math.inf
+    assert sequence_risk_delta([np.zeros(5)] * 9) == 0.0
+    # 19 sequences: one bad one is tolerated at 0.2 ((1 + 1) / 20 = 0.1), two are not (3 / 20)
+    assert sequence_risk_delta([np.full(10, 0.2)] * 18 + [np.full(10, 0.5)]) == 0.2
+    assert sequence_risk_delta([np.full(10, 0.2)] * 17 + [np.full(10, 0.5)] * 2) == 0.5
+    # shares, not counts: two sequences half outside at 0.2 lose 1 in all (2 / 20), three lose 1.5 (2.5 / 20)
+    half = np.r_[np.full(5, 0.2), np.full(5, 0.3)]
+    assert sequence_risk_delta([np.full(10, 0.2)] * 17 + [half] * 2) == 0.2
+    assert sequence_risk_delta([np.full(10, 0.2)] * 16 + [half] * 3) == 0.3
+    # a step no finite delta covers stays outside: 19 such sequences leave no finite delta
+    assert sequence_risk_delta([np.r_[0.1, math.inf]] * 19) == math.inf
+    assert sequence_risk_delta([np.r_[0.1, math.inf]] + [np.full(3, 0.1)] * 18) == 0.1
+    with pytest.raises(ValueError):
+        sequence_risk_delta([])
+    with pytest.raises(ValueError):
+        sequence_risk_delta([np.zeros(3), np.zeros(0)])
 
 
 def test_kept_references_simulate_each_reference_once_and_resume_from_disk(tmp_path, monkeypatch):

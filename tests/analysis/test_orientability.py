@@ -177,8 +177,9 @@ def test_the_documented_defaults_of_part_metrics():
     assert (m.random_tilts_censored, m.random_tilts_lower, m.random_sync_censored, m.random_sync_lower) == (
         500, 1000.0, 500, 1000.0)
     s = m.intervals["settings"]
-    assert (s["count"], s["runs"], s["draws"], s["draw_count"], s["epsilon"], s["structural_source"]) == (
-        2000, 500, 10, 1000, 1e-3, "none")
+    # the intervals are of the 50-tilt answers the metrics report (their posterior draws run 50-tilt sequences)
+    assert (s["count"], s["length"], s["runs"], s["draws"], s["draw_count"], s["epsilon"], s["structural_source"]) == (
+        2000, 50, 500, 10, 1000, 1e-3, "none")
 
 
 def test_the_deprecated_as_dict_warns_at_the_callers_line_and_equals_to_dict():

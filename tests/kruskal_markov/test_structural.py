@@ -103,6 +103,27 @@ def test_structural_score_is_the_smallest_delta_that_covers():
     assert s[0] == np.inf
 
 
+def test_structural_score_below_one_bisects_to_the_same_smallest_delta():
+    """With ``hi_delta`` <= 1 the score bisects arithmetically in [0, hi_delta]: the same smallest covering delta
+    as the default's geometric bisection where that is below ``hi_delta``, inf where it is above."""
+    rng = np.random.default_rng(1)
+    cells = rng.dirichlet(np.full(6, 0.3), size=60)
+    centre = np.array([_h(c) for c in cells])
+    width = np.full(60, 0.01)
+    ref = centre + rng.normal(0, 0.3, 60)
+    full = structural_score(cells, centre, width, ref)
+    half = structural_score(cells, centre, width, ref, hi_delta=0.5)
+    below = np.isfinite(full) & (full < 0.5)
+    assert 0 < np.sum(below & (full > 0)) and np.any(np.isfinite(full) & (full > 0.5))
+    assert np.array_equal(np.isfinite(half), below)
+    assert np.allclose(half[below], full[below], rtol=1e-9, atol=1e-12)
+    for i in np.flatnonzero(below & (half > 0)):          # the smallest: a little less does not hold
+        lo, hi = band_with_structure(cells, centre, width, half[i])
+        assert lo[i] - 1e-9 <= ref[i] <= hi[i] + 1e-9
+        lo, hi = band_with_structure(cells, centre, width, 0.99 * half[i])
+        assert not (lo[i] - 1e-12 <= ref[i] <= hi[i] + 1e-12)
+
+
 def test_conformal_quantile_rank():
     assert conformal_quantile([3.0, 1.0, 2.0], 0.5) == 2.0
     assert conformal_quantile(np.arange(19.0), 0.9) == 17.0     # ceil(20 * 0.9) = 18th smallest
