@@ -13,13 +13,10 @@ import tests
 ROOT = tests.ROOT
 #: absolute paths of the development machine (``/work/...``, ``/tmp/...``, a home directory)
 MACHINE_PATH = re.compile(r"(?<![\w.~])/(?:work|tmp|root|home)/[\w.+-]")
-#: documents whose owners (other branches of this round) still cite such paths; remove each entry
-#: when its document is cleaned
-PENDING = {"docs/uncertainty.md"}
 DOCS = sorted(["README.md"] + [p.relative_to(ROOT).as_posix() for p in (ROOT / "docs").glob("*.md")])
 
 
-@pytest.mark.parametrize("doc", [d for d in DOCS if d not in PENDING])
+@pytest.mark.parametrize("doc", DOCS)
 def test_no_document_cites_a_path_of_the_development_machine(doc):
     lines = (ROOT / doc).read_text().splitlines()
     found = [f"{doc}:{i}: {line.strip()}" for i, line in enumerate(lines, 1) if MACHINE_PATH.search(line)]
