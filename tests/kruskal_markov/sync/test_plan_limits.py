@@ -90,3 +90,68 @@ def test_a_state_plans_success_is_its_final_states_probability():
     q = int(np.argmax(p))
     assert r.final_cell == partition[q]
     assert r.success_probability == pytest.approx(p[q], abs=1e-12) and p[q] < 0.99
+
+
+def test_the_default_target_is_cell():
+    """``shortest_plan(model)`` plans for the ``cell`` target (C_4 with cells {1, 3} and {0, 2})."""
+    from kruskal_markov.automaton_json import model_from_automaton
+    from kruskal_markov.generators import cerny_table
+
+    t = cerny_table(4)
+    model = model_from_automaton({"states": 4, "actions": {"a": t[0].tolist(), "b": t[1].tolist()},
+                                  "partition": [1, 0, 1, 0]})
+    default, cell = shortest_plan(model), shortest_plan(model, "cell")
+    assert default.target == "cell" and default.word == cell.word and default.exact
+
+
+def test_models_with_different_actions_are_refused_by_name():
+    from kruskal_markov.model import TransitionModel
+
+    one = TransitionModel(["a", "b"], [np.eye(2), np.eye(2)])
+    other = TransitionModel(["a", "c"], [np.eye(2), np.eye(2)])
+    with pytest.raises(ValueError) as err:
+        shortest_plan([one, other], "state")
+    assert str(err.value) == "models disagree on their actions: ['a', 'b'] and ['a', 'c']"
+
+
+def test_a_one_letter_search_that_finds_nothing_says_so():
+    """``max_length=1`` on C_4 (its plan has 9 letters): no plan, not exact, the lower bound 2 and
+    the note, not an error."""
+    r = shortest_plan(cerny_model(4), "state", max_length=1)
+    assert (r.word, r.exact, r.lower_bound, r.method) == (None, False, 2, "ida*")
+    assert r.notes == ("no plan of length <= 1",)
+
+
+def test_a_plans_sync_keys_are_the_sync_results():
+    """``PlanResult.sync_dict`` (what ``kruskal sync`` prints for a plan) has the keys and values of
+    ``SyncResult.as_dict``."""
+    from kruskal_markov.sync.plan import PlanResult
+
+    model = cerny_model(4)
+    res = state_plan(model, time_budget=None)
+    assert PlanResult.from_sync(res, model.actions).sync_dict() == res.as_dict(model.actions)
+
+
+def _two_state(a_rows, b_rows):
+    import scipy.sparse as sp
+
+    from kruskal_markov.model import TransitionModel
+
+    return TransitionModel(["a", "b"], [sp.csr_matrix(a_rows), sp.csr_matrix(b_rows)])
+
+
+def test_an_exhaustive_no_counts_the_distinct_images_and_names_the_model_without_a_plan():
+    """A merges both states with ``a``; F sends one state to 0 and the other to {0, 1} under either
+    letter, so F's image is {0, 1} after every word (no plan, and the cell masks cannot tell). F alone:
+    one distinct image after a letter. A and F together: two, (A{0}, F{0,1}) after ``a`` and
+    (A{0,1}, F{0,1}) after ``b``; the witness says model 1 alone has no plan."""
+    A = _two_state([[1.0, 0], [1.0, 0]], [[.5, .5], [.5, .5]])
+    F = _two_state([[1.0, 0], [.5, .5]], [[.5, .5], [1.0, 0]])
+    alone = shortest_plan(F, "state")
+    assert (alone.word, alone.exact, alone.witness["kind"]) == (None, True, "exhaustive")
+    assert alone.witness["reason"] == ("every reachable image was expanded (1 distinct) and none meets the "
+                                       "target state")
+    both = shortest_plan([A, F], "state")
+    assert (both.word, both.exact) == (None, True) and both.witness["per_model_lengths"] == [1, None]
+    assert both.witness["reason"] == ("every reachable image was expanded (2 distinct) and none meets the "
+                                      "target state under every model; model(s) [1] alone have no plan")
