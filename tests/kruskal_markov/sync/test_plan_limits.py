@@ -155,3 +155,20 @@ def test_an_exhaustive_no_counts_the_distinct_images_and_names_the_model_without
     assert (both.word, both.exact) == (None, True) and both.witness["per_model_lengths"] == [1, None]
     assert both.witness["reason"] == ("every reachable image was expanded (2 distinct) and none meets the "
                                       "target state under every model; model(s) [1] alone have no plan")
+
+
+def test_a_probability_targets_state_slots_take_12_bytes():
+    """Probability targets pool each state's index and its quantized value, 12 bytes a state slot: a
+    quarter of 0.08 MB gives 1,747 slots, fewer than the 2,000 states the table keeps room for, so the
+    note names every pass, the first too (which records no image). At 4 bytes a slot (5,242) the first
+    pass would fit."""
+    from tests.kruskal_markov.sync.test_plan import random_model
+
+    n = 2000
+    model = random_model(np.random.default_rng(0), n, 2, False, 3)
+    r = shortest_plan(model, "probability:0.5", beam_width=1, memory_budget_mb=0.08, max_length=4)
+    slots = int(0.08 * 2 ** 20 / 2 / 2 / 12)
+    assert slots == 1747 < n
+    assert (r.word, r.exact, r.lower_bound, r.method) == (None, False, 5, "ida*")
+    noted = [int(x.split("depth-")[1].split()[0]) for x in r.notes if x.startswith("transposition table full")]
+    assert noted == [1, 2, 3, 4] and r.notes[-1] == "no plan of length <= 4"
