@@ -172,3 +172,19 @@ def test_a_probability_targets_state_slots_take_12_bytes():
     assert (r.word, r.exact, r.lower_bound, r.method) == (None, False, 5, "ida*")
     noted = [int(x.split("depth-")[1].split()[0]) for x in r.notes if x.startswith("transposition table full")]
     assert noted == [1, 2, 3, 4] and r.notes[-1] == "no plan of length <= 4"
+
+
+def test_the_beam_tells_distributions_with_one_support_apart():
+    """Probability target 0.9 in state 0 from (1/2, 1/2): ``a`` always gives (1/2, 1/2), ``b`` sends
+    state 0 to 0 and state 1 to (0.6, 0.4), so ``b`` gives (0.8, 0.2) and ``bb`` (0.92, 0.08). The two
+    one-letter images share their support; the beam keeps both (its key holds the values), so the beam
+    finds ``bb`` and the bound proves it shortest, with no IDA* pass."""
+    import scipy.sparse as sp
+
+    from kruskal_markov.model import TransitionModel
+
+    model = TransitionModel(["a", "b"], [sp.csr_matrix([[.5, .5], [.5, .5]]), sp.csr_matrix([[1.0, 0], [.6, .4]])],
+                            partition=[0, 1], n_cells=2)
+    r = shortest_plan(model, "probability:0.1")
+    assert (r.word, r.exact, r.method, r.final_cell) == (("b", "b"), True, "beam+bound", 0)
+    assert r.success_probability == pytest.approx(0.92, abs=1e-12)
