@@ -90,3 +90,101 @@ def test_a_state_plans_success_is_its_final_states_probability():
     q = int(np.argmax(p))
     assert r.final_cell == partition[q]
     assert r.success_probability == pytest.approx(p[q], abs=1e-12) and p[q] < 0.99
+
+
+def test_the_default_target_is_cell():
+    """``shortest_plan(model)`` plans for the ``cell`` target (C_4 with cells {1, 3} and {0, 2})."""
+    from kruskal_markov.automaton_json import model_from_automaton
+    from kruskal_markov.generators import cerny_table
+
+    t = cerny_table(4)
+    model = model_from_automaton({"states": 4, "actions": {"a": t[0].tolist(), "b": t[1].tolist()},
+                                  "partition": [1, 0, 1, 0]})
+    default, cell = shortest_plan(model), shortest_plan(model, "cell")
+    assert default.target == "cell" and default.word == cell.word and default.exact
+
+
+def test_models_with_different_actions_are_refused_by_name():
+    from kruskal_markov.model import TransitionModel
+
+    one = TransitionModel(["a", "b"], [np.eye(2), np.eye(2)])
+    other = TransitionModel(["a", "c"], [np.eye(2), np.eye(2)])
+    with pytest.raises(ValueError) as err:
+        shortest_plan([one, other], "state")
+    assert str(err.value) == "models disagree on their actions: ['a', 'b'] and ['a', 'c']"
+
+
+def test_a_one_letter_search_that_finds_nothing_says_so():
+    """``max_length=1`` on C_4 (its plan has 9 letters): no plan, not exact, the lower bound 2 and
+    the note, not an error."""
+    r = shortest_plan(cerny_model(4), "state", max_length=1)
+    assert (r.word, r.exact, r.lower_bound, r.method) == (None, False, 2, "ida*")
+    assert r.notes == ("no plan of length <= 1",)
+
+
+def test_a_plans_sync_keys_are_the_sync_results():
+    """``PlanResult.sync_dict`` (what ``kruskal sync`` prints for a plan) has the keys and values of
+    ``SyncResult.as_dict``."""
+    from kruskal_markov.sync.plan import PlanResult
+
+    model = cerny_model(4)
+    res = state_plan(model, time_budget=None)
+    assert PlanResult.from_sync(res, model.actions).sync_dict() == res.as_dict(model.actions)
+
+
+def _two_state(a_rows, b_rows):
+    import scipy.sparse as sp
+
+    from kruskal_markov.model import TransitionModel
+
+    return TransitionModel(["a", "b"], [sp.csr_matrix(a_rows), sp.csr_matrix(b_rows)])
+
+
+def test_an_exhaustive_no_counts_the_distinct_images_and_names_the_model_without_a_plan():
+    """A merges both states with ``a``; F sends one state to 0 and the other to {0, 1} under either
+    letter, so F's image is {0, 1} after every word (no plan, and the cell masks cannot tell). F alone:
+    one distinct image after a letter. A and F together: two, (A{0}, F{0,1}) after ``a`` and
+    (A{0,1}, F{0,1}) after ``b``; the witness says model 1 alone has no plan."""
+    A = _two_state([[1.0, 0], [1.0, 0]], [[.5, .5], [.5, .5]])
+    F = _two_state([[1.0, 0], [.5, .5]], [[.5, .5], [1.0, 0]])
+    alone = shortest_plan(F, "state")
+    assert (alone.word, alone.exact, alone.witness["kind"]) == (None, True, "exhaustive")
+    assert alone.witness["reason"] == ("every reachable image was expanded (1 distinct) and none meets the "
+                                       "target state")
+    both = shortest_plan([A, F], "state")
+    assert (both.word, both.exact) == (None, True) and both.witness["per_model_lengths"] == [1, None]
+    assert both.witness["reason"] == ("every reachable image was expanded (2 distinct) and none meets the "
+                                      "target state under every model; model(s) [1] alone have no plan")
+
+
+def test_a_probability_targets_state_slots_take_12_bytes():
+    """Probability targets pool each state's index and its quantized value, 12 bytes a state slot: a
+    quarter of 0.08 MB gives 1,747 slots, fewer than the 2,000 states the table keeps room for, so the
+    note names every pass, the first too (which records no image). At 4 bytes a slot (5,242) the first
+    pass would fit."""
+    from tests.kruskal_markov.sync.test_plan import random_model
+
+    n = 2000
+    model = random_model(np.random.default_rng(0), n, 2, False, 3)
+    r = shortest_plan(model, "probability:0.5", beam_width=1, memory_budget_mb=0.08, max_length=4)
+    slots = int(0.08 * 2 ** 20 / 2 / 2 / 12)
+    assert slots == 1747 < n
+    assert (r.word, r.exact, r.lower_bound, r.method) == (None, False, 5, "ida*")
+    noted = [int(x.split("depth-")[1].split()[0]) for x in r.notes if x.startswith("transposition table full")]
+    assert noted == [1, 2, 3, 4] and r.notes[-1] == "no plan of length <= 4"
+
+
+def test_the_beam_tells_distributions_with_one_support_apart():
+    """Probability target 0.9 in state 0 from (1/2, 1/2): ``a`` always gives (1/2, 1/2), ``b`` sends
+    state 0 to 0 and state 1 to (0.6, 0.4), so ``b`` gives (0.8, 0.2) and ``bb`` (0.92, 0.08). The two
+    one-letter images share their support; the beam keeps both (its key holds the values), so the beam
+    finds ``bb`` and the bound proves it shortest, with no IDA* pass."""
+    import scipy.sparse as sp
+
+    from kruskal_markov.model import TransitionModel
+
+    model = TransitionModel(["a", "b"], [sp.csr_matrix([[.5, .5], [.5, .5]]), sp.csr_matrix([[1.0, 0], [.6, .4]])],
+                            partition=[0, 1], n_cells=2)
+    r = shortest_plan(model, "probability:0.1")
+    assert (r.word, r.exact, r.method, r.final_cell) == (("b", "b"), True, "beam+bound", 0)
+    assert r.success_probability == pytest.approx(0.92, abs=1e-12)
