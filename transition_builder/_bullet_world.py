@@ -164,6 +164,16 @@ def _compound_of_hulls(hulls, cid: int) -> int:
                                             meshScales=[[1.0, 1.0, 1.0]] * len(files), physicsClientId=cid)
 
 
+def _check_hull_margin(body: int, link: int, cid: int):
+    """Raise if the collision margin PyBullet gave the hull of ``link`` is not
+    ``BULLET_HULL_MARGIN_UNITS`` (the hulls are inset by that margin, so another would move every
+    wall contact)."""
+    margin = pb.getDynamicsInfo(body, link, physicsClientId=cid)[11]
+    if abs(margin - BULLET_HULL_MARGIN_UNITS) > 1e-12:
+        raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
+                           f"expected {BULLET_HULL_MARGIN_UNITS}")
+
+
 def _rot(phi):
     c, s = math.cos(phi), math.sin(phi)
     return np.array([[c, -s], [s, c]])
@@ -403,10 +413,7 @@ class BulletWorld:
             pb.changeDynamics(ob, j, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0,
                               restitution=0.0, lateralFriction=1.0, spinningFriction=0.0, rollingFriction=0.0,
                               localInertiaDiagonal=inertia, physicsClientId=cid)
-        margin = pb.getDynamicsInfo(ob, 0, physicsClientId=cid)[11]
-        if abs(margin - BULLET_HULL_MARGIN_UNITS) > 1e-12:
-            raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
-                               f"expected {BULLET_HULL_MARGIN_UNITS}")
+        _check_hull_margin(ob, 0, cid)
         pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
         self._filter_pairs(st, ob, range(-1, n), cid)
         return np.zeros((0, 2))
@@ -436,10 +443,7 @@ class BulletWorld:
                               localInertiaDiagonal=[yaw_I] * 3 if j == J_YAW else [tiny, tiny, tiny],
                               physicsClientId=cid)
         if self.scene.settings.part_links == "per-part":     # a compound's own margin is 0
-            margin = pb.getDynamicsInfo(ob, self.prism_links[0], physicsClientId=cid)[11]
-            if abs(margin - BULLET_HULL_MARGIN_UNITS) > 1e-12:
-                raise RuntimeError(f"PyBullet's convex-hull margin is {margin} world units, "
-                                   f"expected {BULLET_HULL_MARGIN_UNITS}")
+            _check_hull_margin(ob, self.prism_links[0], cid)
         pb.changeDynamics(ob, -1, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
 
     def _set_supports(self, shape, mu, leg_xy):
