@@ -17,7 +17,7 @@ import numpy as np
 
 from kruskal_markov import _sync_kernels as _k
 from kruskal_markov._subsets import SubsetStore, as_start
-from kruskal_markov.sync import _trie
+from kruskal_markov.sync import _leaves, _relabel, _trie
 from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 from kruskal_markov.sync.greedy import greedy_synchronizing_word
@@ -673,6 +673,10 @@ class _InverseDepthFirst:
         self.deadline, self.node_budget = deadline, node_budget
         self.fsorted = _sorted_forward(fwd, cache)
         self.fsplit = cache["split"]
+        self.perm = None
+        flo, fhi = fwd.levels[-1]
+        if opts.relabel_rows is not None and aut.deterministic and fhi - flo >= opts.relabel_rows:
+            self.perm, self.aut, self.fsorted, self.fsplit = _relabel.for_phase(aut, fwd, cache)
         row_bytes = 8 * aut.n_words + 8 + 4 + 32
         self.cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
         self.used = [fwd.count + bwd.count]
@@ -691,7 +695,9 @@ class _InverseDepthFirst:
         blo, bhi = self.bwd.levels[-1]
         for lo in range(blo, bhi, self.opts.dfs_chunk):
             hi = min(bhi, lo + self.opts.dfs_chunk)
-            res = self.grow(self.bwd.rows[lo:hi].copy(), np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
+            rows = self.bwd.rows[lo:hi].copy() if self.perm is None else _relabel.permute_rows(self.bwd.rows[lo:hi],
+                                                                                                self.perm[0])
+            res = self.grow(rows, np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
             if res is not None or self.limit < 1:
                 return res
         return None
@@ -700,8 +706,32 @@ class _InverseDepthFirst:
         """Extend sets at depth ``x`` by one level (or split them), unless ``x`` is the limit."""
         if x >= self.limit:
             return None
+        if self.opts.leaf_images and x + 1 == self.limit and x + 1 >= self.test_from:
+            return self.leaves(rows, rid, words, x)
         return _descend(self.rec, self.aut, self.cap, False, self.used, rows, rid, words, x, split=self.grow,
                         x_child=x + 1, emit=self.opts.emit)
+
+    def leaves(self, rows, rid, words, x):
+        """The preimages of ``rows`` (depth ``x``) at the deepest level, tested unstored
+        (:func:`~kruskal_markov.sync._leaves.first_leaf_hit`); like :meth:`rec`."""
+        res = _leaves.first_leaf_hit(self.aut, rows, self.fsorted, self.fsplit, self.opts.tasks, self.over_budget,
+                                     self.used)
+        if res is None or res == "budget":
+            return res
+        i, a = res
+        pre = _leaves.preimage(self.aut, rows[i], a)
+        return self.hit(pre, int(rid[i]), [a] + [int(b) for b in words[i][::-1]], x + 1)
+
+    def hit(self, row, b, extra, x):
+        """Keep a hit: backward set ``row`` at depth ``x`` (grown from backward row ``b`` by the
+        preimage letters whose reverse is ``extra``) contains a forward set."""
+        if self.perm is not None:
+            row = _relabel.permute_rows(row[None, :], self.perm[1])[0]
+        flo, fhi = self.fwd.levels[-1]
+        inside = ~np.any(self.fwd.rows[flo:fhi] & ~row, axis=1)
+        self.best = (x, flo + int(np.flatnonzero(inside)[0]), extra, b)
+        self.limit = x - 1
+        return "hit" if self.test_from > 0 else None
 
     def rec(self, rows, rid, words, x):
         """Backward sets ``x`` levels below the newest backward level, the rows they grew from and
@@ -720,11 +750,7 @@ class _InverseDepthFirst:
                                                      split=self.fsplit))
             if hit.size:
                 q = int(hit[0])
-                flo, fhi = self.fwd.levels[-1]
-                inside = ~np.any(self.fwd.rows[flo:fhi] & ~rows[q], axis=1)
-                self.best = (x, flo + int(np.flatnonzero(inside)[0]), [int(a) for a in words[q][::-1]], int(rid[q]))
-                self.limit = x - 1
-                return "hit" if self.test_from > 0 else None
+                return self.hit(rows[q], int(rid[q]), [int(a) for a in words[q][::-1]], x)
         return self.grow(rows, rid, words, x)
 
 

@@ -81,6 +81,15 @@ class ExactSearchOptions:
         descent to the longest length, as the cost model's phase does.
     dfs_chunk : int, default 4,096
         Sets of the newest level per chunk of a depth-first phase.
+    leaf_images : bool, default True
+        The inverse depth-first phase generates its deepest level unstored and only tests it
+        (:mod:`kruskal_markov.sync._leaves`); off: that level is stored and deduplicated like the
+        others.
+    relabel_rows : int or None, default 4,194,304
+        The inverse depth-first phase relabels the states by their frequency in the newest
+        forward level (the trie branches first on the states most forward sets hold;
+        synchrowords' ``Dfs::prepare``, :mod:`kruskal_markov.sync._relabel`) when that level holds
+        at least this many sets; None: never.
     cost_model : bool, default True
         synchrowords' cost model decides the switch to the inverse depth-first phase.
     step_by_cost : bool, default False
@@ -127,6 +136,8 @@ class ExactSearchOptions:
     dfs_switch_rows: int | None = None
     deepen: bool = True
     dfs_chunk: int = 4096
+    leaf_images: bool = True
+    relabel_rows: int | None = 1 << 22
     cost_model: bool = True
     step_by_cost: bool = False
     last_unhashed: bool = True
@@ -139,7 +150,7 @@ class ExactSearchOptions:
             raise ValueError(f"last_side must be one of {_LAST_SIDES}, got {self.last_side!r}")
         if int(self.dfs_chunk) != self.dfs_chunk or self.dfs_chunk < 1:
             raise ValueError(f"dfs_chunk must be a positive integer, got {self.dfs_chunk!r}")
-        for name in ("fast_nodes", "dfs_switch_rows"):
+        for name in ("fast_nodes", "dfs_switch_rows", "relabel_rows"):
             v = getattr(self, name)
             if v is not None and (int(v) != v or v < 1):
                 raise ValueError(f"{name} must be a positive integer or None, got {v!r}")

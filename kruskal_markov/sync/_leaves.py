@@ -1,0 +1,54 @@
+"""The deepest level of the inverse depth-first phase, tested without being stored.
+
+Sets at the level a depth-first descent stops at are only tested against the forward trie, never
+expanded again, so they need no store: no duplicate removal, parents or letter arrays (a sixteenth
+of them are duplicates on random 8 x 200, docs/plans.md). Their preimages are generated unhashed
+slice by slice (:func:`~kruskal_markov._sync_kernels.level_images`) and queried at once; the
+trie's size filter (:class:`~kruskal_markov.sync._trie.SizeSplit`) answers the preimages smaller
+than every forward set (nine in ten at 8 x 200) without a walk. synchrowords likewise tests the
+last level of its inverse search without keeping it (M. Szykula and A. Zyzik, "An improved
+algorithm for finding the shortest synchronizing words", ESA 2022, LIPIcs 244). Our own code.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from kruskal_markov import _sync_kernels as _k
+from kruskal_markov.sync import _trie
+
+__all__ = ["first_leaf_hit", "preimage"]
+
+#: preimages generated per slice (about 32 MB of rows at 200 states)
+_SLICE = 1 << 20
+
+
+def first_leaf_hit(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, tasks: int = 1, over_budget=None,
+                   used=None, slice_rows: int = _SLICE):
+    """The first preimage of a row of ``rows`` (under any letter) that contains a row of the sorted
+    forward trie ``fsorted``: ``(row index, letter)``, ``None`` when none does, or ``"budget"``
+    when ``over_budget()`` turns true between slices. ``used[0]`` (if given) is increased by the
+    preimages generated."""
+    k = aut.k
+    inv_ptr, inv_idx, supcount = aut.inverse
+    step = max(1, slice_rows // k)
+    for lo in range(0, rows.shape[0], step):
+        if over_budget is not None and over_budget():
+            return "budget"
+        hi = min(rows.shape[0], lo + step)
+        pre = _k.level_images(rows, lo, hi, aut.delta, aut.step_table(False), aut.deterministic, False, inv_ptr,
+                              inv_idx, supcount, tasks=tasks)
+        if used is not None:
+            used[0] += pre.shape[0]
+        hit = np.flatnonzero(_trie.superset_mask(fsorted, pre, sorted_stored=True, tasks=tasks, split=fsplit))
+        if hit.size:
+            i = int(hit[0])
+            return lo + i // k, i % k
+    return None
+
+
+def preimage(aut, row: np.ndarray, letter: int) -> np.ndarray:
+    """The preimage of one bitset row under ``letter`` (the set a hit of :func:`first_leaf_hit` names)."""
+    inv_ptr, inv_idx, supcount = aut.inverse
+    pre = _k.level_images(np.ascontiguousarray(row[None, :], dtype=np.uint64), 0, 1, aut.delta, aut.step_table(False),
+                          aut.deterministic, False, inv_ptr, inv_idx, supcount, tasks=1)
+    return pre[letter]
