@@ -117,11 +117,23 @@ def _patch(prof: _Profile, fmin: list):
         prof.depth = x + 1 if x_child is None else x_child
         return orig_descend(rec, aut, cap, forward, used, rows, rid, words, x, split=split, x_child=x_child, emit=emit)
 
+    orig_images = exact._k.level_images
+
+    def images(rows, lo, hi, *args, **kw):
+        c = time.process_time()
+        out = orig_images(rows, lo, hi, *args, **kw)
+        if prof.phase == "dfs":
+            prof.cpu["leaf-images"] += time.process_time() - c
+            prof.n["leaf preimages"] += out.shape[0]
+        return out
+
     exact.SubsetStore, _trie.superset_mask, exact._k._level_sizes, exact._descend = TimedStore, mask, sizes, descend
+    exact._k.level_images = images
 
     def undo():
         exact.SubsetStore, _trie.superset_mask, exact._k._level_sizes, exact._descend = \
             orig_store, orig_mask, orig_sizes, orig_descend
+        exact._k.level_images = orig_images
     return undo
 
 
@@ -134,7 +146,8 @@ def _print_row(row):
     n = row["n"]
     if n:
         print(f"   trie queries {n.get('queries', 0):,}, hits {n.get('hits', 0):,}, queries smaller than the "
-              f"smallest forward set {n.get('queries-below-min-forward', 0):,}", flush=True)
+              f"smallest forward set {n.get('queries-below-min-forward', 0):,}, deepest-level preimages generated "
+              f"unstored {n.get('leaf preimages', 0):,}", flush=True)
     for d, (exp, gen, kept, q) in row["by_depth"].items():
         print(f"   depth {d}: sets expanded {exp:,}, preimages {gen:,}, kept {kept:,} "
               f"({kept / max(gen, 1):.1%}; store hits {gen - kept:,}), queried {q:,}", flush=True)

@@ -17,7 +17,7 @@ import numpy as np
 
 from kruskal_markov import _sync_kernels as _k
 from kruskal_markov._subsets import SubsetStore, as_start
-from kruskal_markov.sync import _leaves, _relabel, _trie
+from kruskal_markov.sync import _forked, _leaves, _relabel, _trie
 from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 from kruskal_markov.sync.greedy import greedy_synchronizing_word
@@ -677,8 +677,13 @@ class _InverseDepthFirst:
         flo, fhi = fwd.levels[-1]
         if opts.relabel_rows is not None and aut.deterministic and fhi - flo >= opts.relabel_rows:
             self.perm, self.aut, self.fsorted, self.fsplit = _relabel.for_phase(aut, fwd, cache)
+        blo, bhi = bwd.levels[-1]
+        # both cores: the deepening phase's chunks dealt to two processes (sync/_forked), one thread each
+        self.forked = bool(opts.parallel) and node_budget is None and opts.fork_rows is not None and \
+            bhi - blo >= opts.fork_rows and _forked.can_fork()
+        self.tasks = 1 if self.forked else opts.tasks
         row_bytes = 8 * aut.n_words + 8 + 4 + 32
-        self.cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / 12))
+        self.cap = max(4 * aut.k, int(memory_mb * 2 ** 20 / row_bytes / (24 if self.forked else 12)))
         self.used = [fwd.count + bwd.count]
         self.best = None
         self.limit = 0
@@ -693,14 +698,46 @@ class _InverseDepthFirst:
         ``test_from`` on tested; "budget", "hit" (a hit while deepening), or None."""
         self.limit, self.test_from = limit, test_from
         blo, bhi = self.bwd.levels[-1]
-        for lo in range(blo, bhi, self.opts.dfs_chunk):
-            hi = min(bhi, lo + self.opts.dfs_chunk)
-            rows = self.bwd.rows[lo:hi].copy() if self.perm is None else _relabel.permute_rows(self.bwd.rows[lo:hi],
-                                                                                                self.perm[0])
-            res = self.grow(rows, np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
+        starts = range(blo, bhi, self.opts.dfs_chunk)
+        if self.forked and test_from > 0 and len(starts) > 1:
+            return self.run_forked(starts)
+        for lo in starts:
+            res = self.chunk(lo)
             if res is not None or self.limit < 1:
                 return res
         return None
+
+    def chunk(self, lo):
+        """The chunk of the newest backward level starting at row ``lo``, grown and tested."""
+        hi = min(self.bwd.levels[-1][1], lo + self.opts.dfs_chunk)
+        rows = self.bwd.rows[lo:hi].copy() if self.perm is None else _relabel.permute_rows(self.bwd.rows[lo:hi],
+                                                                                            self.perm[0])
+        return self.grow(rows, np.arange(lo, hi), np.zeros((hi - lo, 0), dtype=np.int16), 0)
+
+    def run_forked(self, starts):
+        """:meth:`run` while deepening, the chunks dealt alternately to this process and a forked
+        child (:func:`~kruskal_markov.sync._forked.split_two`); the first hit ends both."""
+        used0 = self.used[0]
+
+        def task(part, stop):
+            for lo in starts[part::2]:
+                if stop():
+                    break
+                res = self.chunk(lo)
+                if res is not None:
+                    return res, (self.best if res == "hit" else None, self.used[0] - used0)
+            return None, (None, self.used[0] - used0)
+
+        mine, child = _forked.split_two(task)
+        if child[1] is not None:
+            self.used[0] += child[1][1]
+        if mine[0] == "hit":
+            return "hit"
+        if child[0] == "hit":
+            self.best = child[1][0]
+            self.limit = self.best[0] - 1
+            return "hit"
+        return "budget" if "budget" in (mine[0], child[0]) else None
 
     def grow(self, rows, rid, words, x):
         """Extend sets at depth ``x`` by one level (or split them), unless ``x`` is the limit."""
@@ -714,7 +751,7 @@ class _InverseDepthFirst:
     def leaves(self, rows, rid, words, x):
         """The preimages of ``rows`` (depth ``x``) at the deepest level, tested unstored
         (:func:`~kruskal_markov.sync._leaves.first_leaf_hit`); like :meth:`rec`."""
-        res = _leaves.first_leaf_hit(self.aut, rows, self.fsorted, self.fsplit, self.opts.tasks, self.over_budget,
+        res = _leaves.first_leaf_hit(self.aut, rows, self.fsorted, self.fsplit, self.tasks, self.over_budget,
                                      self.used)
         if res is None or res == "budget":
             return res
@@ -746,7 +783,7 @@ class _InverseDepthFirst:
         if rows.shape[0] == 0:
             return None
         if x >= self.test_from:
-            hit = np.flatnonzero(_trie.superset_mask(self.fsorted, rows, sorted_stored=True, tasks=self.opts.tasks,
+            hit = np.flatnonzero(_trie.superset_mask(self.fsorted, rows, sorted_stored=True, tasks=self.tasks,
                                                      split=self.fsplit))
             if hit.size:
                 q = int(hit[0])

@@ -85,6 +85,11 @@ class ExactSearchOptions:
         The inverse depth-first phase generates its deepest level unstored and only tests it
         (:mod:`kruskal_markov.sync._leaves`); off: that level is stored and deduplicated like the
         others.
+    fork_rows : int or None, default 1,048,576
+        With :attr:`parallel`, the deepening phase (``deepen``) deals its chunks to two processes
+        (this one and a forked child, one thread each; :mod:`kruskal_markov.sync._forked`) when the
+        newest backward level holds at least this many sets, and no node budget is set; None:
+        never. Which process finds the word first may change the sets counted, never the length.
     relabel_rows : int or None, default 4,194,304
         The inverse depth-first phase relabels the states by their frequency in the newest
         forward level (the trie branches first on the states most forward sets hold;
@@ -137,6 +142,7 @@ class ExactSearchOptions:
     deepen: bool = True
     dfs_chunk: int = 4096
     leaf_images: bool = True
+    fork_rows: int | None = 1 << 20
     relabel_rows: int | None = 1 << 22
     cost_model: bool = True
     step_by_cost: bool = False
@@ -150,7 +156,7 @@ class ExactSearchOptions:
             raise ValueError(f"last_side must be one of {_LAST_SIDES}, got {self.last_side!r}")
         if int(self.dfs_chunk) != self.dfs_chunk or self.dfs_chunk < 1:
             raise ValueError(f"dfs_chunk must be a positive integer, got {self.dfs_chunk!r}")
-        for name in ("fast_nodes", "dfs_switch_rows", "relabel_rows"):
+        for name in ("fast_nodes", "dfs_switch_rows", "relabel_rows", "fork_rows"):
             v = getattr(self, name)
             if v is not None and (int(v) != v or v < 1):
                 raise ValueError(f"{name} must be a positive integer or None, got {v!r}")

@@ -10,6 +10,7 @@ from kruskal_markov import generators
 from kruskal_markov.sync import (
     ExactSearchOptions,
     SyncAutomaton,
+    _forked,
     _leaves,
     _relabel,
     _trie,
@@ -138,3 +139,60 @@ def test_bounds_under_node_budgets_with_the_new_phase_never_pass_brute_force():
             again = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget, options=options)
             assert (again.length, again.lower_bound, again.states_explored) == (r.length, r.lower_bound,
                                                                                r.states_explored)
+
+
+def test_inverse_phase_on_two_processes_keeps_every_shortest_length(monkeypatch):
+    """The deepening phase's chunks dealt to two processes (``parallel=True``, ``fork_rows=1``, no node budget, so no fast path:
+    forked whatever the level's size), relabelled, leaves unstored: on the 60 small random automata
+    and Cerny C_5..C_7 of the test above, the brute-force length, exact, with a synchronizing word."""
+    splits = []
+    split_two = _forked.split_two
+    monkeypatch.setattr(_forked, "split_two", lambda task: splits.append(1) or split_two(task))
+    options = ExactSearchOptions(use_beam=False, dfs_switch_rows=40, dfs_chunk=3, relabel_rows=1, parallel=True, fast_nodes=None,
+                                 fork_rows=1)
+    rng = np.random.default_rng(4364)
+    tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
+    tables += [generators.cerny_table(n) for n in range(5, 8)]
+    for table in tables:
+        aut = SyncAutomaton.from_table(table)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
+        want = brute(table)
+        assert r.length == want and r.exact
+        if want is not None:
+            assert is_synchronizing_word(aut, r.word)
+    assert len(splits) > 10         # the phase did run on two processes
+
+
+@pytest.mark.parametrize("hit_part", [None, 0, 1])
+def test_split_two_runs_both_parts_and_stops_at_the_first_hit(hit_part):
+    """Both parts run (the child's answer comes back through the pipe); a hit in the child stops
+    the parent between its steps; a hit in the parent ends the child."""
+    import time
+
+    def task(part, stop):
+        steps = 5000 if hit_part is not None and part != hit_part else 200    # the other part outlasts the hit
+        for step in range(steps):
+            if stop():
+                return "stopped", step
+            if part == hit_part and step == (3 if part == 1 else 150):
+                return "hit", (part, step)
+            time.sleep(0.002)
+        return None, (part, 200)
+
+    mine, child = _forked.split_two(task)
+    if hit_part is None:
+        assert mine == (None, (0, 200)) and child == (None, (1, 200))
+    elif hit_part == 1:
+        assert child == ("hit", (1, 3)) and mine[0] == "stopped"
+    else:
+        assert mine == ("hit", (0, 150)) and child == ("killed", None)
+
+
+def test_split_two_says_when_the_child_failed():
+    def task(part, stop):
+        if part == 1:
+            raise ValueError("boom")
+        return None, 0
+
+    with pytest.raises(RuntimeError, match="second process failed"):
+        _forked.split_two(task)
