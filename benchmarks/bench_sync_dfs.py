@@ -17,7 +17,8 @@ self-dominance of Kisielewicz, Kowalski and Szykula 2015 / synchrowords' ``reduc
 check costs -- measured, not used.
 
 Usage (from the worktree root): ``python -m benchmarks.bench_sync_dfs [--seed S] [--budget SEC]
-[--upper U] [--dominance-sample N] [--options k=v,...]``; ``python -m benchmarks sync_dfs`` runs
+[--upper U] [--dominance-sample N] [--options k=v,...]``; ``--compare [--seed S] [--share D]``:
+the phase's designs one by one on the same stores (:func:`run_compare`); ``python -m benchmarks sync_dfs`` runs
 seed 1 with a 240 s budget. Prints; stores nothing.
 """
 from __future__ import annotations
@@ -212,6 +213,64 @@ def run_profile(seed=1, budget=240.0, upper=20, memory_mb=4000.0, dominance_samp
     return prof.rows
 
 
+#: the designs ``--compare`` runs on the same stores: (name, options)
+COMPARE = (
+    ("last round (stored leaves, natural order)", {"relabel_rows": None, "leaf_images": False}),
+    ("relabelled by frequency", {"relabel_rows": 1, "leaf_images": False}),
+    ("unstored leaves", {"relabel_rows": None, "leaf_images": True}),
+    ("both", {"relabel_rows": 1, "leaf_images": True}),
+    ("both, two processes (on one core: overhead only)", {"relabel_rows": 1, "leaf_images": True, "parallel": True,
+                                                          "fork_rows": 1}),
+)
+
+
+def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16):
+    """Each design of :data:`COMPARE` measured alone on the same breadth-first stores (grown once,
+    up to the inverse depth-first phase): length ``total + 1`` ruled out over the whole newest
+    backward level, then length ``total + 2`` over its first ``1 / share`` (a fixed sample of the
+    chunks); sets generated and CPU (this process and a forked child) of each."""
+    import types
+
+    from benchmarks.bench_sync_record import _child_cpu
+
+    aut = SyncAutomaton.from_table(instance_table("random", 8, 200, seed))
+    exact._exact_search(SyncAutomaton.from_table(instance_table("random", 8, 30, 1)), np.arange(30), 5.0, 50.0,
+                        upper=40)
+    got = {}
+
+    class Bi(exact._Bidirectional):
+        def _depth_first(self):
+            got.update(fwd=self.fwd, bwd=self.bwd, total=self.total, cache=self.cache)
+            return None, "budget", self.count, self.total + 1
+
+    t0 = time.perf_counter()
+    orig = exact._Bidirectional
+    exact._Bidirectional = Bi
+    try:
+        exact._exact_search(aut, np.arange(aut.n), None, memory_mb, None, upper)
+    finally:
+        exact._Bidirectional = orig
+    fwd, bwd, total = got["fwd"], got["bwd"], got["total"]
+    blo, bhi = bwd.levels[-1]
+    print(f"random-8-200-s{seed}: breadth-first phase to total {total} in {time.perf_counter() - t0:.1f} s; "
+          f"newest backward level {bhi - blo:,} sets; length {total + 2} on its first 1/{share}", flush=True)
+    sample = types.SimpleNamespace(rows=bwd.rows, levels=bwd.levels[:-1] + [(blo, blo + (bhi - blo) // share)],
+                                   count=bwd.count, path=bwd.path)
+    for name, extra in COMPARE:
+        for length, store in ((total + 1, bwd), (total + 2, sample)):
+            opts = ExactSearchOptions(**extra)
+            if "parallel" not in extra:
+                opts = ExactSearchOptions(parallel=False, **extra)
+            t, c = time.perf_counter(), time.process_time() + _child_cpu()
+            word, status, used, lower = exact._inverse_depth_first_phase(
+                aut, fwd, store, total, None, None, length + 1, memory_mb / 4, opts.resolved(), time.perf_counter,
+                got["cache"], deepen=True)
+            cpu = time.process_time() + _child_cpu() - c
+            print(f"  {name:52s} length {length}{'' if store is bwd else f' (1/{share})'}: {status}, "
+                  f"sets {used - fwd.count - bwd.count:,}, {cpu:.1f} s CPU, {time.perf_counter() - t:.1f} s wall",
+                  flush=True)
+
+
 def _parse_options(text):
     out = {}
     for item in filter(None, text.split(",")):
@@ -227,6 +286,9 @@ def main(argv=()) -> None:
     def arg(name, default, conv):
         return conv(argv[argv.index(name) + 1]) if name in argv else default
 
+    if "--compare" in argv:
+        run_compare(seed=arg("--seed", 1, int), share=arg("--share", 16, int))
+        return
     run_profile(seed=arg("--seed", 1, int), budget=arg("--budget", 240.0, float), upper=arg("--upper", 20, int),
                 memory_mb=arg("--memory-mb", 4000.0, float), dominance_sample=arg("--dominance-sample", 0, int),
                 options=arg("--options", None, _parse_options))
