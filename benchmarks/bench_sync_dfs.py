@@ -226,9 +226,11 @@ COMPARE = (
 
 def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16):
     """Each design of :data:`COMPARE` measured alone on the same breadth-first stores (grown once,
-    up to the inverse depth-first phase): length ``total + 1`` ruled out over the whole newest
-    backward level, then length ``total + 2`` over its first ``1 / share`` (a fixed sample of the
-    chunks); sets generated and CPU (this process and a forked child) of each."""
+    up to the inverse depth-first phase): its set-up (the forward trie relabelled, when it is),
+    length ``total + 1`` ruled out over the whole newest backward level, then length ``total + 2``
+    over its first ``1 / share`` (a fixed sample of the chunks); sets generated and CPU (this
+    process and a forked child) of each. Every design starts from its own copy of the
+    breadth-first phase's sorted forward level."""
     import types
 
     from benchmarks.bench_sync_record import _child_cpu
@@ -250,25 +252,33 @@ def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16):
         exact._exact_search(aut, np.arange(aut.n), None, memory_mb, None, upper)
     finally:
         exact._Bidirectional = orig
-    fwd, bwd, total = got["fwd"], got["bwd"], got["total"]
+    fwd, bwd, total, cache = got["fwd"], got["bwd"], got["total"], got["cache"]
+    exact._sorted_forward(fwd, cache)
     blo, bhi = bwd.levels[-1]
     print(f"random-8-200-s{seed}: breadth-first phase to total {total} in {time.perf_counter() - t0:.1f} s; "
           f"newest backward level {bhi - blo:,} sets; length {total + 2} on its first 1/{share}", flush=True)
     sample = types.SimpleNamespace(rows=bwd.rows, levels=bwd.levels[:-1] + [(blo, blo + (bhi - blo) // share)],
                                    count=bwd.count, path=bwd.path)
+
+    def clock():
+        return time.perf_counter(), time.process_time() + _child_cpu()
+
     for name, extra in COMPARE:
+        opts = ExactSearchOptions(**({"parallel": False} | extra)).resolved()
+        own = {"level": cache["level"], "rows": cache["rows"].copy(), "split": cache["split"]}
+        (t, c) = clock()
+        dfs = exact._InverseDepthFirst(aut, fwd, bwd, None, None, memory_mb / 4, opts, time.perf_counter, own)
+        (t1, c1) = clock()
+        print(f"  {name:52s} set-up {c1 - c:.1f} s CPU", flush=True)
         for length, store in ((total + 1, bwd), (total + 2, sample)):
-            opts = ExactSearchOptions(**extra)
-            if "parallel" not in extra:
-                opts = ExactSearchOptions(parallel=False, **extra)
-            t, c = time.perf_counter(), time.process_time() + _child_cpu()
-            word, status, used, lower = exact._inverse_depth_first_phase(
-                aut, fwd, store, total, None, None, length + 1, memory_mb / 4, opts.resolved(), time.perf_counter,
-                got["cache"], deepen=True)
-            cpu = time.process_time() + _child_cpu() - c
-            print(f"  {name:52s} length {length}{'' if store is bwd else f' (1/{share})'}: {status}, "
-                  f"sets {used - fwd.count - bwd.count:,}, {cpu:.1f} s CPU, {time.perf_counter() - t:.1f} s wall",
-                  flush=True)
+            dfs.bwd, dfs.used = store, [0]
+            res = dfs.run(length - total, length - total)
+            (t2, c2) = clock()
+            print(f"  {name:52s} length {length}{'' if store is bwd else f' (1/{share})'}: "
+                  f"{'ruled out' if res is None else res}, sets {dfs.used[0]:,}, {c2 - c1:.1f} s CPU, "
+                  f"{t2 - t1:.1f} s wall", flush=True)
+            (t1, c1) = (t2, c2)
+        del dfs, own
 
 
 def _parse_options(text):
