@@ -19,15 +19,18 @@ from kruskal_markov.sync import _trie
 __all__ = ["first_leaf_hit", "preimage"]
 
 #: preimages generated per slice (about 32 MB of rows at 200 states)
-_SLICE = 1 << 20
+SLICE = 1 << 20
 
 
 def first_leaf_hit(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, tasks: int = 1, over_budget=None,
-                   used=None, slice_rows: int = _SLICE):
+                   used=None, slice_rows: int = SLICE, emit=None):
     """The first preimage of a row of ``rows`` (under any letter) that contains a row of the sorted
     forward trie ``fsorted``: ``(row index, letter)``, ``None`` when none does, or ``"budget"``
-    when ``over_budget()`` turns true between slices. ``used[0]`` (if given) is increased by the
-    preimages generated."""
+    when ``over_budget()`` is true before a slice is generated or before it is tested (as the
+    stored levels' sets are counted when generated and checked before their test). At most
+    ``slice_rows`` preimages (at least ``k``) are held at a time (the depth-first phase's memory
+    cap). ``used[0]`` (if given) is increased by the preimages generated; ``emit`` (if given) is
+    told ``("dfs-batch", rows in the slice)``."""
     k = aut.k
     inv_ptr, inv_idx, supcount = aut.inverse
     step = max(1, slice_rows // k)
@@ -35,10 +38,14 @@ def first_leaf_hit(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, tasks: in
         if over_budget is not None and over_budget():
             return "budget"
         hi = min(rows.shape[0], lo + step)
+        if emit is not None:
+            emit("dfs-batch", hi - lo)
         pre = _k.level_images(rows, lo, hi, aut.delta, aut.step_table(False), aut.deterministic, False, inv_ptr,
                               inv_idx, supcount, tasks=tasks)
         if used is not None:
             used[0] += pre.shape[0]
+        if over_budget is not None and over_budget():
+            return "budget"
         hit = np.flatnonzero(_trie.superset_mask(fsorted, pre, sorted_stored=True, tasks=tasks, split=fsplit))
         if hit.size:
             i = int(hit[0])

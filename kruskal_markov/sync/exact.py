@@ -752,7 +752,7 @@ class _InverseDepthFirst:
         """The preimages of ``rows`` (depth ``x``) at the deepest level, tested unstored
         (:func:`~kruskal_markov.sync._leaves.first_leaf_hit`); like :meth:`rec`."""
         res = _leaves.first_leaf_hit(self.aut, rows, self.fsorted, self.fsplit, self.tasks, self.over_budget,
-                                     self.used)
+                                     self.used, slice_rows=min(_leaves.SLICE, self.cap), emit=self.opts.emit)
         if res is None or res == "budget":
             return res
         i, a = res
