@@ -11,7 +11,8 @@ mutant reuses the compiled kernels.
     python tools/mutate.py --list
     python tools/mutate.py --recheck ensemble   # the last run's survivors against the current tests
     python tools/mutate.py --ops answers        # the operators of tools/mutate_ops.py (aggregation
-                                                # swaps, constant and threshold perturbations)
+                                                # swaps, constant and threshold perturbations, field
+                                                # swaps); MUTATE_RANGE=a:b runs only mutants a..b-1
 
 Prints per module: mutants, killed, survived, timeouts, score; writes the survivors' diffs to
 ``build/mutate/<module>/survivors.txt``. The modules with slow tests run a deterministic sample by
@@ -228,7 +229,9 @@ def main(argv: list[str]) -> int:
 
         for name in argv[1:] or ["structural", "answers", "validate", "orientability"]:
             file, tests, _ = MODULES[name]
-            r = run_ops(ROOT, WORK, name, file, tests, sample=int(os.environ.get("MUTATE_SAMPLE", 1)))
+            lo, _, hi = os.environ.get("MUTATE_RANGE", ":").partition(":")
+            only = range(int(lo or 0), int(hi)) if hi else (range(int(lo), 10 ** 9) if lo else None)
+            r = run_ops(ROOT, WORK, name, file, tests, sample=int(os.environ.get("MUTATE_SAMPLE", 1)), only=only)
             c = r["counts"]
             print(f"{name:14s} ops mutants {r['mutants']:3d}  killed {c['killed']:3d}  timeout {c['timeout']:2d}  "
                   f"survived {c['survived']:3d}  score {r['score']:.1%}", flush=True)
