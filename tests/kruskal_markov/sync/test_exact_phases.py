@@ -1,0 +1,95 @@
+"""The exact reset-word search's phases as a user sees them: the answer, its work and the documented
+``observe`` events (``ExactSearchOptions``) -- the last length met without storing its level, from
+either side; a no-answer proven by the depth-first phase; large levels on the thread-split path;
+the depth-first phase's batches."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kruskal_markov.sync import ExactSearchOptions, SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
+from tests.kruskal_markov.sync.test_exact import brute
+
+
+def _events(**kw):
+    """Options that record the search's ``observe`` events, and the list they go to."""
+    seen = []
+    return ExactSearchOptions(observe=lambda e, v: seen.append((e, v)), **kw), seen
+
+
+def _random(seed, n, k):
+    return np.random.default_rng(seed).integers(0, n, (k, n)).tolist()
+
+
+def test_the_last_length_is_met_unstored_from_either_side_and_its_sets_are_counted():
+    """A 12-state, 3-letter automaton whose Eppstein word (9 letters) is shortest (brute force): the
+    search reaches length 8, the last one to rule out, and generates that level without storing it
+    (event ``last-level``, its sets). Forward images or backward preimages generate different
+    numbers of sets, but the sets stored before are the same, so the work reported minus the last
+    level's sets is the same from either side and by the default rule."""
+    table = [[6, 5, 3, 11, 1, 2, 8, 7, 0, 10, 4, 4], [1, 8, 8, 4, 1, 11, 10, 6, 4, 0, 2, 3],
+             [2, 5, 7, 6, 11, 3, 0, 10, 6, 10, 4, 10]]
+    assert brute(table) == 9
+    aut = SyncAutomaton.from_table(table)
+    stored, last = {}, {}
+    for side in (None, "forward", "backward"):
+        options, seen = _events(use_beam=False, fast_nodes=None, last_side=side)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
+        assert (r.length, r.exact, r.method, r.lower_bound) == (9, True, "greedy-eppstein+lower-bound", 9)
+        assert is_synchronizing_word(aut, r.word)
+        generated = [v for e, v in seen if e == "last-level"]
+        assert len(generated) == 1 and generated[0] > 0
+        last[side] = generated[0]
+        stored[side] = r.states_explored - generated[0]
+    assert last["forward"] != last["backward"]
+    assert stored["forward"] == stored["backward"] == stored[None] > 0
+
+
+def test_a_no_answer_proven_by_the_depth_first_phase():
+    """Two copies of a random 14-state automaton (each letter acting on both alike): no word merges a
+    state with its copy. With 0.0001 MB the pair-graph check does not fit (it is skipped), and the
+    stores fill (1,024 sets each) before either direction is exhausted, so the depth-first phase
+    starts and finds every frontier set holding a pair that never merges: no word, proven."""
+    table = _random(12, 14, 3)
+    doubled = [row + [q + 14 for q in row] for row in table]
+    options, seen = _events()
+    r = shortest_synchronizing_word(SyncAutomaton.from_table(doubled), time_budget=None, memory_budget_mb=1e-4,
+                                    options=options)
+    assert ("depth-first", 14) in seen
+    assert (r.word, r.length, r.exact, r.method) == (None, None, True, "bidirectional-bfs")
+    assert r.witness == {"kind": "exhaustive", "subsets_explored": r.states_explored,
+                         "reason": "exhaustive subset search: no image of the start set is a single state"}
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_large_levels_take_the_thread_split_path_with_the_same_answers(parallel):
+    """Random 120-state, 2-letter automata whose levels pass 8,192 sets, the size from which the
+    subset trie's queries may be split over threads: a backward level checked for dominance (seed 1:
+    over 9,000 sets) and a last level of preimages met against the forward trie (seed 6: over 13,000
+    sets). With threads on or off the answers are the default search's, and the words synchronize."""
+    for seed, kw, event in ((1, dict(backward_dominance=True, use_beam=False), "backward-level"),
+                            (6, dict(last_side="backward"), "last-level")):
+        aut = SyncAutomaton.from_table(_random(seed, 120, 2))
+        plain = shortest_synchronizing_word(aut, time_budget=None, options=ExactSearchOptions(parallel=parallel))
+        options, seen = _events(fast_nodes=None, parallel=parallel, **kw)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
+        assert max(v for e, v in seen if e == event) >= 8192
+        assert (r.length, r.exact) == (plain.length, True) and is_synchronizing_word(aut, r.word)
+
+
+def test_the_depth_first_phase_expands_no_empty_batch():
+    """Random 6- to 12-state automata searched depth-first from small levels (``dfs_switch_rows`` 4,
+    the forward phase, chunks of 2 sets): every batch the phase reports expanding holds a set (a chunk
+    whose sets the pair distances all prune is not expanded), and the answers are brute force's."""
+    batches = 0
+    for seed in range(12):
+        rng = np.random.default_rng(seed)
+        n = int(rng.integers(6, 13))
+        table = rng.integers(0, n, (2, n)).tolist()
+        options, seen = _events(inverse_dfs=False, dfs_switch_rows=4, use_beam=False, fast_nodes=None, dfs_chunk=2)
+        r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, options=options)
+        assert r.length == brute(table)
+        sizes = [v for e, v in seen if e == "dfs-batch"]
+        assert all(v > 0 for v in sizes), (seed, sizes)
+        batches += len(sizes)
+    assert batches > 20
