@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from kruskal_markov import generators
 from kruskal_markov.sync import ExactSearchOptions, SyncAutomaton, is_synchronizing_word, shortest_synchronizing_word
 from tests.kruskal_markov.sync.test_exact import brute
 
@@ -93,3 +94,20 @@ def test_the_depth_first_phase_expands_no_empty_batch():
         assert all(v > 0 for v in sizes), (seed, sizes)
         batches += len(sizes)
     assert batches > 20
+
+
+@pytest.mark.parametrize("forward", [True, False])
+def test_dominance_against_the_earlier_levels_keeps_fewer_sets(forward):
+    """``forward_visited`` / ``backward_visited``: a new set is also checked against the direction's
+    earlier levels, not only its own level. On a random binary automaton of 60 states (either
+    direction's dominance on) that keeps fewer subsets than the check within the level, with the
+    same shortest length (counts of subsets, machine-independent)."""
+    aut = SyncAutomaton.from_table(generators.random_table(60, 2, 4363))
+    got = {}
+    for visited in (False, True):
+        options = ExactSearchOptions(use_beam=False, forward_dominance=forward, backward_dominance=not forward,
+                                     forward_visited=visited, backward_visited=visited)
+        got[visited] = shortest_synchronizing_word(aut, time_budget=None, options=options)
+    assert got[True].length == got[False].length == 22 and got[True].exact and got[False].exact
+    assert is_synchronizing_word(aut, got[True].word)
+    assert got[True].states_explored < got[False].states_explored
