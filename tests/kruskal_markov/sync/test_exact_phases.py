@@ -111,3 +111,19 @@ def test_dominance_against_the_earlier_levels_keeps_fewer_sets(forward):
     assert got[True].length == got[False].length == 22 and got[True].exact and got[False].exact
     assert is_synchronizing_word(aut, got[True].word)
     assert got[True].states_explored < got[False].states_explored
+
+
+@pytest.mark.parametrize("m", [3, 6, 9])
+def test_forward_sets_that_cannot_start_a_shorter_word_end_the_search(m):
+    """A ladder on states 0..m: ``a`` moves every state one step down (0 stays), ``b`` changes nothing.
+    The shortest word is a^m (brute force) and Eppstein's word has m letters. The only new forward set
+    after one letter, {0, .., m - 1}, holds states 0 and m - 1, which no word shorter than m - 1 letters
+    merges, more than the m - 2 left for a word shorter than m: the pair-distance pruning drops it and
+    the greedy word is proven shortest after that one level, with two sets stored (the start and the
+    backward root {0})."""
+    table = [[max(q - 1, 0) for q in range(m + 1)], list(range(m + 1))]
+    assert brute(table) == m
+    options, seen = _events(use_beam=False, fast_nodes=None)
+    r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, options=options)
+    assert (r.length, r.exact, r.method, r.greedy_length) == (m, True, "greedy-eppstein+lower-bound", m)
+    assert seen == [("meet", 0), ("forward-level", 1)] and r.states_explored == 2
