@@ -515,6 +515,7 @@ def monte_carlo_entropy_tilts(model, epsilon: float, weights=None, runs: int = 5
     indptr, indices, data = model.packed()
     if model.partition is None:
         part = np.arange(model.n_states, dtype=np.int64)
+        part.flags.writeable = False    # as the model's own partition: one compiled signature
         ncells = model.n_states
     else:
         part = np.asarray(model.partition, dtype=np.int64)

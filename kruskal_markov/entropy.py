@@ -207,14 +207,24 @@ def _kernel_arrays(model: TransitionModel):
 
     indptr, indices, data, img_ptr, img_idx = model.memo("entropy_packed", pack)
     if model.partition is None:
-        partition, n_cells, has = np.zeros(1, dtype=np.int64), 1, False
+        partition, n_cells, has = _NO_PARTITION, 1, False
     else:
         partition, n_cells, has = model.partition, model.n_cells, True
     return indptr, indices, data, img_ptr, img_idx, partition, n_cells, has
 
 
-_NO_BLOCKS = (np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
-              np.zeros(0, dtype=np.int32), np.zeros(0, dtype=np.float64))
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    """``arr`` made read-only. The kernels take the model's cached arrays, which are read-only, and
+    Numba compiles a kernel once per signature, read-only flags included: placeholders passed in
+    their place are read-only too, so that each kernel compiles once instead of once per mix."""
+    arr.flags.writeable = False
+    return arr
+
+
+_NO_BLOCKS = tuple(_frozen(a) for a in (np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
+                                        np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int32),
+                                        np.zeros(0, dtype=np.float64)))
+_NO_PARTITION = _frozen(np.zeros(1, dtype=np.int64))
 
 #: image blocks are built when they hold at most this many times the model's non-zeros
 _BLOCK_BUDGET = 2.0

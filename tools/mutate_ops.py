@@ -12,7 +12,13 @@ reported figures are often of another kind (docs/testing.md). The operators here
     than 0 and 1 plus 1;
 ``threshold``
     threshold perturbations: the right side ``b`` of a comparison ``a < b`` (``<=``, ``>``, ``>=``)
-    that is not a literal becomes ``b * 1.25``.
+    that is not a literal becomes ``b * 1.25``;
+``field``
+    a figure read from the wrong field of the same record: a read ``x.a`` (not a call) or ``x["a"]`` of a
+    name ``x`` is replaced by the next (in sorted order) of the other fields the same function reads from
+    ``x`` the same way (``tilts["mean"]`` -> ``tilts["lower"]``, ``m.mean_entropy_50`` ->
+    ``m.mean_entropy_10``); names bound by imports are left alone. Its sites come after the other
+    operators' so that their numbering does not move.
 
 Docstrings, ``__all__``, keyword defaults of ``print``-like formatting and functions decorated
 with ``njit`` / ``jit`` are left alone. Each mutant is the module with exactly one site changed; it
@@ -84,6 +90,59 @@ def _sites(tree):
         elif isinstance(node, ast.Compare) and len(node.ops) == 1 and isinstance(node.ops[0], _CMP) \
                 and not isinstance(node.comparators[0], ast.Constant):
             out.append((node, "threshold", f"{ast.unparse(node)} -> right side x 1.25"))
+    return out + _field_sites(tree, skip)
+
+
+class _FieldReads(ast.NodeVisitor):
+    """Every field read ``(scope, base, how, field, node)`` of a module, ``scope`` the innermost function."""
+
+    def __init__(self, skip: set[int], imported: set[str]):
+        self.skip, self.imported, self.scope, self.reads = skip, imported, [None], []
+
+    def visit_FunctionDef(self, node):
+        self.scope.append(id(node))
+        self.generic_visit(node)
+        self.scope.pop()
+
+    visit_AsyncFunctionDef = visit_FunctionDef
+
+    def visit_Call(self, node):
+        self.visit(node.func.value if isinstance(node.func, ast.Attribute) else node.func)   # a method is no field
+        for a in [*node.args, *node.keywords]:
+            self.visit(a)
+
+    def _read(self, node, how, field):
+        if id(node) not in self.skip and isinstance(node.ctx, ast.Load) and isinstance(node.value, ast.Name) \
+                and node.value.id not in self.imported:
+            self.reads.append((self.scope[-1], node.value.id, how, field, node))
+
+    def visit_Attribute(self, node):
+        self._read(node, "attr", node.attr)
+        self.generic_visit(node)
+
+    def visit_Subscript(self, node):
+        if isinstance(node.slice, ast.Constant) and isinstance(node.slice.value, str):
+            self._read(node, "key", node.slice.value)
+        self.generic_visit(node)
+
+
+def _field_sites(tree, skip: set[int]):
+    """The ``field`` operator's sites, in the order of the reads; each node gets ``_field_to``."""
+    imported = {(a.asname or a.name).split(".")[0] for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
+                for a in n.names}
+    v = _FieldReads(skip, imported)
+    v.visit(tree)
+    fields: dict = {}
+    for scope, base, how, field, _ in v.reads:
+        fields.setdefault((scope, base, how), set()).add(field)
+    out = []
+    for scope, base, how, field, node in v.reads:
+        others = sorted(fields[(scope, base, how)])
+        if len(others) < 2:
+            continue
+        node._field_to = others[(others.index(field) + 1) % len(others)]
+        old, new = (f".{field}", f".{node._field_to}") if how == "attr" else (f"[{field!r}]", f"[{node._field_to!r}]")
+        out.append((node, "field", f"{base}{old} -> {base}{new}"))
     return out
 
 
@@ -102,6 +161,11 @@ def _apply(node, kind):
             f.id = _BUILTIN_SWAP[f.id]
     elif kind == "const":
         node.value = _perturbed(node.value)
+    elif kind == "field":
+        if isinstance(node, ast.Attribute):
+            node.attr = node._field_to
+        else:
+            node.slice = ast.Constant(node._field_to)
     else:
         node.comparators[0] = ast.BinOp(node.comparators[0], ast.Mult(), ast.Constant(1.25))
 
@@ -120,9 +184,10 @@ def mutants(source: str):
 
 
 def run_ops(root: pathlib.Path, work: pathlib.Path, name: str, file: str, tests: list[str], sample: int = 1,
-            timeout: float = 300.0) -> dict:
-    """Run every ``sample``-th custom mutant of ``file`` against ``tests``; survivors to ``ops-survivors.txt``."""
-    ws = work / f"ops-{name}"
+            timeout: float = 300.0, only: range | None = None) -> dict:
+    """Run every ``sample``-th custom mutant of ``file`` against ``tests`` (with ``only``: of those, the ones whose
+    index is in it, so that a long run splits into lock jobs); survivors to ``ops-survivors.txt``."""
+    ws = work / (f"ops-{name}" if only is None else f"ops-{name}-{only.start}-{min(only.stop, 99999)}")
     if ws.exists():
         shutil.rmtree(ws)
     ws.mkdir(parents=True)
@@ -136,7 +201,7 @@ def run_ops(root: pathlib.Path, work: pathlib.Path, name: str, file: str, tests:
     counts = {"killed": 0, "timeout": 0, "survived": 0}
     survivors = []
     for i, kind, line, desc, src in mutants(original):
-        if i % sample:
+        if i % sample or (only is not None and i not in only):
             continue
         (ws / file).write_text(src)
         try:

@@ -56,7 +56,8 @@ def max_probability_along(matrices, initial: np.ndarray, sequences: np.ndarray) 
     ndarray (n,)
         ``max over sequences s and steps t of (initial @ P_{s_1} ... P_{s_t})[i]``.
     """
-    init = np.ascontiguousarray(initial, dtype=np.float64)
+    init = np.ascontiguousarray(initial, dtype=np.float64).view()
+    init.flags.writeable = False        # whether or not the caller's was: one compiled signature
     seqs = np.ascontiguousarray(sequences, dtype=np.int64)
     n = len(init)
     if seqs.ndim != 2 or (seqs.size and (seqs.min() < 0 or seqs.max() >= len(matrices))):
