@@ -409,3 +409,50 @@ def test_final_total_variation_compares_the_last_step():
     out = validate_model(shift, sequences=2, trials=10, length=length, bands=0, simulate=fake)
     assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0]
     assert out["final_tv_distance"] == 0.5 and out["mean_abs_error_bits"] == 0.0
+
+
+def test_the_plugin_expectation_and_the_bootstrap_each_use_200_draws():
+    """The model curve's expected plug-in entropy is the mean over 200 multinomial draws, and the
+    reference's bootstrap sd the sd (ddof 1) over 200 resamples, each taken from the rng it is given:
+    recomputed here from the same generator state, draw for draw."""
+    from kruskal_markov.entropy import histogram_entropy_bits
+
+    q, m = np.array([0.5, 0.3, 0.2]), 7
+    got = _expected_plugin(q, m, np.random.default_rng(11))
+    want = np.mean([histogram_entropy_bits(d) for d in np.random.default_rng(11).multinomial(m, q, size=200)])
+    assert got == pytest.approx(want, rel=1e-12)
+    labels = np.array([0, 0, 1, 2, 2, 2, 3])
+    rng = np.random.default_rng(12)
+    hs = [histogram_entropy_bits(np.bincount(labels[rng.integers(0, 7, 7)], minlength=4)) for _ in range(200)]
+    assert _bootstrap_sd(labels, 4, np.random.default_rng(12)) == pytest.approx(np.std(hs, ddof=1), rel=1e-12)
+
+
+def test_a_reference_above_the_band_by_a_tenth_is_outside():
+    """``_inside`` holds a step when the reference lies in [lo, hi] (to 1e-12): 1.1 above a band [0, 1] is
+    outside, as is -0.1 below it; the ends themselves are inside."""
+    from analysis.validate import _inside
+
+    x = np.array([1.1, 1.0, 0.5, 0.0, -0.1])
+    assert _inside(x, np.zeros(5), np.ones(5)).tolist() == [False, True, True, True, False]
+
+
+def test_final_total_variation_is_the_mean_over_sequences_not_the_median():
+    """The model of the test above (one cell on per tilt: in cell 5 after 5 tilts), three sequences whose
+    references end in cells 5, 6 and 5: total variations 0, 1 and 0, their mean 1/3 (the median would say 0)."""
+    import scipy.sparse as sp
+
+    model, grid = _built_point_model()
+    n = 8
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), (np.arange(n) + 1) % n)), shape=(n, n)) for _ in model.actions]
+    shift = TransitionModel(model.actions, mats, initial=np.eye(n)[0], partition=np.arange(n), n_cells=n,
+                            metadata=model.metadata, extras=model.extras)
+    length = 5
+
+    def fake(scene, seq, trials, sd, noise):
+        i = fake.calls
+        fake.calls += 1
+        return _fake_reference(grid, [[k % n] for k in range(length)] + [[length + (i == 1)]], trials)
+    fake.calls = 0
+    out = validate_model(shift, sequences=3, trials=10, length=length, bands=0, simulate=fake)
+    assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0, 0.0]
+    assert out["final_tv_distance"] == pytest.approx(1 / 3)
