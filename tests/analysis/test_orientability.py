@@ -213,3 +213,36 @@ def test_the_tilt_cap_reaches_the_posterior_draws():
                      sync_node_budget=2000)
     assert (m.random_tilts, m.random_tilts_censored, m.random_tilts_lower) == (None, 30, 2.0)
     assert m.intervals["random_tilts"]["posterior_ci90"] == [2.0, 2.0]
+
+
+def test_the_shortest_word_fields_are_the_searchs():
+    """The word, its length, exactness, lower bound and method are the ``state`` search's from the initial
+    support (``shortest_word(model, "state", start="initial")``): on Černý C_4 a proven word of 9 letters; on
+    a model whose every row spreads over two states, no word (the part cannot be oriented sensorlessly)."""
+    from kruskal_markov.sync import shortest_word
+    from tests.kruskal_markov.test_answers import _counted_model
+
+    for model in (cerny_model(4), _counted_model(seed=5)):
+        m = part_metrics(model, seed=1, count=50, runs=20, max_tilts=50, draws=0, sync_node_budget=2000)
+        s = shortest_word(model, "state", start="initial", node_budget=2000)
+        assert (m.sync_word, m.sync_length, m.sync_exact, m.sync_lower_bound, m.sync_method) == (
+            None if s.word is None else list(s.word), s.length, s.exact, s.lower_bound if not s.exact else s.length,
+            s.method)
+    assert m.sync_word is None and m.sync_length is None                # the counted model: no word
+
+
+def test_censored_parts_rank_by_their_lower_bound_not_their_word():
+    """Two parts with the same number of censored runs: the smaller lower bound on the random tilts ranks
+    first, though its word is longer and its name comes later."""
+    parts = {"z-low": _metrics(random_tilts=None, random_tilts_censored=3, random_tilts_lower=5.0, sync_length=4,
+                               sync_word=["N"] * 4),
+             "a-high": _metrics(random_tilts=None, random_tilts_censored=3, random_tilts_lower=7.0)}
+    rows = rank_parts(parts)
+    assert [r["shape"] for r in rows] == ["z-low", "a-high"] and rows[0]["decided_by"] == "random_tilts"
+
+
+def test_a_tie_on_everything_else_falls_to_the_mean_entropy_after_10_tilts():
+    """Parts equal in every metric but the mean entropy after 10 tilts: the lower one ranks first (before
+    the name decides)."""
+    rows = rank_parts({"a": _metrics(mean_entropy_10=0.3), "b": _metrics(mean_entropy_10=0.2)})
+    assert [r["shape"] for r in rows] == ["b", "a"] and rows[0]["decided_by"] == "mean_entropy_10"

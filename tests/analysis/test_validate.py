@@ -409,3 +409,114 @@ def test_final_total_variation_compares_the_last_step():
     out = validate_model(shift, sequences=2, trials=10, length=length, bands=0, simulate=fake)
     assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0]
     assert out["final_tv_distance"] == 0.5 and out["mean_abs_error_bits"] == 0.0
+
+
+def test_the_plugin_expectation_and_the_bootstrap_each_use_200_draws():
+    """The model curve's expected plug-in entropy is the mean over 200 multinomial draws, and the
+    reference's bootstrap sd the sd (ddof 1) over 200 resamples, each taken from the rng it is given:
+    recomputed here from the same generator state, draw for draw."""
+    from kruskal_markov.entropy import histogram_entropy_bits
+
+    q, m = np.array([0.5, 0.3, 0.2]), 7
+    got = _expected_plugin(q, m, np.random.default_rng(11))
+    want = np.mean([histogram_entropy_bits(d) for d in np.random.default_rng(11).multinomial(m, q, size=200)])
+    assert got == pytest.approx(want, rel=1e-12)
+    labels = np.array([0, 0, 1, 2, 2, 2, 3])
+    rng = np.random.default_rng(12)
+    hs = [histogram_entropy_bits(np.bincount(labels[rng.integers(0, 7, 7)], minlength=4)) for _ in range(200)]
+    assert _bootstrap_sd(labels, 4, np.random.default_rng(12)) == pytest.approx(np.std(hs, ddof=1), rel=1e-12)
+
+
+def test_a_reference_above_the_band_by_a_tenth_is_outside():
+    """``_inside`` holds a step when the reference lies in [lo, hi] (to 1e-12): 1.1 above a band [0, 1] is
+    outside, as is -0.1 below it; the ends themselves are inside."""
+    from analysis.validate import _inside
+
+    x = np.array([1.1, 1.0, 0.5, 0.0, -0.1])
+    assert _inside(x, np.zeros(5), np.ones(5)).tolist() == [False, True, True, True, False]
+
+
+def test_final_total_variation_is_the_mean_over_sequences_not_the_median():
+    """The model of the test above (one cell on per tilt: in cell 5 after 5 tilts), three sequences whose
+    references end in cells 5, 6 and 5: total variations 0, 1 and 0, their mean 1/3 (the median would say 0)."""
+    import scipy.sparse as sp
+
+    model, grid = _built_point_model()
+    n = 8
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), (np.arange(n) + 1) % n)), shape=(n, n)) for _ in model.actions]
+    shift = TransitionModel(model.actions, mats, initial=np.eye(n)[0], partition=np.arange(n), n_cells=n,
+                            metadata=model.metadata, extras=model.extras)
+    length = 5
+
+    def fake(scene, seq, trials, sd, noise):
+        i = fake.calls
+        fake.calls += 1
+        return _fake_reference(grid, [[k % n] for k in range(length)] + [[length + (i == 1)]], trials)
+    fake.calls = 0
+    out = validate_model(shift, sequences=3, trials=10, length=length, bands=0, simulate=fake)
+    assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0, 0.0]
+    assert out["final_tv_distance"] == pytest.approx(1 / 3)
+
+
+def test_model_grid_reads_each_field_of_the_recorded_grid_from_its_own_key():
+    """A recorded grid whose seven fields all differ (300 x 200 mm, 3 x 5 x 7 cells, symmetry order 2, angle
+    offset 0.1 rad) comes back field for field: no field is read from another's key."""
+    grid = ReportGrid(300.0, 200.0, 3, 5, 7, symmetry_order=2, theta_offset=0.1)
+    built = TransitionModel(["N"], [np.eye(2)], metadata={"grid": grid.to_dict()})
+    assert model_grid(built).to_dict() == grid.to_dict() == {
+        "tray_x_mm": 300.0, "tray_y_mm": 200.0, "nx": 3, "ny": 5, "ntheta": 7, "symmetry_order": 2,
+        "theta_offset": 0.1}
+
+
+def test_the_random_sequences_are_over_the_models_actions_not_its_cells():
+    """On a model with 8 actions and 12 report cells, the validated sequences are
+    ``random_sequences_for(8 actions, sequences, length, seed)``, named by the model's actions."""
+    import scipy.sparse as sp
+
+    from analysis.sequences import random_sequences_for
+
+    scene = scene_from_options("rectangle:20x20")
+    grid = ReportGrid(200.0, 200.0, 3, 2, 2, symmetry_order=4)
+    n = grid.n_voxels
+    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), np.zeros(n, dtype=int))), shape=(n, n)) for _ in scene.actions]
+    md = {"kind": "kruskal.built_model", "stats": {"states": n}, "scene": scene.to_dict(), "grid": grid.to_dict(),
+          "noise": "none"}
+    model = TransitionModel(list(scene.actions), mats, initial=np.full(n, 1.0 / n), partition=np.arange(n),
+                            n_cells=n, metadata=md)
+    assert (model.n_actions, model.n_cells) == (8, 12)
+    length = 6
+    out = validate_model(model, sequences=3, trials=4, length=length, seed=9, bands=0,
+                         simulate=lambda scene, seq, trials, sd, noise: _fake_reference(grid, [[0]] * (length + 1),
+                                                                                        trials))
+    want = [[scene.actions[a] for a in s] for s in random_sequences_for(8, 3, length, 9)]
+    assert [s["sequence"] for s in out["per_sequence"]] == want
+
+
+def test_the_dirichlet_band_is_the_centre_plus_or_minus_the_width():
+    """With 10 trials the plug-in bias moves the band's centre below the model's exact curve at most steps.
+    References placed there (by their entropies; the trials, and so the band, unchanged) halfway between the
+    band's lower end ``centre - width`` and ``exact - width``, elsewhere at the centre, are inside the
+    Dirichlet band at every step: 100%."""
+    model, grid = _built_mixed_model()
+    length, m, seed = 4, 10, 3
+    steps = [list(range(8))] + [[0, 0, 0, 1]] * length
+
+    def fake(h=None):
+        def simulate(scene, seq, trials, sd, noise):
+            ref = _fake_reference(grid, steps, trials)
+            if h is not None:
+                ref.entropy_bits = np.asarray(h)
+            return ref
+        return simulate
+    first = validate_model(model, sequences=1, trials=m, seed=seed, length=length, bands=8, simulate=fake(),
+                           structural_delta=0.0)["per_sequence"][0]
+    centre, width, exact = (np.asarray(first[k]) for k in ("band_centre", "band_width", "model_exact"))
+    below = exact - centre > 0.01
+    assert below[1:].sum() >= 2
+    h = np.where(below, centre - width + 0.5 * (exact - centre), centre)
+    h[0] = first["reference"][0]
+    second = validate_model(model, sequences=1, trials=m, seed=seed, length=length, bands=8, simulate=fake(h),
+                            structural_delta=0.0)["per_sequence"][0]
+    assert second["band_centre"] == pytest.approx(first["band_centre"])
+    assert second["band_width"] == pytest.approx(first["band_width"])
+    assert second["band_coverage_dirichlet"] == 1.0
