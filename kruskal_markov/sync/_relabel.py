@@ -35,12 +35,13 @@ def _counts(rows, n):
 
 def frequency_order(rows: np.ndarray, n: int) -> np.ndarray:
     """``perm`` with ``perm[q]`` the new label of state ``q``: the state held by most of ``rows``
-    gets the label the trie branches on first (bit 63 of word 0, :func:`~kruskal_markov.sync._trie.lex_order`),
-    the next one the next bit, and so on (ties by state index).
+    gets the first label the trie branches on (in the trie's bit order, bit 63 of word 0 first,
+    :func:`~kruskal_markov.sync._trie.lex_order`, the highest label below ``n``), the next one the
+    next label, and so on (ties by state index).
 
-    >>> rows = np.array([[0b110], [0b100], [0b101]], dtype=np.uint64)   # state 2 in all three
-    >>> int(frequency_order(rows, 3)[2])
-    63
+    >>> rows = np.array([[0b110], [0b100], [0b101]], dtype=np.uint64)   # state 2 in all three rows, 0 and 1 in one each
+    >>> frequency_order(rows, 3).tolist()                                # state 2 gets label 2, then 0 (tie by index) label 1
+    [1, 0, 2]
     """
     rows = np.ascontiguousarray(rows, dtype=np.uint64)
     if rows.ndim != 2 or rows.shape[1] * 64 < n:
