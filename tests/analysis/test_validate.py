@@ -388,10 +388,9 @@ def test_bad_input_errors_are_whole_lines():
     assert (out["structural_delta"], out["structural_source"]) == (0.0, "given")
 
 
-def test_final_total_variation_compares_the_last_step():
-    """A model that moves the part one cell on at every tilt (state i -> i + 1 mod 8, from cell 0): after
-    5 tilts it is in cell 5. A reference in cell 5 at the end is at total variation 0, one in cell 6 at
-    1 (whatever the earlier steps); the mean over the two sequences is 0.5."""
+def _validate_shift_model(final_cells):
+    """``validate_model`` on a model that moves the part one cell on at every tilt (state i -> i + 1 mod 8,
+    from cell 0; 5 tilts), against references that follow it and end in ``final_cells[i]`` (one per sequence)."""
     import scipy.sparse as sp
 
     model, grid = _built_point_model()
@@ -404,9 +403,16 @@ def test_final_total_variation_compares_the_last_step():
     def fake(scene, seq, trials, sd, noise):
         i = fake.calls
         fake.calls += 1
-        return _fake_reference(grid, [[k % n] for k in range(length)] + [[length + i]], trials)
+        return _fake_reference(grid, [[k % n] for k in range(length)] + [[final_cells[i]]], trials)
     fake.calls = 0
-    out = validate_model(shift, sequences=2, trials=10, length=length, bands=0, simulate=fake)
+    return validate_model(shift, sequences=len(final_cells), trials=10, length=length, bands=0, simulate=fake)
+
+
+def test_final_total_variation_compares_the_last_step():
+    """A model that moves the part one cell on at every tilt (state i -> i + 1 mod 8, from cell 0): after
+    5 tilts it is in cell 5. A reference in cell 5 at the end is at total variation 0, one in cell 6 at
+    1 (whatever the earlier steps); the mean over the two sequences is 0.5."""
+    out = _validate_shift_model([5, 6])
     assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0]
     assert out["final_tv_distance"] == 0.5 and out["mean_abs_error_bits"] == 0.0
 
@@ -439,21 +445,7 @@ def test_a_reference_above_the_band_by_a_tenth_is_outside():
 def test_final_total_variation_is_the_mean_over_sequences_not_the_median():
     """The model of the test above (one cell on per tilt: in cell 5 after 5 tilts), three sequences whose
     references end in cells 5, 6 and 5: total variations 0, 1 and 0, their mean 1/3 (the median would say 0)."""
-    import scipy.sparse as sp
-
-    model, grid = _built_point_model()
-    n = 8
-    mats = [sp.csr_matrix((np.ones(n), (np.arange(n), (np.arange(n) + 1) % n)), shape=(n, n)) for _ in model.actions]
-    shift = TransitionModel(model.actions, mats, initial=np.eye(n)[0], partition=np.arange(n), n_cells=n,
-                            metadata=model.metadata, extras=model.extras)
-    length = 5
-
-    def fake(scene, seq, trials, sd, noise):
-        i = fake.calls
-        fake.calls += 1
-        return _fake_reference(grid, [[k % n] for k in range(length)] + [[length + (i == 1)]], trials)
-    fake.calls = 0
-    out = validate_model(shift, sequences=3, trials=10, length=length, bands=0, simulate=fake)
+    out = _validate_shift_model([5, 6, 5])
     assert [s["final_tv_distance"] for s in out["per_sequence"]] == [0.0, 1.0, 0.0]
     assert out["final_tv_distance"] == pytest.approx(1 / 3)
 
