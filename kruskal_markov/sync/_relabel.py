@@ -58,21 +58,21 @@ def frequency_order(rows: np.ndarray, n: int) -> np.ndarray:
 
 
 @njit(cache=True)
-def _permute(rows, perm, out):
+def _permute_inplace(rows, perm):
+    tmp = np.empty(rows.shape[1], dtype=rows.dtype)
     for i in range(rows.shape[0]):
-        for j in range(out.shape[1]):
-            out[i, j] = 0
+        tmp[:] = 0
         for q in range(perm.shape[0]):
             if (rows[i, q >> 6] >> np.uint64(q & 63)) & np.uint64(1):
                 p = perm[q]
-                out[i, p >> 6] |= np.uint64(1) << np.uint64(p & 63)
+                tmp[p >> 6] |= np.uint64(1) << np.uint64(p & 63)
+        rows[i] = tmp
 
 
 def permute_rows(rows: np.ndarray, perm: np.ndarray) -> np.ndarray:
     """Bitset rows with state ``q`` moved to bit ``perm[q]`` (a new array)."""
-    rows = np.ascontiguousarray(rows, dtype=np.uint64)
-    out = np.empty_like(rows)
-    _permute(rows, np.ascontiguousarray(perm, dtype=np.int64), out)
+    out = np.array(rows, dtype=np.uint64, order="C")
+    _permute_inplace(out, np.ascontiguousarray(perm, dtype=np.int64))
     return out
 
 
@@ -118,18 +118,6 @@ def relabel_sorted(sorted_rows: np.ndarray, perm: np.ndarray) -> np.ndarray:
     _permute_inplace(rows, np.ascontiguousarray(perm, dtype=np.int64))
     _apply_order(rows, lex_order(rows))
     return rows
-
-
-@njit(cache=True)
-def _permute_inplace(rows, perm):
-    tmp = np.empty(rows.shape[1], dtype=rows.dtype)
-    for i in range(rows.shape[0]):
-        tmp[:] = 0
-        for q in range(perm.shape[0]):
-            if (rows[i, q >> 6] >> np.uint64(q & 63)) & np.uint64(1):
-                p = perm[q]
-                tmp[p >> 6] |= np.uint64(1) << np.uint64(p & 63)
-        rows[i] = tmp
 
 
 def for_phase(aut: SyncAutomaton, fwd, cache: dict):
