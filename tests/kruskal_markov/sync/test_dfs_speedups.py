@@ -18,7 +18,7 @@ from kruskal_markov.sync import (
     shortest_synchronizing_word,
 )
 from tests.kruskal_markov.sync.test_exact import brute
-from tests.kruskal_markov.sync.test_trie import pack, random_family
+from tests.kruskal_markov.sync.test_trie import assert_shortest_on_small_automata, pack, random_family
 
 
 def test_frequency_order_puts_the_most_held_states_on_the_first_trie_bits():
@@ -97,21 +97,6 @@ def test_the_unstored_deepest_level_finds_the_first_preimage_inside_a_trie():
     assert _leaves.first_leaf_hit(aut, rows, fs, _trie.SizeSplit(fs), over_budget=lambda: True) == "budget"
 
 
-def _assert_shortest_on_small_automata(options):
-    """On 60 small random automata (seed 4364) and Cerny C_5..C_7: the brute-force length, exact,
-    with a word that synchronizes."""
-    rng = np.random.default_rng(4364)
-    tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
-    tables += [generators.cerny_table(n) for n in range(5, 8)]
-    for table in tables:
-        aut = SyncAutomaton.from_table(table)
-        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
-        want = brute(table)
-        assert r.length == want and r.exact
-        if want is not None:
-            assert is_synchronizing_word(aut, r.word)
-
-
 @pytest.mark.parametrize("leaf_images", [True, False])
 @pytest.mark.parametrize("deepen", [True, False])
 def test_inverse_phase_relabelled_with_unstored_leaves_keeps_every_shortest_length(leaf_images, deepen):
@@ -123,7 +108,7 @@ def test_inverse_phase_relabelled_with_unstored_leaves_keeps_every_shortest_leng
     options = ExactSearchOptions(use_beam=False, dfs_switch_rows=40, dfs_chunk=3, deepen=deepen, relabel_rows=1,
                                  leaf_images=leaf_images,
                                  observe=lambda e, v: found.append(v) if e == "inverse-dfs" else None)
-    _assert_shortest_on_small_automata(options)
+    assert_shortest_on_small_automata(options)
     assert any(v == 1 for v in found)
 
 
@@ -156,7 +141,7 @@ def test_inverse_phase_on_two_processes_keeps_every_shortest_length(monkeypatch)
     monkeypatch.setattr(_forked, "split_two", lambda task: splits.append(1) or split_two(task))
     options = ExactSearchOptions(use_beam=False, dfs_switch_rows=40, dfs_chunk=3, relabel_rows=1, parallel=True, fast_nodes=None,
                                  fork_rows=1)
-    _assert_shortest_on_small_automata(options)
+    assert_shortest_on_small_automata(options)
     assert len(splits) > 10         # the phase did run on two processes
 
 

@@ -122,6 +122,24 @@ def test_dominance_prunes_and_keeps_the_answer_on_a_larger_automaton():
     assert got[True].states_explored < got[False].states_explored
 
 
+def assert_shortest_on_small_automata(options, cerny=range(5, 8)) -> set:
+    """On 60 small random automata (seed 4364) and the Cerny automata ``C_n``, ``n`` in ``cerny``:
+    the brute-force length, exact, with a word that synchronizes. Returns the methods that answered."""
+    rng = np.random.default_rng(4364)
+    tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
+    tables += [generators.cerny_table(n) for n in cerny]
+    methods = set()
+    for table in tables:
+        aut = SyncAutomaton.from_table(table)
+        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
+        want = brute(table)
+        assert r.length == want and r.exact
+        if want is not None:
+            assert is_synchronizing_word(aut, r.word)
+        methods.add(r.method)
+    return methods
+
+
 @pytest.mark.parametrize("deepen", [True, False])
 @pytest.mark.parametrize("switch_rows", [4, 40])
 def test_inverse_depth_first_phase_keeps_every_shortest_length(switch_rows, deepen):
@@ -138,18 +156,7 @@ def test_inverse_depth_first_phase_keeps_every_shortest_length(switch_rows, deep
             inverse_found.append(value == 1)
     options = ExactSearchOptions(use_beam=False, dfs_switch_rows=switch_rows, dfs_chunk=3, deepen=deepen,
                                  observe=observe)
-    rng = np.random.default_rng(4364)
-    tables = [generators.random_table(int(rng.integers(5, 17)), int(rng.integers(2, 5)), rng) for _ in range(60)]
-    tables += [generators.cerny_table(n) for n in range(5, 9)]
-    methods = set()
-    for table in tables:
-        aut = SyncAutomaton.from_table(table)
-        r = shortest_synchronizing_word(aut, time_budget=None, options=options)
-        want = brute(table)
-        assert r.length == want and r.exact
-        if want is not None:
-            assert is_synchronizing_word(aut, r.word)
-        methods.add(r.method)
+    methods = assert_shortest_on_small_automata(options, cerny=range(5, 9))
     assert "bidirectional-bfs+dfs" in methods and any(inverse_found)
 
 
