@@ -78,6 +78,9 @@ MODULES = {
     # the synchronizing-word search, one module per method, against the sync and plan tests
     **{f"sync_{m}": (f"kruskal_markov/sync/{m}.py", _SYNC_TESTS, None)
        for m in ("automaton", "pairs", "exact", "greedy", "epsilon", "targets", "plan", "result")},
+    # the exact search's private helpers: the inverse depth-first phase's relabelling, its unstored
+    # deepest level and its two processes, against the same tests
+    **{f"sync{m}": (f"kruskal_markov/sync/{m}.py", _SYNC_TESTS, None) for m in ("_relabel", "_leaves", "_forked")},
     # the builder's assembly (counts -> model), against its unit tests on hand-made explorations
     # (test_build_model.py's physics builds read the assembled model too, but a build per mutant does not fit)
     "assembly": ("transition_builder/builder/assembly.py", ["tests/transition_builder/builder/test_assembly.py"], None),
