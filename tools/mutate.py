@@ -77,7 +77,7 @@ MODULES = {
     "posterior": ("kruskal_markov/posterior.py", ["tests/kruskal_markov/test_posterior.py"], None),
     # the synchronizing-word search, one module per method, against the sync and plan tests
     **{f"sync_{m}": (f"kruskal_markov/sync/{m}.py", _SYNC_TESTS, None)
-       for m in ("automaton", "pairs", "exact", "greedy", "epsilon", "targets", "plan", "result")},
+       for m in ("automaton", "pairs", "exact", "cost_model", "greedy", "epsilon", "targets", "plan", "result")},
     # the exact search's private helpers: the inverse depth-first phase's relabelling, its unstored
     # deepest level and its two processes, against the same tests
     **{f"sync{m}": (f"kruskal_markov/sync/{m}.py", _SYNC_TESTS, None) for m in ("_relabel", "_leaves", "_forked")},

@@ -118,8 +118,10 @@ class ExactSearchOptions:
         (the length whose breadth-first meet test is done), ``"last-level"`` (sets of the last
         level, generated unhashed; -1 at the deadline), ``"depth-first"`` (the length the
         depth-first phase starts after), ``"deepened"`` (a length the deepening phase has ruled
-        out). For measurements
-        and tests; it does not change the search.
+        out), ``"cost-model"`` (the only event whose value is not an int: the
+        :class:`~kruskal_markov.sync.cost_model.StepCosts` of a step priced by the cost model,
+        its inputs, predicted costs and choice). For measurements and tests; it does not change
+        the search.
 
     Examples
     --------
