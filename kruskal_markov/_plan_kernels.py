@@ -225,7 +225,7 @@ def _hash(idx, val, m, kind):
 def tt_visit(idx, val, m, kind, depth, table, e_off, e_len, e_depth, pool_i, pool_v, tstate):
     """Transposition table: True if the node was already expanded at a depth <= ``depth`` in this pass
     (skip it); otherwise record it (if the pool has room) and return False. ``tstate`` =
-    ``[entries, pool_used]``; nodes are stored whole (no false matches: exactness is kept)."""
+    ``[entries, pool_used, 1 once a node found no room]``; nodes are stored whole (no false matches: exactness is kept)."""
     mask = np.uint64(table.shape[0] - 1)
     slot = _hash(idx, val, m, kind) & mask
     while True:
@@ -251,7 +251,8 @@ def tt_visit(idx, val, m, kind, depth, table, e_off, e_len, e_depth, pool_i, poo
     ne = tstate[0]
     used = tstate[1]
     if ne >= e_off.shape[0] or used + m > pool_i.shape[0] or 2 * (ne + 1) > table.shape[0]:
-        return False                        # full: no record, the search stays exact
+        tstate[2] = 1                       # full: no record (said in the notes), the search stays exact
+        return False
     e_off[ne] = used
     e_len[ne] = m
     e_depth[ne] = depth

@@ -418,7 +418,7 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
     word = np.zeros(Dmax + 2, dtype=np.int64)
     m0 = prob.start_idx.size
     entries, pool, table, e_off, e_len, e_depth, pool_i, pool_v = _transposition_table(prob, memory_budget_mb)
-    tstate = np.zeros(2, dtype=np.int64)
+    tstate = np.zeros(3, dtype=np.int64)
     full_passes = 0
     D = lower
     while D <= Dmax:
@@ -445,7 +445,7 @@ def shortest_plan(models, target="cell", cells=None, node_budget: int = DEFAULT_
                 break
         nodes = int(st[1])
         full_passes += 1
-        notes += _table_notes(tstate, entries, pool - N, D)
+        notes += _table_notes(tstate, D)
         if status == 1:
             w = [int(x) for x in word[:st[0]]]
             return result(w, True, len(w), "ida*", nodes)
@@ -481,9 +481,10 @@ def _never_meets(prob: _Problem) -> bool:
             and not prob.feasible(prob.start_idx, prob.start_val, _ANY_LENGTH))
 
 
-def _table_notes(tstate, entries: int, pool_room: int, depth: int) -> list[str]:
-    """A note when the transposition table filled up during the depth-``depth`` pass."""
-    if tstate[0] >= entries or tstate[1] >= pool_room:
+def _table_notes(tstate, depth: int) -> list[str]:
+    """A note when the transposition table had no room for a node during the depth-``depth`` pass
+    (a table that holds exactly every image it met is not full)."""
+    if tstate[2]:
         return [f"transposition table full in the depth-{depth} pass (depth-first without it)"]
     return []
 

@@ -626,8 +626,8 @@ def test_the_transposition_table_is_full_when_its_state_slots_are():
     image within D-1 letters when nothing prunes) whole: with a tiny budget the table's floors,
     1,024 entries and 1,024 state slots, are all it has. A 28-state automaton (no cell bound:
     it does not fit) has under 1,024 distinct images within 9 letters, so only the state slots
-    fill: the note names exactly the passes whose images (a plain breadth-first search) hold
-    1,024 - 28 states or more, before the plan's own pass."""
+    fill: the note names exactly the passes whose images (a plain breadth-first search) hold more
+    than 1,024 states together (one had no room), before the plan's own pass."""
     model = random_model(np.random.default_rng(1), 28, 2, False, 3)
     table = [np.asarray(m.indices) for m in model.matrices]
     r = shortest_plan(model, "cell", beam_width=1, memory_budget_mb=1e-6, max_length=12)
@@ -639,7 +639,7 @@ def test_the_transposition_table_is_full_when_its_state_slots_are():
         seen |= level
         sizes.append((len(seen), sum(len(s) for s in seen)))
     assert all(count < 1024 for count, _ in sizes)
-    full = {d + 2 for d, (_, states) in enumerate(sizes) if states >= 1024 - 28}
+    full = {d + 2 for d, (_, states) in enumerate(sizes) if states > 1024}
     noted = {int(n.split("depth-")[1].split()[0]) for n in r.notes if n.startswith("transposition table full")}
     assert full and noted - {r.length} == full
 
@@ -649,7 +649,7 @@ def test_the_transposition_table_takes_a_quarter_of_the_budget_in_state_slots():
     bytes each, set targets): 0.08 MB give 5,242 slots, and the 1,024-entry floor. A 2,000-state
     automaton (its cell bound of 16,000-byte levels does not fit the other half): the depth-D pass
     records the images within D - 1 letters, so the note names the passes whose images (a plain
-    breadth-first search) hold 5,242 - 2,000 states or more."""
+    breadth-first search) hold more than 5,242 states together (one had no room)."""
     n = 2000
     model = random_model(np.random.default_rng(0), n, 2, False, 3)
     table = [np.asarray(m.indices) for m in model.matrices]
@@ -663,7 +663,7 @@ def test_the_transposition_table_takes_a_quarter_of_the_budget_in_state_slots():
         seen |= level
         states.append(sum(len(s) for s in seen))
     assert len(seen) < 1024
-    full = [D for D in range(1, 5) if states[D - 1] >= slots - n]
+    full = [D for D in range(1, 5) if states[D - 1] > slots]
     assert 1 < len(full) < 4, states                  # the boundary falls between the passes
     assert r.notes == ("cell-reachability bound skipped (memory)",
                        *(f"transposition table full in the depth-{D} pass (depth-first without it)" for D in full),

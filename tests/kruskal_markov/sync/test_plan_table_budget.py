@@ -51,17 +51,18 @@ def _full_passes(r):
 
 def test_a_table_with_room_for_every_image_never_fills_and_one_with_fewer_says_so():
     """The instance has K images (over 1,024, the table's floor), all within 17 letters. A table of
-    K + 1 entries never fills: no pass records more than the K distinct images there are. With K - 1
+    K + 1 entries never fills: no pass records more than the K distinct images there are; nor does
+    one of exactly K entries, which holds every image and turns none away. With K - 1
     entries the last passes (which reach every image) fill it and say so. The states pooled with the
     entries (another quarter of the budget, 4 bytes a state) have room for every image in both. The
     answer is the same: no plan of length <= 20, proven up to that length only."""
     table, model, cells = _no_plan_instance()
     K, pooled = _reachable_images(table)
     assert 1024 < K and pooled + 2 * 14 < 12 * (K - 1)
-    roomy, tight = _plan(model, cells, K + 1), _plan(model, cells, K - 1)
-    assert _full_passes(roomy) == []
+    roomy, exact_fit, tight = _plan(model, cells, K + 1), _plan(model, cells, K), _plan(model, cells, K - 1)
+    assert _full_passes(roomy) == [] and _full_passes(exact_fit) == []
     full = _full_passes(tight)
     assert full and full[-1] == MAX_LENGTH and full == list(range(full[0], MAX_LENGTH + 1))
-    for r in (roomy, tight):
+    for r in (roomy, exact_fit, tight):
         assert (r.word, r.exact, r.lower_bound, r.method) == (None, False, MAX_LENGTH + 1, "ida*")
         assert r.notes[-1] == f"no plan of length <= {MAX_LENGTH}"
