@@ -58,10 +58,12 @@ _SYNC_TESTS = ["tests/kruskal_markov/sync/"]
 
 #: the tilt-time ramp of the trial loop (``_run``, ``tilt``, ``_ramp``, its schedule ``ramp_fractions``):
 #: the instant tilt unchanged, the ramp a valid landing of its own, the schedule by value, and the pair judges, whose onset judge reads the slope at which a
-#: part starts to slide on a ramping tray against atan(mu_s) (the ramp's schedule)
+#: part starts to slide on a ramping tray against atan(mu_s) (the ramp's schedule), and the ramp in a trial (the
+#: full tilt at its end, the rest test and the time limit from there)
 _RAMP_TESTS = [f"tests/transition_builder/test_friction_pair.py::{t}" for t in (
     "test_tilt_time_zero_is_the_instant_tilt", "test_slow_tilt_changes_the_landing_but_stays_valid",
-    "test_static_kinetic_judges_pass")] + ["tests/transition_builder/test_ramp_schedule.py"]
+    "test_static_kinetic_judges_pass")] + ["tests/transition_builder/test_ramp_schedule.py",
+                                           "tests/transition_builder/test_ramp_motion.py"]
 
 #: module -> (file, the tests that cover it, mutant-name globs; None: every mutant of the file)
 MODULES = {
