@@ -145,3 +145,50 @@ def test_the_cost_model_event_prices_the_search_s_own_levels_and_the_search_foll
         choices.append(value.choice)
     assert choices and choices[-1] == "idfs"
     assert r.exact and r.length is not None
+
+
+def _preimage(table, s, a):
+    return frozenset(p for p in range(len(table[0])) if table[a][p] in s)
+
+
+def _inverse_phase_sets(table, batch, x, depth, leaf_images):
+    """Sets the inverse depth-first phase generates below ``batch`` (sets at depth ``x``, grown
+    together) when no set it tests contains a forward set, down to ``depth``: the batch's distinct
+    non-empty preimages that are not in it, then below those of two states or more (a set of one
+    state never starts a shortest word); with ``leaf_images`` the deepest level's ``k`` preimages a
+    set, unstored."""
+    k = len(table)
+    if leaf_images and x + 1 == depth:
+        return k * len(batch)
+    seen, new = set(batch), []
+    for s in batch:
+        for a in range(k):
+            t = _preimage(table, s, a)
+            if t and t not in seen:
+                seen.add(t)
+                new.append(t)
+    kept = [t for t in new if len(t) >= 2]
+    return len(new) + (_inverse_phase_sets(table, kept, x + 1, depth, leaf_images) if kept and x + 1 < depth else 0)
+
+
+@pytest.mark.parametrize("leaf_images", [True, False])
+@pytest.mark.parametrize("n,seed", [(50, 2), (50, 3), (40, 3)])
+def test_the_inverse_phase_the_cost_model_chooses_grows_each_set_once(n, seed, leaf_images):
+    """Random 2-letter automata where the cost model ends the breadth-first search with the inverse
+    depth-first phase and that phase proves the beam's word shortest (no hit): the sets counted
+    (``states_explored``) are exactly the breadth-first levels' (a plain search) plus, for each set
+    of the newest backward level (chunks of one set), one descent over the lengths left -- every
+    set grown once, sets of at most one state not grown, the deepest level unstored or stored."""
+    table = np.random.default_rng(seed).integers(0, n, (2, n)).tolist()
+    seen = []
+    r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None,
+                                    options=ExactSearchOptions(fast_nodes=None, dfs_chunk=1, leaf_images=leaf_images,
+                                                               observe=lambda e, v: seen.append((e, v))))
+    decisions = [v for e, v in seen if e == "cost-model"]
+    assert decisions[-1].choice == "idfs" and [v for e, v in seen if e == "inverse-dfs"] == [0]
+    assert r.exact and r.method == "beam+lower-bound"
+    count = {e: sum(1 for x, _ in seen if x == e) for e in ("forward-level", "backward-level")}
+    fwd, bwd = _plain_levels(table, True, count["forward-level"]), _plain_levels(table, False, count["backward-level"])
+    depth = decisions[-1].remaining
+    descents = sum(_inverse_phase_sets(table, [s], 0, depth, leaf_images) for s in bwd[-1])
+    assert r.states_explored == sum(map(len, fwd)) + sum(map(len, bwd)) + descents
