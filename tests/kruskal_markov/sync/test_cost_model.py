@@ -45,6 +45,7 @@ def test_dfs_sets_and_retained_share_by_value():
     assert dfs_sets(1.0, 5) == 5.0 and dfs_sets(2.0, 0) == 0.0 and dfs_sets(2.0, -1) == 0.0
     assert retained_share(10, 15, 2) == 0.75 and retained_share(10, 30, 2) == 1.0
     assert retained_share(4, 3, 3) == 0.25 and retained_share(0, 3, 2) == 1.0
+    assert retained_share(0, 1, 2) == 1.0                   # no set before: over one, not over k
 
 
 def test_the_inverse_depth_first_phase_is_chosen_when_it_alone_is_cheapest():
