@@ -96,3 +96,64 @@ def test_the_node_budget_bounds_the_beam_too():
     r = shortest_synchronizing_word(aut, time_budget=None, node_budget=1000, options=options)
     assert [v for e, v in seen if e == "beam"] == [25]
     assert (r.length, r.exact, r.method) == (25, True, "beam+lower-bound")
+
+
+def test_an_exact_search_left_no_time_by_the_greedy_and_the_beam_stops_at_once():
+    """C_6 on a clock that stands still until the beam has answered and then jumps past the 1-second
+    budget, ticking 10 ms a reading: the exact search gets the 1 ms floor, so its first level is
+    predicted past the deadline, the depth-first phase stops at its first look at the clock, and
+    the answer is the beam's 25 letters with the bound 1 (a second would have proven 25)."""
+    class Clock:
+        now, tick = 0.0, 0.0
+
+        def __call__(self):
+            self.now += self.tick
+            return self.now
+
+    clock = Clock()
+
+    def observe(event, value):
+        seen.append((event, value))
+        if event == "beam" and clock.tick == 0.0:
+            clock.now, clock.tick = 100.0, 0.01
+
+    seen = []
+    r = shortest_synchronizing_word(SyncAutomaton.from_table(cerny(6)), time_budget=1.0, clock=clock,
+                                    options=ExactSearchOptions(fast_nodes=None, observe=observe))
+    assert (r.length, r.exact, r.method, r.lower_bound) == (25, False, "beam", 1)
+    assert [e for e, _ in seen] == ["beam", "meet", "depth-first", "inverse-dfs"]
+
+
+def test_the_last_level_is_met_unstored_only_when_its_sets_fit_the_node_budget():
+    """The 12-state automaton of test_exact_phases (shortest word 9): after 126 sets stored, the last
+    length's level is generated unstored from the side with the smaller newest level (26 backward
+    sets against 43 forward), 3 preimages a set. A node budget of exactly 126 + 3 x 26 lets it run
+    and proves 9; one set less and the level is not generated unstored: it is grown and stored
+    instead (its 78 preimages hold fewer new sets), which proves 9 as well."""
+    table = [[6, 5, 3, 11, 1, 2, 8, 7, 0, 10, 4, 4], [1, 8, 8, 4, 1, 11, 10, 6, 4, 0, 2, 3],
+             [2, 5, 7, 6, 11, 3, 0, 10, 6, 10, 4, 10]]
+    aut = SyncAutomaton.from_table(table)
+    options, seen = _events(use_beam=False)
+    shortest_synchronizing_word(aut, time_budget=None, options=options)
+    levels = [(e, v) for e, v in seen if e.endswith("-level")]
+    assert levels[-3:] == [("backward-level", 26), ("forward-level", 43), ("last-level", 78)]
+    for budget, runs in ((126 + 78, True), (126 + 78 - 1, False)):
+        options, seen = _events(use_beam=False)
+        r = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget, options=options)
+        assert ([v for e, v in seen if e == "last-level"] == [78]) == runs
+        assert (r.length, r.exact) == (9, True)
+        assert (r.states_explored == budget) if runs else (126 < r.states_explored < budget)
+
+
+def test_a_proven_no_answer_reports_its_threads():
+    """Two copies of a random 14-state automaton, no pair-graph check in 0.0001 MB: the breadth-first
+    search proves that no word exists, and says how many threads its kernels were split over."""
+    import numpy as np
+
+    table = np.random.default_rng(12).integers(0, 14, (3, 14)).tolist()
+    aut = SyncAutomaton.from_table([row + [q + 14 for q in row] for row in table])
+    for parallel in (False, True):
+        r = shortest_synchronizing_word(aut, time_budget=None, memory_budget_mb=1e-4,
+                                        options=ExactSearchOptions(parallel=parallel))
+        assert (r.word, r.exact, r.method) == (None, True, "bidirectional-bfs")
+        assert r.threads == ExactSearchOptions(parallel=parallel).threads
