@@ -111,6 +111,7 @@ def _expected_side(levels, i, n, k):
 def test_the_cost_model_event_prices_the_search_s_own_levels_and_the_search_follows_it(n, seed, step_by_cost):
     """Random 2-letter automata (the cost model consulted 2-4 times, every choice taken somewhere;
     with ``step_by_cost`` on 30 states, seed 0, the cheaper step is the larger level's twice):
+    the model is consulted only once both newest levels hold over ``n k`` sets, and
     each ``cost-model`` event's inputs are the newest levels of a plain breadth-first search
     (sets, mean density, share kept), its lengths left are the best word known (greedy or beam)
     minus one minus the levels grown, its costs are :func:`predict_step`'s on those inputs, and
@@ -134,6 +135,7 @@ def test_the_cost_model_event_prices_the_search_s_own_levels_and_the_search_foll
         if event != "cost-model":
             continue
         assert isinstance(value, StepCosts)
+        assert value.forward.sets > n * 2 and value.backward.sets > n * 2      # consulted past n k sets only
         for got, want in ((value.forward, _expected_side(fwd, nf, n, 2)), (value.backward, _expected_side(bwd, nb, n, 2))):
             assert (got.sets, got.density, got.retained) == (want.sets, pytest.approx(want.density, rel=1e-12),
                                                             pytest.approx(want.retained, rel=1e-12))

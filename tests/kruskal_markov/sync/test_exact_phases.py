@@ -203,3 +203,22 @@ def test_forward_levels_are_the_images_of_the_sets_that_can_still_start_a_shorte
         assert got == want[:len(got)], (seed, got, want)
         pruned += sum(dropped[:len(got)]) > 0
     assert pruned >= 10
+
+
+def test_stored_depth_first_levels_stay_within_the_memory_cap_too():
+    """As test_searches' chunk test (48 x 1,050 bytes of memory: a cap of 20 rows, 2 letters), with
+    the deepest level stored instead of generated unstored (``leaf_images=False``), so that every
+    level of the depth-first phase is grown by the same halving rule: chunks of 11 sets are never
+    expanded whole, no batch passes ``cap / k`` sets, and the answers are the brute-force ones."""
+    from tests.kruskal_markov.sync.test_searches import brute_bitmask
+
+    options, seen = _events(dfs_chunk=11, use_beam=False, leaf_images=False)
+    memory_mb = 1050 * 48 / 2 ** 20
+    for seed in (2, 7):
+        seen.clear()
+        table = np.random.default_rng(seed).integers(0, 60, size=(2, 60))
+        r = shortest_synchronizing_word(SyncAutomaton.from_table(table), time_budget=None, memory_budget_mb=memory_mb,
+                                        node_budget=10 ** 8, options=options)
+        sizes = [v for e, v in seen if e == "dfs-batch"]
+        assert r.method == "bidirectional-bfs+dfs" and r.length == brute_bitmask(table)
+        assert sizes and max(sizes) * 2 <= 20 and 11 not in sizes
