@@ -157,3 +157,27 @@ def test_a_proven_no_answer_reports_its_threads():
                                         options=ExactSearchOptions(parallel=parallel))
         assert (r.word, r.exact, r.method) == (None, True, "bidirectional-bfs")
         assert r.threads == ExactSearchOptions(parallel=parallel).threads
+
+
+def test_a_node_budget_stop_is_reproduced_by_a_budget_of_its_own_count():
+    """Budgets are in sets and checked as soon as the sets counted reach them: a search stopped by a
+    node budget after ``s`` sets stops at the same place, with the same bound, under a budget of
+    exactly ``s`` (here inside the inverse depth-first phase, entered at levels over 30 sets, on
+    random 4-letter automata of 20-29 states)."""
+    import numpy as np
+
+    from kruskal_markov import generators
+
+    rng = np.random.default_rng(4375)
+    options = ExactSearchOptions(use_beam=False, dfs_switch_rows=30, dfs_chunk=3)
+    stopped = 0
+    for _ in range(4):
+        aut = SyncAutomaton.from_table(generators.random_table(int(rng.integers(20, 30)), 4, rng))
+        for budget in range(50, 3000, 97):
+            r = shortest_synchronizing_word(aut, time_budget=None, node_budget=budget, options=options)
+            if r.exact:
+                continue
+            again = shortest_synchronizing_word(aut, time_budget=None, node_budget=r.states_explored, options=options)
+            assert (again.states_explored, again.lower_bound, again.word) == (r.states_explored, r.lower_bound, r.word)
+            stopped += 1
+    assert stopped > 50
