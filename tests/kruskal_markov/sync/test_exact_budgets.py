@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import itertools
 
+import pytest
+
 from kruskal_markov.generators import cerny_table as cerny
 from kruskal_markov.sync import (
     ExactSearchOptions,
@@ -54,13 +56,15 @@ def test_the_greedy_word_gets_forty_percent_of_the_time_budget_and_no_more():
     assert short.notes[-1] == "greedy word not found within 40% of the time budget"
 
 
-def test_the_exact_search_reads_the_clock_it_is_given():
+@pytest.mark.parametrize("trie_meet", [True, False])
+def test_the_exact_search_reads_the_clock_it_is_given(trie_meet):
     """C_6 (shortest word 25 letters) without the fast path and the beam, on a clock ticking one second
     per reading: a 20-second budget runs out after a few levels, so the answer is Eppstein's greedy
     word with a proven bound below 25, never the exact answer a real clock's milliseconds would
-    allow; with no time limit the search proves 25."""
+    allow; with no time limit the search proves 25. The same with the meet test by the rarest-member
+    index, which reads the clock between its groups."""
     aut = SyncAutomaton.from_table(cerny(6))
-    options = ExactSearchOptions(fast_nodes=None, use_beam=False)
+    options = ExactSearchOptions(fast_nodes=None, use_beam=False, trie_meet=trie_meet)
     r = shortest_synchronizing_word(aut, time_budget=20.0, options=options, clock=_ticking())
     assert not r.exact and r.method == "greedy-eppstein" and r.length == r.greedy_length
     assert 1 <= r.lower_bound < 25
@@ -181,3 +185,10 @@ def test_a_node_budget_stop_is_reproduced_by_a_budget_of_its_own_count():
             assert (again.states_explored, again.lower_bound, again.word) == (r.states_explored, r.lower_bound, r.word)
             stopped += 1
     assert stopped > 50
+
+
+def test_budgets_that_are_not_positive_are_refused_by_name():
+    aut = SyncAutomaton.from_table(cerny(4))
+    for kw in ({"time_budget": 0.0}, {"time_budget": -1.0}, {"memory_budget_mb": 0.0}):
+        with pytest.raises(ValueError, match=r"^time and memory budgets must be positive$"):
+            shortest_synchronizing_word(aut, **kw)
