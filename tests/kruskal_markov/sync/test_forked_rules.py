@@ -56,15 +56,20 @@ def test_the_child_failing_after_the_parent_is_done_is_said_so_too():
         _forked.split_two(task)
 
 
-def test_a_part_that_fails_in_the_parent_keeps_its_error():
+def test_a_part_that_fails_in_the_parent_keeps_its_error(tmp_path):
     """The parent's part raises while the child's would run for seconds: the parent's error comes
-    out, not another, and the child is ended rather than waited for."""
+    out, not another, and the child is ended rather than waited for (it never gets to leave the
+    mark it would leave at its end)."""
+    mark = tmp_path / "child-finished"
+
     def task(part, stop):
         if part == 0:
             raise ValueError("the parent's part failed")
-        for _ in range(1000):
+        for _ in range(300):
             time.sleep(0.01)
+        mark.touch()
         return None, 0
 
     with pytest.raises(ValueError, match=r"^the parent's part failed$"):
         _forked.split_two(task)
+    assert not mark.exists()
