@@ -679,7 +679,9 @@ class _InverseDepthFirst:
             self.perm, self.aut, self.fsorted, self.fsplit = _relabel.for_phase(aut, fwd, cache)
         # the deepest level's count filter (sync/_countfilter), in the trie's labels
         self.cfilter = None
-        if opts.leaf_images and opts.leaf_batch is not None and opts.count_blocks is not None:
+        self.batched = opts.leaf_batch is not None and opts.leaf_batch_rows is not None and \
+            fhi - flo >= opts.leaf_batch_rows
+        if opts.leaf_images and self.batched and opts.count_blocks is not None:
             self.cfilter = _countfilter.CountFilter(self.fsorted, aut.n, opts.count_blocks)
         blo, bhi = bwd.levels[-1]
         # both cores: the deepening phase's chunks dealt to two processes (sync/_forked), one thread each
@@ -756,7 +758,7 @@ class _InverseDepthFirst:
         """The preimages of ``rows`` (depth ``x``) at the deepest level, tested unstored
         (:func:`~kruskal_markov.sync._leaves.first_leaf_hit`); like :meth:`rec`."""
         slice_rows = min(_leaves.SLICE, self.cap)
-        if self.opts.leaf_batch is not None:     # batched, rows moved, count filter (sync/_rowtrie)
+        if self.batched:     # batched, rows moved, count filter (sync/_rowtrie)
             res = _leaves.first_leaf_hit_batched(self.aut, rows, self.fsorted, self.fsplit, self.opts.leaf_batch,
                                                  self.cfilter, self.tasks, self.over_budget, self.used,
                                                  slice_rows=slice_rows, emit=self.opts.emit)

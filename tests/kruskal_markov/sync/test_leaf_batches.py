@@ -99,13 +99,13 @@ def test_inverse_phase_with_batched_leaves_keeps_every_shortest_length(deepen, c
     some answers come from the inverse phase."""
     found = []
     options = ExactSearchOptions(use_beam=False, dfs_switch_rows=40, dfs_chunk=3, deepen=deepen, relabel_rows=1,
-                                 leaf_batch=5, count_blocks=count_blocks,
+                                 leaf_batch=5, leaf_batch_rows=1, count_blocks=count_blocks,
                                  observe=lambda e, v: found.append(v) if e == "inverse-dfs" else None)
     assert_shortest_on_small_automata(options)
     assert any(v == 1 for v in found)
 
 
 def test_options_refuse_bad_batches():
-    for bad in ({"leaf_batch": 0}, {"count_blocks": 0}, {"leaf_batch": 2.5}):
+    for bad in ({"leaf_batch": 0}, {"count_blocks": 0}, {"leaf_batch": 2.5}, {"leaf_batch_rows": -1}):
         with pytest.raises(ValueError):
             ExactSearchOptions(**bad)
