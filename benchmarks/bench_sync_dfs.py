@@ -18,7 +18,8 @@ check costs -- measured, not used.
 
 Usage (from the worktree root): ``python -m benchmarks.bench_sync_dfs [--seed S] [--budget SEC]
 [--upper U] [--dominance-sample N] [--options k=v,...]``; ``--compare [--seed S] [--share D]``:
-the phase's designs one by one on the same stores (:func:`run_compare`); ``python -m benchmarks sync_dfs`` runs
+the phase's designs one by one on the same stores (:func:`run_compare`; ``--round 7``: this
+round's, :data:`COMPARE7`; ``--third-share D3``: length ``total + 3`` too, on ``1 / D3`` of the level); ``python -m benchmarks sync_dfs`` runs
 seed 1 with a 240 s budget. Prints; stores nothing.
 """
 from __future__ import annotations
@@ -217,20 +218,28 @@ def run_profile(seed=1, budget=240.0, upper=20, memory_mb=4000.0, dominance_samp
 COMPARE = (
     ("last round (stored leaves, natural order)", {"relabel_rows": None, "leaf_images": False}),
     ("relabelled by frequency", {"relabel_rows": 1, "leaf_images": False}),
-    ("unstored leaves", {"relabel_rows": None, "leaf_images": True}),
-    ("both", {"relabel_rows": 1, "leaf_images": True}),
-    ("both, two processes (on one core: overhead only)", {"relabel_rows": 1, "leaf_images": True, "parallel": True,
-                                                          "fork_rows": 1}),
+    ("unstored leaves", {"relabel_rows": None, "leaf_images": True, "leaf_batch": None}),
+    ("both", {"relabel_rows": 1, "leaf_images": True, "leaf_batch": None}),
+    ("both, two processes (on one core: overhead only)", {"relabel_rows": 1, "leaf_images": True, "leaf_batch": None,
+                                                          "parallel": True, "fork_rows": 1}),
+)
+
+#: the seventh round's designs (``--compare --round 7``): the deepest level's test, one change at a time
+COMPARE7 = (
+    ("last round (26 + 27: per-slice walk by indices)", {"relabel_rows": 1, "leaf_batch": None}),
+    ("30 batched, rows moved (size filter only)", {"relabel_rows": 1, "count_blocks": None}),
+    ("30 + 31 count filter (6 blocks)", {"relabel_rows": 1}),
 )
 
 
-def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16):
+def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16, designs=COMPARE, third_share=None):
     """Each design of :data:`COMPARE` measured alone on the same breadth-first stores (grown once,
     up to the inverse depth-first phase): its set-up (the forward trie relabelled, when it is),
     length ``total + 1`` ruled out over the whole newest backward level, then length ``total + 2``
     over its first ``1 / share`` (a fixed sample of the chunks); sets generated and CPU (this
     process and a forked child) of each. Every design starts from its own copy of the
-    breadth-first phase's sorted forward level."""
+    breadth-first phase's sorted forward level. With ``third_share``, length ``total + 3`` too, over
+    the first ``1 / third_share`` of the level."""
     import types
 
     from benchmarks.bench_sync_record import _child_cpu
@@ -257,24 +266,30 @@ def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16):
     blo, bhi = bwd.levels[-1]
     print(f"random-8-200-s{seed}: breadth-first phase to total {total} in {time.perf_counter() - t0:.1f} s; "
           f"newest backward level {bhi - blo:,} sets; length {total + 2} on its first 1/{share}", flush=True)
-    sample = types.SimpleNamespace(rows=bwd.rows, levels=bwd.levels[:-1] + [(blo, blo + (bhi - blo) // share)],
-                                   count=bwd.count, path=bwd.path)
+
+    def part(d):
+        return types.SimpleNamespace(rows=bwd.rows, levels=bwd.levels[:-1] + [(blo, blo + (bhi - blo) // d)],
+                                     count=bwd.count, path=bwd.path)
+
+    runs = [(total + 1, bwd, 1), (total + 2, part(share), share)]
+    if third_share:
+        runs.append((total + 3, part(third_share), third_share))
 
     def clock():
         return time.perf_counter(), time.process_time() + _child_cpu()
 
-    for name, extra in COMPARE:
+    for name, extra in designs:
         opts = ExactSearchOptions(**({"parallel": False} | extra)).resolved()
         own = {"level": cache["level"], "rows": cache["rows"].copy(), "split": cache["split"]}
         (t, c) = clock()
         dfs = exact._InverseDepthFirst(aut, fwd, bwd, None, None, memory_mb / 4, opts, time.perf_counter, own)
         (t1, c1) = clock()
         print(f"  {name:52s} set-up {c1 - c:.1f} s CPU", flush=True)
-        for length, store in ((total + 1, bwd), (total + 2, sample)):
+        for length, store, d in runs:
             dfs.bwd, dfs.used = store, [0]
             res = dfs.run(length - total, length - total)
             (t2, c2) = clock()
-            print(f"  {name:52s} length {length}{'' if store is bwd else f' (1/{share})'}: "
+            print(f"  {name:52s} length {length}{'' if d == 1 else f' (1/{d})'}: "
                   f"{'ruled out' if res is None else res}, sets {dfs.used[0]:,}, {c2 - c1:.1f} s CPU, "
                   f"{t2 - t1:.1f} s wall", flush=True)
             (t1, c1) = (t2, c2)
@@ -297,7 +312,9 @@ def main(argv=()) -> None:
         return conv(argv[argv.index(name) + 1]) if name in argv else default
 
     if "--compare" in argv:
-        run_compare(seed=arg("--seed", 1, int), share=arg("--share", 16, int))
+        seventh = arg("--round", 6, int) == 7
+        run_compare(seed=arg("--seed", 1, int), share=arg("--share", 16, int),
+                    designs=COMPARE7 if seventh else COMPARE, third_share=arg("--third-share", None, int))
         return
     run_profile(seed=arg("--seed", 1, int), budget=arg("--budget", 240.0, float), upper=arg("--upper", 20, int),
                 memory_mb=arg("--memory-mb", 4000.0, float), dominance_sample=arg("--dominance-sample", 0, int),

@@ -69,6 +69,8 @@ INSTANCES = [
     ("random", 8, 100, 4), ("random", 8, 100, 5), ("random", 2, 200, 4), ("random", 8, 200, 2),
     # held out for the depth-first round (issue 43, sixth; named in docs/plans.md before it was run)
     ("random", 8, 200, 5), ("random", 8, 200, 6),
+    # held out for the leaf-test round (issue 43, seventh; named in the brief and docs/plans.md before it was run)
+    ("random", 8, 200, 7), ("random", 8, 200, 8),
 ]
 
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from kruskal_markov import _sync_kernels as _k
-from kruskal_markov.sync import _trie
+from kruskal_markov.sync import _rowtrie, _trie
 
-__all__ = ["first_leaf_hit", "preimage"]
+__all__ = ["first_leaf_hit", "first_leaf_hit_batched", "preimage"]
 
 #: preimages generated per slice (about 32 MB of rows at 200 states)
 SLICE = 1 << 20
@@ -50,6 +50,48 @@ def first_leaf_hit(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, tasks: in
         if hit.size:
             i = int(hit[0])
             return lo + i // k, i % k
+    return None
+
+
+def first_leaf_hit_batched(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, batch: int, cfilter=None, tasks: int = 1,
+                           over_budget=None, used=None, slice_rows: int = SLICE, emit=None):
+    """:func:`first_leaf_hit` with the preimages that may contain a forward set (at least as
+    large as the smallest one, and kept by ``cfilter``'s per-block counts,
+    :class:`~kruskal_markov.sync._countfilter.CountFilter`, if given) gathered from successive
+    slices into one compact batch of about ``batch`` rows, which walks the trie with its rows
+    moved in place (:func:`~kruskal_markov.sync._rowtrie.superset_mask_rows`). Returns a
+    ``(row index, letter)`` whose preimage contains a forward set (the first within its batch; any
+    hit of the deepest level gives a word of the same length), ``None`` when none does, or
+    ``"budget"`` when ``over_budget()`` is true before a slice is generated or a batch tested."""
+    k = aut.k
+    inv_ptr, inv_idx, supcount = aut.inverse
+    step = max(1, slice_rows // k)
+    parts, ids, held = [], [], 0
+    for lo in range(0, rows.shape[0], step):
+        if over_budget is not None and over_budget():
+            return "budget"
+        hi = min(rows.shape[0], lo + step)
+        if emit is not None:
+            emit("dfs-batch", hi - lo)
+        pre = _k.level_images(rows, lo, hi, aut.delta, aut.step_table(False), aut.deterministic, False, inv_ptr,
+                              inv_idx, supcount, tasks=tasks)
+        if used is not None:
+            used[0] += pre.shape[0]
+        keep = cfilter.keep(pre) if cfilter is not None else _k._level_sizes(pre, 0, pre.shape[0]) >= fsplit.min_size
+        idx = np.flatnonzero(keep)
+        parts.append(pre[idx])
+        ids.append(lo * k + idx)
+        held += idx.size
+        del pre
+        if held < batch and hi < rows.shape[0]:
+            continue
+        if over_budget is not None and over_budget():
+            return "budget"
+        got = _rowtrie.superset_mask_rows(fsorted, np.concatenate(parts), fsplit, tasks=tasks) if held else None
+        if got is not None and got.any():
+            g = int(np.concatenate(ids)[np.flatnonzero(got)[0]])
+            return g // k, g % k
+        parts, ids, held = [], [], 0
     return None
 
 

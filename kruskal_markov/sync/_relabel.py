@@ -25,12 +25,41 @@ __all__ = ["for_phase", "frequency_order", "permute_rows", "relabel_sorted", "re
 
 @njit(cache=True)
 def _counts(rows, n):
-    out = np.zeros(n, dtype=np.int64)
+    """Rows holding each state: only the set bits are visited (lowest first, ``x & (x - 1)``
+    clears it), about a fifth of the bits on the 8 x 200 forward levels."""
+    out = np.zeros(rows.shape[1] * 64, dtype=np.int64)
     for i in range(rows.shape[0]):
-        for q in range(n):
-            if (rows[i, q >> 6] >> np.uint64(q & 63)) & np.uint64(1):
-                out[q] += 1
-    return out
+        for w in range(rows.shape[1]):
+            x = rows[i, w]
+            while x != np.uint64(0):
+                low = x & (~x + np.uint64(1))
+                out[64 * w + _bit_index(low)] += 1
+                x ^= low
+    return out[:n]
+
+
+@njit(cache=True, inline="always")
+def _bit_index(low):
+    """The index of the single set bit of ``low`` (a power of two)."""
+    j = 0
+    if low >> np.uint64(32):
+        j += 32
+        low >>= np.uint64(32)
+    if low >> np.uint64(16):
+        j += 16
+        low >>= np.uint64(16)
+    if low >> np.uint64(8):
+        j += 8
+        low >>= np.uint64(8)
+    if low >> np.uint64(4):
+        j += 4
+        low >>= np.uint64(4)
+    if low >> np.uint64(2):
+        j += 2
+        low >>= np.uint64(2)
+    if low >> np.uint64(1):
+        j += 1
+    return j
 
 
 def frequency_order(rows: np.ndarray, n: int) -> np.ndarray:
@@ -62,10 +91,13 @@ def _permute_inplace(rows, perm):
     tmp = np.empty(rows.shape[1], dtype=rows.dtype)
     for i in range(rows.shape[0]):
         tmp[:] = 0
-        for q in range(perm.shape[0]):
-            if (rows[i, q >> 6] >> np.uint64(q & 63)) & np.uint64(1):
-                p = perm[q]
+        for w in range(rows.shape[1]):
+            x = rows[i, w]
+            while x != np.uint64(0):        # the set bits only
+                low = x & (~x + np.uint64(1))
+                p = perm[64 * w + _bit_index(low)]
                 tmp[p >> 6] |= np.uint64(1) << np.uint64(p & 63)
+                x ^= low
         rows[i] = tmp
 
 

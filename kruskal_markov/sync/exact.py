@@ -17,7 +17,7 @@ import numpy as np
 
 from kruskal_markov import _sync_kernels as _k
 from kruskal_markov._subsets import SubsetStore, as_start
-from kruskal_markov.sync import _forked, _leaves, _relabel, _trie, cost_model
+from kruskal_markov.sync import _countfilter, _forked, _leaves, _relabel, _trie, cost_model
 from kruskal_markov.sync.automaton import SyncAutomaton, as_automaton, is_synchronizing_word
 from kruskal_markov.sync.beam import beam_width_schedule, inverse_beam_word
 from kruskal_markov.sync.greedy import greedy_synchronizing_word
@@ -624,6 +624,12 @@ class _InverseDepthFirst:
         flo, fhi = fwd.levels[-1]
         if opts.relabel_rows is not None and aut.deterministic and fhi - flo >= opts.relabel_rows:
             self.perm, self.aut, self.fsorted, self.fsplit = _relabel.for_phase(aut, fwd, cache)
+        # the deepest level's count filter (sync/_countfilter), in the trie's labels
+        self.cfilter = None
+        self.batched = opts.leaf_batch is not None and opts.leaf_batch_rows is not None and \
+            fhi - flo >= opts.leaf_batch_rows
+        if opts.leaf_images and self.batched and opts.count_blocks is not None:
+            self.cfilter = _countfilter.CountFilter(self.fsorted, aut.n, opts.count_blocks)
         blo, bhi = bwd.levels[-1]
         # both cores: the deepening phase's chunks dealt to two processes (sync/_forked), one thread each
         self.forked = bool(opts.parallel) and node_budget is None and opts.fork_rows is not None and \
@@ -698,8 +704,14 @@ class _InverseDepthFirst:
     def leaves(self, rows, rid, words, x):
         """The preimages of ``rows`` (depth ``x``) at the deepest level, tested unstored
         (:func:`~kruskal_markov.sync._leaves.first_leaf_hit`); like :meth:`rec`."""
-        res = _leaves.first_leaf_hit(self.aut, rows, self.fsorted, self.fsplit, self.tasks, self.over_budget,
-                                     self.used, slice_rows=min(_leaves.SLICE, self.cap), emit=self.opts.emit)
+        slice_rows = min(_leaves.SLICE, self.cap)
+        if self.batched:     # batched, rows moved, count filter (sync/_rowtrie)
+            res = _leaves.first_leaf_hit_batched(self.aut, rows, self.fsorted, self.fsplit, self.opts.leaf_batch,
+                                                 self.cfilter, self.tasks, self.over_budget, self.used,
+                                                 slice_rows=slice_rows, emit=self.opts.emit)
+        else:
+            res = _leaves.first_leaf_hit(self.aut, rows, self.fsorted, self.fsplit, self.tasks, self.over_budget,
+                                         self.used, slice_rows=slice_rows, emit=self.opts.emit)
         if res is None or res == "budget":
             return res
         i, a = res

@@ -90,6 +90,19 @@ class ExactSearchOptions:
         (this one and a forked child, one thread each; :mod:`kruskal_markov.sync._forked`) when the
         newest backward level holds at least this many sets, and no node budget is set; None:
         never. Which process finds the word first may change the sets counted, never the length.
+    leaf_batch : int or None, default 524,288
+        With ``leaf_images``, when the newest forward level holds at least ``leaf_batch_rows``
+        sets, the deepest level's preimages that may contain a forward set are
+        gathered from successive slices into batches of about this many rows, each walking the
+        trie with its rows moved in place (:mod:`kruskal_markov.sync._rowtrie`); None: each
+        slice walks the trie by indices (:func:`~kruskal_markov.sync._trie.superset_mask`).
+    leaf_batch_rows : int or None, default 4,194,304
+        The forward level's size from which ``leaf_batch`` and ``count_blocks`` act (on smaller
+        tries, random 8 x 100, they cost about 8% more than they save: docs/plans.md); None: never.
+    count_blocks : int or None, default 6
+        With ``leaf_batch``, a deepest-level preimage walks the trie only if, in each of this many
+        blocks of states, it holds at least as many states as some forward set does
+        (:mod:`kruskal_markov.sync._countfilter`); None: only the size filter.
     relabel_rows : int or None, default 4,194,304
         The inverse depth-first phase relabels the states by their frequency in the newest
         forward level (the trie branches first on the states most forward sets hold;
@@ -144,6 +157,9 @@ class ExactSearchOptions:
     deepen: bool = True
     dfs_chunk: int = 4096
     leaf_images: bool = True
+    leaf_batch: int | None = 1 << 19
+    leaf_batch_rows: int | None = 1 << 22
+    count_blocks: int | None = 6
     fork_rows: int | None = 1 << 20
     relabel_rows: int | None = 1 << 22
     cost_model: bool = True
@@ -158,7 +174,8 @@ class ExactSearchOptions:
             raise ValueError(f"last_side must be one of {_LAST_SIDES}, got {self.last_side!r}")
         if int(self.dfs_chunk) != self.dfs_chunk or self.dfs_chunk < 1:
             raise ValueError(f"dfs_chunk must be a positive integer, got {self.dfs_chunk!r}")
-        for name in ("fast_nodes", "dfs_switch_rows", "relabel_rows", "fork_rows"):
+        for name in ("fast_nodes", "dfs_switch_rows", "relabel_rows", "fork_rows", "leaf_batch", "count_blocks",
+                     "leaf_batch_rows"):
             v = getattr(self, name)
             if v is not None and (int(v) != v or v < 1):
                 raise ValueError(f"{name} must be a positive integer or None, got {v!r}")
