@@ -22,6 +22,28 @@ __all__ = ["first_leaf_hit", "first_leaf_hit_batched", "preimage"]
 SLICE = 1 << 20
 
 
+def _preimage_slices(aut, rows, slice_rows, tasks, over_budget, used, emit):
+    """Yield ``(lo, hi, preimages of rows[lo:hi] under every letter)`` slice by slice, at most
+    ``slice_rows`` preimages (at least ``k``) at a time; ``(lo, hi, None)``, then stop, when
+    ``over_budget()`` is true before a slice is generated. Counts the preimages in ``used[0]`` and
+    tells ``emit`` ``("dfs-batch", rows in the slice)`` (the shared loop of both leaf tests)."""
+    inv_ptr, inv_idx, supcount = aut.inverse
+    step = max(1, slice_rows // aut.k)
+    for lo in range(0, rows.shape[0], step):
+        hi = min(rows.shape[0], lo + step)
+        if over_budget is not None and over_budget():
+            yield lo, hi, None
+            return
+        if emit is not None:
+            emit("dfs-batch", hi - lo)
+        pre = _k.level_images(rows, lo, hi, aut.delta, aut.step_table(False), aut.deterministic, False, inv_ptr,
+                              inv_idx, supcount, tasks=tasks)
+        if used is not None:
+            used[0] += pre.shape[0]
+        yield lo, hi, pre
+        del pre    # the caller's reference alone keeps a slice alive while the next one is generated
+
+
 def first_leaf_hit(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, tasks: int = 1, over_budget=None,
                    used=None, slice_rows: int = SLICE, emit=None):
     """The first preimage of a row of ``rows`` (under any letter) that contains a row of the sorted
@@ -32,19 +54,8 @@ def first_leaf_hit(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, tasks: in
     cap). ``used[0]`` (if given) is increased by the preimages generated; ``emit`` (if given) is
     told ``("dfs-batch", rows in the slice)``."""
     k = aut.k
-    inv_ptr, inv_idx, supcount = aut.inverse
-    step = max(1, slice_rows // k)
-    for lo in range(0, rows.shape[0], step):
-        if over_budget is not None and over_budget():
-            return "budget"
-        hi = min(rows.shape[0], lo + step)
-        if emit is not None:
-            emit("dfs-batch", hi - lo)
-        pre = _k.level_images(rows, lo, hi, aut.delta, aut.step_table(False), aut.deterministic, False, inv_ptr,
-                              inv_idx, supcount, tasks=tasks)
-        if used is not None:
-            used[0] += pre.shape[0]
-        if over_budget is not None and over_budget():
+    for lo, _, pre in _preimage_slices(aut, rows, slice_rows, tasks, over_budget, used, emit):
+        if pre is None or (over_budget is not None and over_budget()):
             return "budget"
         hit = np.flatnonzero(_trie.superset_mask(fsorted, pre, sorted_stored=True, tasks=tasks, split=fsplit))
         if hit.size:
@@ -64,19 +75,10 @@ def first_leaf_hit_batched(aut, rows: np.ndarray, fsorted: np.ndarray, fsplit, b
     hit of the deepest level gives a word of the same length), ``None`` when none does, or
     ``"budget"`` when ``over_budget()`` is true before a slice is generated or a batch tested."""
     k = aut.k
-    inv_ptr, inv_idx, supcount = aut.inverse
-    step = max(1, slice_rows // k)
     parts, ids, held = [], [], 0
-    for lo in range(0, rows.shape[0], step):
-        if over_budget is not None and over_budget():
+    for lo, hi, pre in _preimage_slices(aut, rows, slice_rows, tasks, over_budget, used, emit):
+        if pre is None:
             return "budget"
-        hi = min(rows.shape[0], lo + step)
-        if emit is not None:
-            emit("dfs-batch", hi - lo)
-        pre = _k.level_images(rows, lo, hi, aut.delta, aut.step_table(False), aut.deterministic, False, inv_ptr,
-                              inv_idx, supcount, tasks=tasks)
-        if used is not None:
-            used[0] += pre.shape[0]
         keep = cfilter.keep(pre) if cfilter is not None else _k._level_sizes(pre, 0, pre.shape[0]) >= fsplit.min_size
         idx = np.flatnonzero(keep)
         parts.append(pre[idx])
