@@ -19,18 +19,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from kruskal_markov._sync_kernels import _popcount
+
 __all__ = ["CountFilter"]
 
 #: table entries above which fewer blocks are used (a byte each)
 MAX_TABLE = 1 << 26
-
-
-@njit(cache=True)
-def _popcount(x):
-    x = x - ((x >> np.uint64(1)) & np.uint64(0x5555555555555555))
-    x = (x & np.uint64(0x3333333333333333)) + ((x >> np.uint64(2)) & np.uint64(0x3333333333333333))
-    x = (x + (x >> np.uint64(4))) & np.uint64(0x0F0F0F0F0F0F0F0F)
-    return int((x * np.uint64(0x0101010101010101)) >> np.uint64(56))
 
 
 @njit(cache=True)

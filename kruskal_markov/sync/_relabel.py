@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from kruskal_markov._sync_kernels import _ctz
 from kruskal_markov.sync.automaton import SyncAutomaton
 
 __all__ = ["for_phase", "frequency_order", "permute_rows", "relabel_sorted", "relabelled"]
@@ -33,33 +34,9 @@ def _counts(rows, n):
             x = rows[i, w]
             while x != np.uint64(0):
                 low = x & (~x + np.uint64(1))
-                out[64 * w + _bit_index(low)] += 1
+                out[64 * w + _ctz(low)] += 1
                 x ^= low
     return out[:n]
-
-
-@njit(cache=True, inline="always")
-def _bit_index(low):
-    """The index of the single set bit of ``low`` (a power of two)."""
-    j = 0
-    if low >> np.uint64(32):
-        j += 32
-        low >>= np.uint64(32)
-    if low >> np.uint64(16):
-        j += 16
-        low >>= np.uint64(16)
-    if low >> np.uint64(8):
-        j += 8
-        low >>= np.uint64(8)
-    if low >> np.uint64(4):
-        j += 4
-        low >>= np.uint64(4)
-    if low >> np.uint64(2):
-        j += 2
-        low >>= np.uint64(2)
-    if low >> np.uint64(1):
-        j += 1
-    return j
 
 
 def frequency_order(rows: np.ndarray, n: int) -> np.ndarray:
@@ -95,7 +72,7 @@ def _permute_inplace(rows, perm):
             x = rows[i, w]
             while x != np.uint64(0):        # the set bits only
                 low = x & (~x + np.uint64(1))
-                p = perm[64 * w + _bit_index(low)]
+                p = perm[64 * w + _ctz(low)]
                 tmp[p >> 6] |= np.uint64(1) << np.uint64(p & 63)
                 x ^= low
         rows[i] = tmp
