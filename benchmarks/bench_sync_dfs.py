@@ -232,18 +232,10 @@ COMPARE7 = (
 )
 
 
-def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16, designs=COMPARE, third_share=None):
-    """Each design of :data:`COMPARE` measured alone on the same breadth-first stores (grown once,
-    up to the inverse depth-first phase): its set-up (the forward trie relabelled, when it is),
-    length ``total + 1`` ruled out over the whole newest backward level, then length ``total + 2``
-    over its first ``1 / share`` (a fixed sample of the chunks); sets generated and CPU (this
-    process and a forked child) of each. Every design starts from its own copy of the
-    breadth-first phase's sorted forward level. With ``third_share``, length ``total + 3`` too, over
-    the first ``1 / third_share`` of the level."""
-    import types
-
-    from benchmarks.bench_sync_record import _child_cpu
-
+def breadth_first_stores(seed, memory_mb, upper):
+    """Random 8 x 200 automaton ``seed`` searched up to the inverse depth-first phase, which is
+    not run: ``(automaton, forward store, backward store, total, cache, seconds)``, the forward
+    level sorted for the phase (the Numba kernels compiled first on a small instance)."""
     aut = SyncAutomaton.from_table(instance_table("random", 8, 200, seed))
     exact._exact_search(SyncAutomaton.from_table(instance_table("random", 8, 30, 1)), np.arange(30), 5.0, 50.0,
                         upper=40)
@@ -263,8 +255,24 @@ def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16, designs=COMPARE, t
         exact._Bidirectional = orig
     fwd, bwd, total, cache = got["fwd"], got["bwd"], got["total"], got["cache"]
     exact._sorted_forward(fwd, cache)
+    return aut, fwd, bwd, total, cache, time.perf_counter() - t0
+
+
+def run_compare(seed=1, upper=20, memory_mb=4000.0, share=16, designs=COMPARE, third_share=None):
+    """Each design of :data:`COMPARE` measured alone on the same breadth-first stores (grown once,
+    up to the inverse depth-first phase): its set-up (the forward trie relabelled, when it is),
+    length ``total + 1`` ruled out over the whole newest backward level, then length ``total + 2``
+    over its first ``1 / share`` (a fixed sample of the chunks); sets generated and CPU (this
+    process and a forked child) of each. Every design starts from its own copy of the
+    breadth-first phase's sorted forward level. With ``third_share``, length ``total + 3`` too, over
+    the first ``1 / third_share`` of the level."""
+    import types
+
+    from benchmarks.bench_sync_record import _child_cpu
+
+    aut, fwd, bwd, total, cache, seconds = breadth_first_stores(seed, memory_mb, upper)
     blo, bhi = bwd.levels[-1]
-    print(f"random-8-200-s{seed}: breadth-first phase to total {total} in {time.perf_counter() - t0:.1f} s; "
+    print(f"random-8-200-s{seed}: breadth-first phase to total {total} in {seconds:.1f} s; "
           f"newest backward level {bhi - blo:,} sets; length {total + 2} on its first 1/{share}", flush=True)
 
     def part(d):

@@ -28,34 +28,16 @@ import time
 
 import numpy as np
 
-from benchmarks.bench_sync_record import instance_table
+from benchmarks.bench_sync_dfs import breadth_first_stores
 from kruskal_markov import _sync_kernels as _k
-from kruskal_markov.sync import ExactSearchOptions, SyncAutomaton, _countfilter, _rowtrie, _sizetrie, _trie, exact
+from kruskal_markov.sync import ExactSearchOptions, _countfilter, _rowtrie, _sizetrie, _trie, exact
 
 
 def collect(seed: int, share: int):
     """The relabelled forward trie, its size split and the sampled deepest-level preimages that
     pass the size filter (see the module docstring)."""
-    aut = SyncAutomaton.from_table(instance_table("random", 8, 200, seed))
-    exact._exact_search(SyncAutomaton.from_table(instance_table("random", 8, 30, 1)), np.arange(30), 5.0, 50.0,
-                        upper=40)
-    got = {}
-
-    class Bi(exact._Bidirectional):
-        def _depth_first(self):
-            got.update(fwd=self.fwd, bwd=self.bwd, total=self.total, cache=self.cache)
-            return None, "budget", self.count, self.total + 1
-
-    t0 = time.perf_counter()
-    orig = exact._Bidirectional
-    exact._Bidirectional = Bi
-    try:
-        exact._exact_search(aut, np.arange(aut.n), None, 4000.0, None, 20)
-    finally:
-        exact._Bidirectional = orig
-    fwd, bwd, total, cache = got["fwd"], got["bwd"], got["total"], got["cache"]
-    exact._sorted_forward(fwd, cache)
-    print(f"random-8-200-s{seed}: breadth-first phase to total {total} in {time.perf_counter() - t0:.1f} s",
+    aut, fwd, bwd, total, cache, seconds = breadth_first_stores(seed, 4000.0, 20)
+    print(f"random-8-200-s{seed}: breadth-first phase to total {total} in {seconds:.1f} s",
           flush=True)
     opts = ExactSearchOptions(parallel=False, leaf_batch=None).resolved()
     c0 = time.process_time()
