@@ -71,20 +71,30 @@ def test_relabelling_refuses_what_is_not_a_renaming():
         ExactSearchOptions(relabel_rows=0)
 
 
+def random_leaf_case(rng):
+    """A random automaton (3-69 states, 1-4 letters), bitset rows, a lexicographically sorted
+    family of stored sets, the preimages ``pre[i][a]`` of row ``i`` under letter ``a`` as bitsets,
+    and by brute force ``inside[i][a]``: whether ``pre[i][a]`` contains a stored set (the leaf
+    tests' instance and expected answer)."""
+    n = int(rng.integers(3, 70))
+    k = int(rng.integers(1, 5))
+    aut = SyncAutomaton.from_table(generators.random_table(n, k, rng))
+    rows = pack(random_family(rng, int(rng.integers(1, 40)), n))
+    stored = pack(random_family(rng, int(rng.integers(1, 60)), n))
+    fs = stored[_trie.lex_order(stored)]
+    pre = [[aut.bits(sorted({q for q in range(n) if aut.delta[a, q] in set(aut.states_of(r))}))
+            for a in range(k)] for r in rows]
+    inside = [[bool((~np.any(fs & ~p, axis=1)).any()) for p in ps] for ps in pre]
+    return aut, rows, fs, pre, inside
+
+
 def test_the_unstored_deepest_level_finds_the_first_preimage_inside_a_trie():
     """``first_leaf_hit`` names a (row, letter) whose preimage contains a stored set exactly when
     one exists, the first in row-major order, whatever the slice size; the preimages are counted."""
     rng = np.random.default_rng(4382)
     for _ in range(40):
-        n = int(rng.integers(3, 70))
-        k = int(rng.integers(1, 5))
-        aut = SyncAutomaton.from_table(generators.random_table(n, k, rng))
-        rows = pack(random_family(rng, int(rng.integers(1, 40)), n))
-        stored = pack(random_family(rng, int(rng.integers(1, 60)), n))
-        fs = stored[_trie.lex_order(stored)]
-        pre = [[aut.bits(sorted({q for q in range(n) if aut.delta[a, q] in set(aut.states_of(r))}))
-                for a in range(k)] for r in rows]
-        inside = [[bool((~np.any(fs & ~p, axis=1)).any()) for p in ps] for ps in pre]
+        aut, rows, fs, pre, inside = random_leaf_case(rng)
+        k = aut.k
         want = next(((i, a) for i in range(len(rows)) for a in range(k) if inside[i][a]), None)
         for slice_rows in (1, 7, 1 << 20):
             used = [0]

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kruskal_markov import generators
-from kruskal_markov.sync import ExactSearchOptions, SyncAutomaton, _countfilter, _leaves, _rowtrie, _trie
+from kruskal_markov.sync import ExactSearchOptions, _countfilter, _leaves, _rowtrie, _trie
+from tests.kruskal_markov.sync.test_dfs_speedups import random_leaf_case
 from tests.kruskal_markov.sync.test_trie import assert_shortest_on_small_automata, pack, random_family
 
 
@@ -67,15 +67,8 @@ def test_batched_leaves_find_a_preimage_inside_the_trie_exactly_when_one_exists(
     filter; every preimage is counted when none does; a budget stops it."""
     rng = np.random.default_rng(4392)
     for _ in range(40):
-        n = int(rng.integers(3, 70))
-        k = int(rng.integers(1, 5))
-        aut = SyncAutomaton.from_table(generators.random_table(n, k, rng))
-        rows = pack(random_family(rng, int(rng.integers(1, 40)), n))
-        stored = pack(random_family(rng, int(rng.integers(1, 60)), n))
-        fs = stored[_trie.lex_order(stored)]
-        pre = [[aut.bits(sorted({q for q in range(n) if aut.delta[a, q] in set(aut.states_of(r))}))
-                for a in range(k)] for r in rows]
-        inside = [[bool((~np.any(fs & ~p, axis=1)).any()) for p in ps] for ps in pre]
+        aut, rows, fs, _, inside = random_leaf_case(rng)
+        n, k = aut.n, aut.k
         exists = any(any(x) for x in inside)
         for slice_rows, batch, blocks in ((1, 1, None), (7, 5, 3), (1 << 20, 1 << 19, 6), (3, 1 << 19, 1)):
             used = [0]
