@@ -386,9 +386,8 @@ class BulletWorld:
         sphere, carrying the part's mass, its z inertia and a roll and pitch inertia
         ``_ROLL_INERTIA_FACTOR`` times larger (so it stays flat), with one fixed child link per
         convex part. No slide or hinge links: the base's six degrees of freedom replace the four
-        joints of the chain. Not for ``legs:K``."""
-        if self.contact.kind == "legs":
-            raise ValueError("SimSettings.part_links='floating' does not support the legs contact")
+        joints of the chain. Never with ``legs:K`` (:class:`SimSettings` reads ``floating`` as
+        ``per-part`` there)."""
         m = shape.mass_kg
         eps = m * _EPS_MASS_FRACTION
         izz = shape.inertia_kg_m2 * st.world_units_per_m ** 2

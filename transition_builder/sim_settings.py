@@ -11,7 +11,8 @@ from dataclasses import asdict, dataclass, fields
 
 from kruskal_markov.validation import check_fields
 
-__all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES", "LONG_STEPS"]
+__all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES", "LONG_STEPS",
+           "LEGACY_CHOICES", "SETTING_CHOICES"]
 
 #: the contact models ``--contact`` accepts (``legs:K`` with an integer K from 2 to 64).
 CONTACT_CHOICES = "coulomb (default), sphere, legs:K"
@@ -30,8 +31,19 @@ LONG_STEPS = ("free", "free+steady", "free+steady-hold", "free+stick")
 #: values of :attr:`SimSettings.part_links`.
 PART_LINKS = ("per-part", "compound", "yaw-compound", "floating")
 
-#: the settings that take one of a few names, the first the default (left out of :meth:`SimSettings.to_dict`)
-_CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS, "part_links": PART_LINKS}
+#: the settings that take one of a few names. The first is the *legacy* value: the one every scene had
+#: before the setting existed, left out of :meth:`SimSettings.to_dict` (so the content hash of those
+#: scenes stays as it was) and read back by :meth:`SimSettings.from_dict` when a saved dict lacks it.
+#: The defaults are not the first since the seventh session (``needed``, ``free+stick``, ``floating``:
+#: docs/builder.md, "The lighter physics as the default"), so a new default scene records all three.
+SETTING_CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS, "part_links": PART_LINKS}
+#: the legacy value of every such setting: the physics of every scene up to the sixth session
+LEGACY_CHOICES = {name: choices[0] for name, choices in SETTING_CHOICES.items()}
+#: the fields every saved settings dict has had since the first simulator version: a dict with all of
+#: them was written by :meth:`SimSettings.to_dict`, not by hand
+_ALWAYS_SAVED = ("time_step_s", "substeps", "solver_iterations", "solver_residual_threshold", "rest_speed_mm_s",
+                 "rest_angular_speed_rad_s", "dwell_s", "max_time_s", "support_radius_mm", "floor_clearance_mm",
+                 "world_units_per_m", "contact_threshold_mm", "escape_tolerance_mm", "lift_tolerance_mm")
 
 
 @dataclass(frozen=True)
@@ -144,7 +156,7 @@ class SimSettings:
         (docs/builder.md, "Where a build's time goes").
     long_steps : str
         ``coulomb`` contact: when physics steps are ``free_flight_step_factor`` times longer.
-        ``free`` (the default): in free flight only. ``free+steady``: also while the contact is
+        ``free`` (the default up to the sixth session): in free flight only. ``free+steady``: also while the contact is
         steady, i.e. its last friction update gave exactly the limits and the explicit force of the
         update before (the part sticks, or slides in pure translation: nothing the contact feeds
         Bullet changes). The friction is still updated once per call of the same simulated length,
@@ -152,20 +164,21 @@ class SimSettings:
         ``free+steady-hold``: the same, and a steady call runs twice as long (two long steps, one
         friction update), when the rest-test interval leaves room for it. ``free+stick``: long
         steps in free flight and while the contact sticks (steady with a non-zero spinning limit),
-        not in pure translation.
-        Recorded in the cache key only when not ``free`` (docs/builder.md, "Longer steps while the
-        contact is steady").
+        not in pure translation (the default). The ``sphere`` and ``legs:K`` contacts have no
+        long steps: for them the setting is always ``free``. ``free`` is left out of the cache key
+        (docs/builder.md, "Longer steps while the contact is steady").
     part_links : str
         How the part's prism is made of links of its Featherstone chain (x, y, z slides, the yaw
-        hinge, then fixed children). ``per-part`` (the default): one fixed link per convex part.
+        hinge, then fixed children). ``per-part`` (the default up to the sixth session, and always
+        with ``legs:K``, whose legs hang from the chain's slides): one fixed link per convex part.
         ``compound``: one fixed link whose shape is the compound of all convex parts (one
         collision object in the broadphase instead of one per part). ``yaw-compound``: the
         compound is the yaw link's own shape and the support sphere a fixed child (the same
         number of links as ``compound``). ``floating``: no slides and no hinge: the part is the
         free base of the multibody (the support sphere its shape; the part's mass, its z inertia,
         and a roll and pitch inertia 1e8 times larger, so that it stays flat), with one
-        fixed link per convex part; not with ``legs:K``. Recorded in the cache key only when not ``per-part``
-        (docs/builder.md, "A lighter multibody").
+        fixed link per convex part (the default; with ``legs:K`` it reads as ``per-part``).
+        ``per-part`` is left out of the cache key (docs/builder.md, "A lighter multibody").
     """
 
     time_step_s: float = 1.0 / 480.0
@@ -187,9 +200,9 @@ class SimSettings:
     contact_threshold_mm: float = 2.0
     escape_tolerance_mm: float = 1.0
     lift_tolerance_mm: float = 2.0
-    contact_pairs: str = "all"
-    long_steps: str = "free"
-    part_links: str = "per-part"
+    contact_pairs: str = "needed"
+    long_steps: str = "free+stick"
+    part_links: str = "floating"
 
     def __post_init__(self):
         for f in fields(self):
@@ -197,9 +210,9 @@ class SimSettings:
             if f.name == "contact":
                 object.__setattr__(self, f.name, str(parse_contact(val)))
                 continue
-            if f.name in _CHOICES:
-                if val not in _CHOICES[f.name]:
-                    raise ValueError(f"SimSettings.{f.name} must be one of {', '.join(_CHOICES[f.name])}, got {val!r}")
+            if f.name in SETTING_CHOICES:
+                if val not in SETTING_CHOICES[f.name]:
+                    raise ValueError(f"SimSettings.{f.name} must be one of {', '.join(SETTING_CHOICES[f.name])}, got {val!r}")
                 continue
             if f.type in ("int", int):
                 if isinstance(val, bool) or not isinstance(val, int) or val < 1:
@@ -217,28 +230,38 @@ class SimSettings:
                              f"and friction_substeps ({self.friction_substeps})")
         if self.floor_clearance_mm <= self.contact_threshold_mm:
             raise ValueError("SimSettings.floor_clearance_mm must exceed contact_threshold_mm")
+        # the defaults of settings that a contact model does not have read as the legacy value, so
+        # ``with_settings(contact=...)`` works from a default scene and equal physics has one key
         if self.part_links == "floating" and self.contact.startswith("legs"):
-            raise ValueError("SimSettings.part_links='floating' does not support the legs contact")
+            object.__setattr__(self, "part_links", PART_LINKS[0])
+        if self.contact != "coulomb":
+            object.__setattr__(self, "long_steps", LONG_STEPS[0])
         if self.max_time_s < self.dwell_s:
             raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 
     def to_dict(self) -> dict:
         """All fields, JSON-able (``contact_pairs``, ``long_steps`` and ``part_links`` only when not at their
-        defaults: the content hash of every scene simulated before the settings existed stays as it
-        was)."""
+        legacy values, the first of their choices: the content hash of every scene simulated before
+        the settings existed stays as it was)."""
         d = asdict(self)
-        for name, choices in _CHOICES.items():
+        for name, choices in SETTING_CHOICES.items():
             if d[name] == choices[0]:
                 del d[name]
         return d
 
     @classmethod
     def from_dict(cls, data: dict) -> "SimSettings":
-        """Inverse of :meth:`to_dict`; unknown keys are an error."""
+        """Inverse of :meth:`to_dict`; unknown keys are an error.
+
+        A saved dict (one with every field of :data:`_ALWAYS_SAVED`) that lacks a
+        setting of :data:`SETTING_CHOICES` had its legacy value; a hand-written, partial dict takes the
+        defaults for whatever it leaves out."""
         if isinstance(data, dict) and "support_points" in data and "contact" not in data:  # before version 4
             data = dict(data)
             k = data.pop("support_points")
             data["contact"] = "sphere" if k == 1 else f"legs:{k}"
+        if isinstance(data, dict) and all(name in data for name in _ALWAYS_SAVED):
+            data = {**LEGACY_CHOICES, **data}
         return cls(**check_fields(data, cls, "sim setting"))
 
     @property

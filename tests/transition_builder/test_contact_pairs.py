@@ -28,12 +28,17 @@ def test_needed_pairs_land_where_all_pairs_land():
         assert np.all(d <= 1.0) and np.all(th <= math.radians(1.0))
 
 
-def test_contact_pairs_enters_the_content_hash_only_when_not_the_default():
+def test_contact_pairs_enters_the_content_hash_only_when_not_the_legacy_value():
+    """``needed`` is the default (seventh session) and is recorded; ``all``, the physics of every
+    scene before, is left out, so those scenes keep their keys, and a saved dict without it reads
+    back as ``all``."""
     default = scene_from_options("allen-key")
-    assert "contact_pairs" not in default.settings.to_dict()
-    assert scene_from_options("allen-key", contact_pairs="all").content_hash() == default.content_hash()
-    needed = scene_from_options("allen-key", contact_pairs="needed")
-    assert needed.content_hash() != default.content_hash()
-    assert SimSettings.from_dict(needed.settings.to_dict()).contact_pairs == "needed"
+    assert default.settings.to_dict()["contact_pairs"] == "needed"
+    assert scene_from_options("allen-key", contact_pairs="needed").content_hash() == default.content_hash()
+    legacy = scene_from_options("allen-key", contact_pairs="all")
+    assert "contact_pairs" not in legacy.settings.to_dict()
+    assert legacy.content_hash() != default.content_hash()
+    for sc in (default, legacy):
+        assert SimSettings.from_dict(sc.settings.to_dict()) == sc.settings
     with pytest.raises(ValueError, match="contact_pairs"):
         SimSettings(contact_pairs="some")

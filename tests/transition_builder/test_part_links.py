@@ -81,17 +81,24 @@ def test_floating_part_stays_flat_and_reads_its_yaw_like_the_hinge():
         w.close()
 
 
-def test_floating_does_not_take_legs():
-    with pytest.raises(ValueError, match="legs"):
-        SimSettings(part_links="floating", contact="legs:4")
+def test_floating_reads_as_per_part_with_legs():
+    """The legs hang from the chain's slides, so ``floating`` (the default) means ``per-part`` with
+    ``legs:K``; a default scene switched to legs is the legacy legs scene (same key)."""
+    assert SimSettings(part_links="floating", contact="legs:4").part_links == "per-part"
+    legs = scene_from_options("allen-key").with_settings(contact="legs:4")
+    assert legs.settings.part_links == "per-part" and "part_links" not in legs.settings.to_dict()
+    assert legs.content_hash() == scene_from_options("allen-key", contact="legs:4", part_links="per-part").content_hash()
 
 
-def test_part_links_enters_the_content_hash_only_when_not_the_default():
+def test_part_links_enters_the_content_hash_only_when_not_the_legacy_value():
     default = scene_from_options("allen-key")
-    assert "part_links" not in default.settings.to_dict()
-    assert scene_from_options("allen-key", part_links="per-part").content_hash() == default.content_hash()
+    assert default.settings.to_dict()["part_links"] == "floating"
+    legacy = scene_from_options("allen-key", part_links="per-part")
+    assert "part_links" not in legacy.settings.to_dict()
+    assert legacy.content_hash() != default.content_hash()
     compound = scene_from_options("allen-key", part_links="compound")
-    assert compound.content_hash() != default.content_hash()
-    assert SimSettings.from_dict(compound.settings.to_dict()).part_links == "compound"
+    assert len({compound.content_hash(), default.content_hash(), legacy.content_hash()}) == 3
+    for sc in (default, legacy, compound):
+        assert SimSettings.from_dict(sc.settings.to_dict()) == sc.settings
     with pytest.raises(ValueError, match="part_links"):
         SimSettings(part_links="single")

@@ -8,7 +8,7 @@ import pytest
 
 from transition_builder.friction import parse_friction
 from transition_builder.scene import ACTIONS, Scene, scene_from_options
-from transition_builder.sim_settings import SimSettings
+from transition_builder.sim_settings import LEGACY_CHOICES, SETTING_CHOICES, SimSettings
 
 
 def test_defaults():
@@ -45,7 +45,9 @@ def test_hash_is_stable_and_sensitive():
     assert len(hashes) == len(variants) + 1
     # every settings field is hashed
     for name, val in SimSettings().to_dict().items():
-        if isinstance(val, str):
+        if name in LEGACY_CHOICES:
+            new = next(c for c in SETTING_CHOICES[name] if c != val)   # another of its names
+        elif isinstance(val, str):
             new = "sphere" if val != "sphere" else "legs:4"      # the contact model
         else:
             new = val * 1.5 if isinstance(val, float) else val * 2     # x2 keeps substeps divisible

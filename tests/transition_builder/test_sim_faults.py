@@ -96,10 +96,8 @@ def test_escape_is_detected_without_walls_in_the_way():
         w = sim._world("E")
         orig = w.set_pose
 
-        def outside(pose):
-            orig(pose)
-            import pybullet as pb
-            pb.resetJointState(w.body, 0, 250.0 * w.mm, 0.0, physicsClientId=w.cid)   # 250 mm east of centre
+        def outside(pose, twist=None):      # 250 mm further east: beyond the east wall
+            orig(np.array([pose[0] + 250.0, pose[1], pose[2]]), twist)
         w.set_pose = outside
         rest, status = sim.tilt([[100.0, 100.0, 0.0]], "E")
     assert status[0] == ESCAPED and np.all(np.isnan(rest))
@@ -174,26 +172,36 @@ def _tilt_with(scene, pose, action, patch):
 def _after_set_pose(world, extra):
     orig = world.set_pose
 
-    def wrapped(pose):
-        orig(pose)
+    def wrapped(pose, twist=None):
+        orig(pose, twist)
         extra(world)
     world.set_pose = wrapped
 
 
-def test_tipped_from_the_simulator_a_part_held_in_the_air_at_rest():
-    """Physics: a square pressed against the downhill (east) wall, raised 30 mm by its z joint
-    after placing: it cannot move in x, y or yaw, so the rest test passes while it still falls,
-    and it comes to 'rest' lifted off the floor: TIPPED, never a pose. The same start without the
-    lift rests on the floor: OK."""
+def _raise_by(world, dz_mm):
+    """Move the placed part ``dz_mm`` up (down if negative), whichever links carry it: the free
+    base (``part_links="floating"``, the default) or the z slide of the chain."""
     import pybullet as pb
 
     from transition_builder._bullet_world import J_Z
+    if world.floating:
+        pos, orn = pb.getBasePositionAndOrientation(world.body, physicsClientId=world.cid)
+        pb.resetBasePositionAndOrientation(world.body, [pos[0], pos[1], pos[2] + dz_mm * world.mm], orn,
+                                           physicsClientId=world.cid)
+    else:
+        pb.resetJointState(world.body, J_Z, dz_mm * world.mm, 0.0, physicsClientId=world.cid)
+
+
+def test_tipped_from_the_simulator_a_part_held_in_the_air_at_rest():
+    """Physics: a square pressed against the downhill (east) wall, raised 20 mm after placing (its
+    prism still below the 30 mm wall's top, which 30 mm would clear): it cannot move in x, y or
+    yaw, so the rest test passes while it still falls, and it comes to 'rest' lifted off the
+    floor: TIPPED, never a pose. The same start without the lift rests on the floor: OK."""
     from transition_builder.status import TIPPED
 
     sc = scene_from_options("rectangle:20x20")
     against_east = [200.0 - 10.0, 100.0, 0.0]
-    rest, code = _tilt_with(sc, against_east, "E", lambda w: _after_set_pose(
-        w, lambda w: pb.resetJointState(w.body, J_Z, 30.0 * w.mm, 0.0, physicsClientId=w.cid)))
+    rest, code = _tilt_with(sc, against_east, "E", lambda w: _after_set_pose(w, lambda w: _raise_by(w, 20.0)))
     assert code == TIPPED and np.all(np.isnan(rest))
     rest, code = _tilt_with(sc, against_east, "E", lambda w: None)
     assert code == OK and np.all(np.isfinite(rest))
@@ -216,13 +224,8 @@ def test_tipping_threshold_is_the_lift_tolerance(lift_over_tolerance, expected):
 
 def test_escaped_in_flight_below_the_floor():
     """Physics: a part dropped 20 mm below the floor (more than the lift tolerance) fell through it."""
-    import pybullet as pb
-
-    from transition_builder._bullet_world import J_Z
-
     sc = scene_from_options("rectangle:20x20")
-    rest, code = _tilt_with(sc, [100.0, 100.0, 0.0], "E", lambda w: _after_set_pose(
-        w, lambda w: pb.resetJointState(w.body, J_Z, -20.0 * w.mm, 0.0, physicsClientId=w.cid)))
+    rest, code = _tilt_with(sc, [100.0, 100.0, 0.0], "E", lambda w: _after_set_pose(w, lambda w: _raise_by(w, -20.0)))
     assert code == ESCAPED and np.all(np.isnan(rest))
 
 

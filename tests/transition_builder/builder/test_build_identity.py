@@ -1,28 +1,42 @@
-"""A build's model is bit-identical to the one the committed code built before the speed work.
+"""A build's model is bit-identical to the one the committed code built before.
 
-``tests/data/build_allen_key_8mm.npz`` holds the arrays of a small allen-key build (8 mm / 8 deg,
-50 start poses, seed 5; 1,540 tilts, 672 states) made by main at commit 5c4b492, before issue 44's
-changes to the builder, the tilt engine and the stepping loop (regenerate with the script in
-``docs/builder.md`` only when the physics is meant to change: a new simulator version). Changes that
-only remove overhead must leave every array and the cache key as they were.
+Two references of a small allen-key build (8 mm / 8 deg, 50 start poses, seed 5):
+
+- ``tests/data/build_allen_key_8mm.npz`` (1,540 tilts, 672 states), made by main at commit 5c4b492
+  before issue 44's changes to the builder, the tilt engine and the stepping loop, under the physics
+  of then: the legacy settings (:data:`transition_builder.sim_settings.LEGACY_CHOICES`);
+- ``tests/data/build_allen_key_8mm_default.npz``, made at the seventh session's switch to the lighter
+  physics (``needed`` pairs, ``floating`` part, ``free+stick`` steps), the default since.
+
+Regenerate one only when its physics is meant to change (``python -m tests.data.make_build_identity``);
+changes that only remove overhead must leave every array and the cache key as they were.
 """
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import tests
 from transition_builder.builder import BuildSettings, build_model
 from transition_builder.executors import make_executor
 from transition_builder.scene import scene_from_options
+from transition_builder.sim_settings import LEGACY_CHOICES
 
-DATA = str(tests.DATA / "build_allen_key_8mm.npz")
+#: (reference file, settings changes from the defaults)
+REFERENCES = {"legacy": ("build_allen_key_8mm.npz", LEGACY_CHOICES), "default": ("build_allen_key_8mm_default.npz", {})}
 
 
-def test_small_build_is_bit_identical_to_the_committed_arrays():
-    ref = np.load(DATA)
-    r = build_model(scene_from_options("allen-key"), BuildSettings(tol_mm=8, tol_deg=8, start_samples=50, seed=5),
-                    executor=make_executor(2))
-    m = r.model
+def small_build(changes):
+    """The references' build: the allen key at 8 mm / 8 deg, 50 starts, seed 5, on 2 workers."""
+    return build_model(scene_from_options("allen-key", **changes),
+                       BuildSettings(tol_mm=8, tol_deg=8, start_samples=50, seed=5), executor=make_executor(2)).model
+
+
+@pytest.mark.parametrize("physics", sorted(REFERENCES))
+def test_small_build_is_bit_identical_to_the_committed_arrays(physics):
+    name, changes = REFERENCES[physics]
+    ref = np.load(str(tests.DATA / name))
+    m = small_build(changes)
     assert m.metadata["build_key"] == str(ref["build_key"])
     got = {"initial": m.initial, "partition": m.partition, "state_poses": m.extras["state_poses"]}
     for a, M in zip(m.actions, m.matrices):
