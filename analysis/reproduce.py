@@ -30,6 +30,7 @@ from analysis.experiments.context import direct_summary
 from analysis.experiments.curves import first_at_most, settled_steps
 from analysis.experiments.paper import PAPER
 from analysis.orientability import CONVERGED_BITS
+from transition_builder.sim_settings import LEGACY_CHOICES
 
 __all__ = ["PAPER", "ReproduceSettings", "direct_summary", "first_at_most", "reproduce", "settled_steps"]
 
@@ -118,7 +119,9 @@ class ReproduceSettings:
     plan_words: int = 5000
     contact: str | None = None
     compare_contacts: tuple = (("sphere, 1/240 s (the old default)",
-                                {"contact": "sphere", "time_step_s": 1.0 / 240.0, "substeps": 4}),)
+                                {"contact": "sphere", "time_step_s": 1.0 / 240.0, "substeps": 4, **LEGACY_CHOICES}),
+                               ("coulomb, joint chain, all pairs, short steps (the default up to the sixth session)",
+                                dict(LEGACY_CHOICES)))
     compare_refine: tuple = (4,)
     judges: bool = True
     contact_build: dict | None = dataclasses.field(default_factory=lambda: {
