@@ -1,6 +1,6 @@
 """SimSettings.contact_pairs: the pairs left out never carry a force, so landings agree with every
 pair tested (within the step-convergence tolerance of 1 mm / 1 degree); the setting is part of a
-scene's content hash only when not the default."""
+scene's content hash only when not its legacy value, ``all``."""
 from __future__ import annotations
 
 import math

@@ -28,7 +28,7 @@ def _landings(starts, **settings):
 @pytest.mark.parametrize("links", ["compound", "yaw-compound", "floating"])
 def test_compound_prism_lands_where_the_per_part_chain_lands(links):
     starts = sample_start_poses(scene_from_options("allen-key").shape, 200.0, 200.0, 40, np.random.default_rng(41))
-    ra, sa = _landings(starts)
+    ra, sa = _landings(starts, part_links="per-part")     # the chain of slides and hinge
     rb, sb = _landings(starts, part_links=links)
     assert np.mean(sa == sb) >= 0.95
     ok = (sa == 0) & (sb == 0)
