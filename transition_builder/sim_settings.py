@@ -233,9 +233,9 @@ class SimSettings:
         # the defaults of settings that a contact model does not have read as the legacy value, so
         # ``with_settings(contact=...)`` works from a default scene and equal physics has one key
         if self.part_links == "floating" and self.contact.startswith("legs"):
-            object.__setattr__(self, "part_links", PART_LINKS[0])
+            object.__setattr__(self, "part_links", LEGACY_CHOICES["part_links"])
         if self.contact != "coulomb":
-            object.__setattr__(self, "long_steps", LONG_STEPS[0])
+            object.__setattr__(self, "long_steps", LEGACY_CHOICES["long_steps"])
         if self.max_time_s < self.dwell_s:
             raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 
@@ -244,8 +244,8 @@ class SimSettings:
         legacy values, the first of their choices: the content hash of every scene simulated before
         the settings existed stays as it was)."""
         d = asdict(self)
-        for name, choices in SETTING_CHOICES.items():
-            if d[name] == choices[0]:
+        for name, legacy in LEGACY_CHOICES.items():
+            if d[name] == legacy:
                 del d[name]
         return d
 

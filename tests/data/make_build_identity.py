@@ -9,16 +9,13 @@ import sys
 import numpy as np
 
 sys.path.insert(0, ".")
-from tests.transition_builder.builder.test_build_identity import REFERENCES, small_build  # noqa: E402
+from tests.transition_builder.builder.test_build_identity import REFERENCES, model_arrays, small_build  # noqa: E402
 
 
 def record(physics: str) -> str:
     name, changes = REFERENCES[physics]
     m = small_build(changes)
-    arrays = {"initial": m.initial, "partition": m.partition, "state_poses": m.extras["state_poses"],
-              "build_key": np.array(m.metadata["build_key"])}
-    for a, M in zip(m.actions, m.matrices):
-        arrays[f"{a}_indptr"], arrays[f"{a}_indices"], arrays[f"{a}_data"] = M.indptr, M.indices, M.data
+    arrays = {**model_arrays(m), "build_key": np.array(m.metadata["build_key"])}
     path = f"tests/data/{name}"
     np.savez_compressed(path, **arrays)
     return f"{path}: {m.n_states} states, key {m.metadata['build_key'][:16]}"

@@ -32,15 +32,22 @@ def small_build(changes):
                        BuildSettings(tol_mm=8, tol_deg=8, start_samples=50, seed=5), executor=make_executor(2)).model
 
 
+def model_arrays(m) -> dict:
+    """The arrays a reference holds (without its ``build_key``): the initial distribution, the
+    partition, the state poses and every action's CSR arrays, named as in the ``.npz``."""
+    out = {"initial": m.initial, "partition": m.partition, "state_poses": m.extras["state_poses"]}
+    for a, M in zip(m.actions, m.matrices):
+        out[f"{a}_indptr"], out[f"{a}_indices"], out[f"{a}_data"] = M.indptr, M.indices, M.data
+    return out
+
+
 @pytest.mark.parametrize("physics", sorted(REFERENCES))
 def test_small_build_is_bit_identical_to_the_committed_arrays(physics):
     name, changes = REFERENCES[physics]
     ref = np.load(str(tests.DATA / name))
     m = small_build(changes)
     assert m.metadata["build_key"] == str(ref["build_key"])
-    got = {"initial": m.initial, "partition": m.partition, "state_poses": m.extras["state_poses"]}
-    for a, M in zip(m.actions, m.matrices):
-        got[f"{a}_indptr"], got[f"{a}_indices"], got[f"{a}_data"] = M.indptr, M.indices, M.data
+    got = model_arrays(m)
     assert sorted(got) == sorted(k for k in ref.files if k != "build_key")
     for k, v in got.items():
         assert v.dtype == ref[k].dtype and v.shape == ref[k].shape, k
