@@ -89,13 +89,13 @@ def engine_free_slide(shape_spec: str, pose, twist, contact: str = "coulomb", re
         rest-test interval.
     """
     from transition_builder.scene import scene_from_options
-    from transition_builder.sim import TraySimulator
     from transition_builder.sim_settings import SimSettings
+    from transition_builder.simulators import make_simulator
     base = SimSettings(contact=contact, **settings)
     # the trajectory is recorded every ``substeps`` steps: as few as the contact allows, for a fine record
     settings = dict(settings, time_step_s=base.time_step_s / refine, substeps=base.friction_substeps)
     sc = scene_from_options(shape_spec, mu, tilt_deg=LEVEL_TILT_DEG, contact=contact, **settings)
-    sim = TraySimulator(sc)
+    sim = make_simulator(sc)
     try:
         t, poses, _ = sim.trajectory(pose, "E", duration_s, twist=twist)
     finally:
@@ -268,17 +268,17 @@ class InclineRun:
 
 def engine_incline(shape_spec: str, friction, tilt_deg: float, duration_s: float, v0_mm_s: float = 0.0,
                    tilt_time_s: float = 0.0, refine: int = 1, start=PAIR_JUDGE_START,
-                   tray_mm=PAIR_JUDGE_TRAY_MM) -> InclineRun:
+                   tray_mm=PAIR_JUDGE_TRAY_MM, engine: str = "pybullet") -> InclineRun:
     """The simulator on an incline: the part starts at ``start`` (tray frame, action ``E``: downhill
     is +x) at rest or sliding downhill at ``v0_mm_s``, on a floor of ``friction`` (a number or a
     pair) tilted by ``tilt_deg`` (reached over ``tilt_time_s``), run for ``duration_s`` at
-    ``1/refine`` of the default step (same rest-test interval)."""
+    ``1/refine`` of the default step (same rest-test interval), in ``engine``."""
     from transition_builder.scene import scene_from_options
-    from transition_builder.sim import TraySimulator
     from transition_builder.sim_settings import SimSettings
+    from transition_builder.simulators import make_simulator
     sc = scene_from_options(shape_spec, friction, tilt_deg=tilt_deg, tray_mm=tray_mm, tilt_time_s=tilt_time_s,
-                            actions="E", **SimSettings().finer_step(refine))
-    sim = TraySimulator(sc)
+                            actions="E", engine=engine, **SimSettings().finer_step(refine))
+    sim = make_simulator(sc)
     try:
         t, poses, _ = sim.trajectory(start, "E", duration_s, twist=(v0_mm_s, 0.0, 0.0))
     finally:
@@ -313,7 +313,7 @@ def onset_slope_deg(run: InclineRun, threshold_mm: float = 0.05) -> float:
 
 
 def pair_judges(friction: str = PAIR_JUDGE_FRICTION, shapes=("allen-key", "rectangle:40x20"),
-                refine: int = 4) -> dict:
+                refine: int = 4, engine: str = "pybullet") -> dict:
     """The static/kinetic judges for every shape: ``{shape: {judge: value}}``.
 
     Judges (targets in :data:`PAIR_JUDGE_TARGETS`; slopes from :func:`pair_judge_slopes`):
@@ -337,11 +337,11 @@ def pair_judges(friction: str = PAIR_JUDGE_FRICTION, shapes=("allen-key", "recta
     a_hold, a_break, a_ramp = pair_judge_slopes(mu_s, mu_k)
     out = {}
     for shape in shapes:
-        hold = engine_incline(shape, friction, a_hold, 2.0, refine=refine)
-        slide = engine_incline(shape, friction, a_hold, 0.4, v0_mm_s=100.0, refine=refine)
-        brk = engine_incline(shape, friction, a_break, 0.4, refine=refine)
-        ramp = engine_incline(shape, friction, a_ramp, PAIR_JUDGE_RAMP_S * 0.9, tilt_time_s=PAIR_JUDGE_RAMP_S,
-                              refine=refine)
+        kw = {"refine": refine, "engine": engine}
+        hold = engine_incline(shape, friction, a_hold, 2.0, **kw)
+        slide = engine_incline(shape, friction, a_hold, 0.4, v0_mm_s=100.0, **kw)
+        brk = engine_incline(shape, friction, a_break, 0.4, **kw)
+        ramp = engine_incline(shape, friction, a_ramp, PAIR_JUDGE_RAMP_S * 0.9, tilt_time_s=PAIR_JUDGE_RAMP_S, **kw)
         out[shape] = {
             "hold_mm": float(np.max(np.abs(hold.distance))),
             "hold_deg": float(np.degrees(np.max(np.abs(hold.rotation)))),

@@ -23,7 +23,7 @@ import numpy as np
 from kruskal_markov.validation import action_position
 from transition_builder.friction import DEFAULT_MU, FrictionSpec, parse_friction
 from transition_builder.shapes import Shape, check_fits, make_shape, parse_shape
-from transition_builder.sim_settings import SIMULATOR_VERSION, SimSettings
+from transition_builder.sim_settings import PLANAR_ENGINE_VERSION, SIMULATOR_VERSION, SimSettings
 
 __all__ = ["Scene", "scene_from_options", "check_tilt_time", "ACTIONS", "ACTION_ANGLES_DEG", "DEFAULT_TILT_DEG"]
 
@@ -249,6 +249,8 @@ class Scene:
         simulator setting, the simulator's model version and the PyBullet version.
         """
         payload = dict(self.to_dict(), pybullet=_pybullet_version(), simulator=SIMULATOR_VERSION)
+        if self.settings.engine == "planar":       # only then: every PyBullet key stays as it was
+            payload["planar_engine"] = PLANAR_ENGINE_VERSION
         text = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
 

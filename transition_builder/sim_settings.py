@@ -12,7 +12,8 @@ from dataclasses import asdict, dataclass, fields
 from kruskal_markov.validation import check_fields
 
 __all__ = ["SimSettings", "SIMULATOR_VERSION", "ContactModel", "parse_contact", "CONTACT_CHOICES", "LONG_STEPS",
-           "LEGACY_CHOICES", "SETTING_CHOICES"]
+           "LEGACY_CHOICES", "SETTING_CHOICES", "ENGINES", "parse_engine",
+           "PLANAR_ENGINE_VERSION"]
 
 #: the contact models ``--contact`` accepts (``legs:K`` with an integer K from 2 to 64).
 CONTACT_CHOICES = "coulomb (default), sphere, legs:K"
@@ -24,6 +25,8 @@ CONTACT_CHOICES = "coulomb (default), sphere, legs:K"
 #: triangles up by 0.1%). 4: the floor contact is a setting (``contact``), distributed Coulomb
 #: friction by default.
 SIMULATOR_VERSION = "planar-chain-4"
+#: bump when the planar engine's results change (part of the content hash of planar scenes only).
+PLANAR_ENGINE_VERSION = "planar-engine-1"
 #: values of :attr:`SimSettings.contact_pairs`.
 CONTACT_PAIRS = ("all", "needed")
 #: values of :attr:`SimSettings.long_steps`.
@@ -31,12 +34,17 @@ LONG_STEPS = ("free", "free+steady", "free+steady-hold", "free+stick")
 #: values of :attr:`SimSettings.part_links`.
 PART_LINKS = ("per-part", "compound", "yaw-compound", "floating")
 
+#: values of :attr:`SimSettings.engine` (``pybullet`` first: every scene before the planar engine had it).
+ENGINES = ("pybullet", "planar")
+#: the settings only the PyBullet engine has: a planar scene reads them as legacy (one key per physics)
+_PYBULLET_ONLY = ("contact_pairs", "long_steps", "part_links")
+
 #: the settings that take one of a few names. The first is the *legacy* value: the one every scene had
 #: before the setting existed, left out of :meth:`SimSettings.to_dict` (so the content hash of those
 #: scenes stays as it was) and read back by :meth:`SimSettings.from_dict` when a saved dict lacks it.
 #: The defaults are not the first since the seventh session (``needed``, ``free+stick``, ``floating``:
 #: docs/builder.md, "The lighter physics as the default"), so a new default scene records all three.
-SETTING_CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS, "part_links": PART_LINKS}
+SETTING_CHOICES = {"contact_pairs": CONTACT_PAIRS, "long_steps": LONG_STEPS, "part_links": PART_LINKS, "engine": ENGINES}
 #: the legacy value of every such setting: the physics of every scene up to the sixth session
 LEGACY_CHOICES = {name: choices[0] for name, choices in SETTING_CHOICES.items()}
 #: the fields every saved settings dict has had since the first simulator version: a dict with all of
@@ -61,6 +69,14 @@ class ContactModel:
     def support_points(self) -> int:
         """Floor contacts of the part: K legs, else one sphere."""
         return self.legs if self.kind == "legs" else 1
+
+
+def parse_engine(spec) -> str:
+    """The canonical name of an engine (``planar`` or ``pybullet``); one-line :class:`ValueError` otherwise."""
+    text = spec.strip().lower() if isinstance(spec, str) else None
+    if text not in ENGINES:
+        raise ValueError(f"unknown engine {spec!r}; expected one of {', '.join(ENGINES)}")
+    return text
 
 
 def parse_contact(spec) -> ContactModel:
@@ -179,6 +195,12 @@ class SimSettings:
         and a roll and pitch inertia 1e8 times larger, so that it stays flat), with one
         fixed link per convex part (the default; with ``legs:K`` it reads as ``per-part``).
         ``per-part`` is left out of the cache key (docs/builder.md, "A lighter multibody").
+    engine : str
+        The physics engine: ``pybullet`` (:mod:`transition_builder.sim`) or ``planar`` (the compiled
+        planar engine, :mod:`transition_builder.planar`; the coulomb contact only). ``pybullet`` is left
+        out of the cache key, so every scene from before the planar engine keeps its key and reads back
+        as ``pybullet``. With ``planar`` the PyBullet-only settings (``contact_pairs``, ``long_steps``,
+        ``part_links``) read as their legacy values: they change nothing (docs/simulator.md, "The planar engine").
     """
 
     time_step_s: float = 1.0 / 480.0
@@ -203,12 +225,16 @@ class SimSettings:
     contact_pairs: str = "needed"
     long_steps: str = "free+stick"
     part_links: str = "floating"
+    engine: str = "pybullet"
 
     def __post_init__(self):
         for f in fields(self):
             val = getattr(self, f.name)
             if f.name == "contact":
                 object.__setattr__(self, f.name, str(parse_contact(val)))
+                continue
+            if f.name == "engine":
+                object.__setattr__(self, f.name, parse_engine(val))
                 continue
             if f.name in SETTING_CHOICES:
                 if val not in SETTING_CHOICES[f.name]:
@@ -236,6 +262,11 @@ class SimSettings:
             object.__setattr__(self, "part_links", LEGACY_CHOICES["part_links"])
         if self.contact != "coulomb":
             object.__setattr__(self, "long_steps", LEGACY_CHOICES["long_steps"])
+        if self.engine == "planar":
+            if self.contact != "coulomb":
+                raise ValueError(f"the planar engine has the coulomb contact only, not {self.contact}")
+            for name in _PYBULLET_ONLY:
+                object.__setattr__(self, name, LEGACY_CHOICES[name])
         if self.max_time_s < self.dwell_s:
             raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 

@@ -18,7 +18,7 @@ import numpy as np
 from transition_builder.scene import Scene
 from transition_builder.sim import TraySimulator
 
-__all__ = ["SIM_CACHE_SIZE", "simulate", "simulator_for"]
+__all__ = ["SIM_CACHE_SIZE", "simulate", "simulator_for", "make_simulator"]
 
 #: simulators kept per process and thread (least recently used first out).
 SIM_CACHE_SIZE = 4
@@ -35,8 +35,18 @@ def _sim_cache() -> OrderedDict:
     return cache
 
 
-def _default_factory(scene):
+def make_simulator(scene):
+    """A new simulator of ``scene`` in the engine its settings name (``scene.settings.engine``):
+    :class:`transition_builder.planar.PlanarSimulator` or :class:`transition_builder.sim.TraySimulator`.
+    Both have the same interface (``tilt``, ``trajectory``, ``fresh_start``, ``close``)."""
+    if getattr(getattr(scene, "settings", None), "engine", "pybullet") == "planar":
+        from transition_builder.planar import PlanarSimulator
+        return PlanarSimulator(scene)
     return TraySimulator(scene)
+
+
+def _default_factory(scene):
+    return make_simulator(scene)
 
 
 def _simulator_key(scene, factory) -> str:
