@@ -256,8 +256,13 @@ class SimSettings:
                              f"and friction_substeps ({self.friction_substeps})")
         if self.floor_clearance_mm <= self.contact_threshold_mm:
             raise ValueError("SimSettings.floor_clearance_mm must exceed contact_threshold_mm")
-        # the defaults of settings that a contact model does not have read as the legacy value, so
-        # ``with_settings(contact=...)`` works from a default scene and equal physics has one key
+        self._canonical_choices()
+        if self.max_time_s < self.dwell_s:
+            raise ValueError("SimSettings.max_time_s must be at least dwell_s")
+
+    def _canonical_choices(self) -> None:
+        """Settings a physics does not have read as their legacy value, so ``with_settings(contact=...)``
+        works from a default scene and equal physics has one key."""
         if self.part_links == "floating" and self.contact.startswith("legs"):
             object.__setattr__(self, "part_links", LEGACY_CHOICES["part_links"])
         if self.contact != "coulomb":
@@ -267,8 +272,6 @@ class SimSettings:
                 raise ValueError(f"the planar engine has the coulomb contact only, not {self.contact}")
             for name in _PYBULLET_ONLY:
                 object.__setattr__(self, name, LEGACY_CHOICES[name])
-        if self.max_time_s < self.dwell_s:
-            raise ValueError("SimSettings.max_time_s must be at least dwell_s")
 
     def to_dict(self) -> dict:
         """All fields, JSON-able (``contact_pairs``, ``long_steps`` and ``part_links`` only when not at their
