@@ -118,6 +118,8 @@ class ReproduceSettings:
     plan_targets: tuple = ("cell", "probability:0.001")
     plan_words: int = 5000
     contact: str | None = None
+    #: the physics engine of every scene (None: the simulator's default)
+    engine: str | None = None
     compare_contacts: tuple = (("sphere, 1/240 s (the old default)",
                                 {"contact": "sphere", "time_step_s": 1.0 / 240.0, "substeps": 4, **LEGACY_CHOICES}),
                                ("coulomb, joint chain, all pairs, short steps (the default up to the sixth session)",

@@ -191,7 +191,7 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
 
 def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 1000, seed: int = 0,
                    length: int = 50, spread: bool = False, bands: int = 40, workers=None, scheduler=None,
-                   progress: bool | None = False, simulate=None, contact: str | None = None,
+                   progress: bool | None = False, simulate=None, contact: str | None = None, engine: str | None = None,
                    structural_delta: float | None = None) -> dict:
     """Compare ``model`` with direct simulation on ``sequences`` random sequences (see module docstring).
 
@@ -221,6 +221,9 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         Replaces the direct simulation.
     contact : str, optional
         The reference's floor contact (default the model's).
+    engine : str, optional
+        The reference's physics engine (``planar`` or ``pybullet``; default the model's): a model built in
+        one engine judged by direct simulation in the other.
     structural_delta : float, optional
         Relative structural error of the band (:mod:`kruskal_markov.structural`; 0: the
         Dirichlet band alone; None: the model's own, :func:`kruskal_markov.structural.structural_term`).
@@ -245,8 +248,11 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
     structural_delta = term.delta
     scene = model_scene(model)
     model_contact = scene.settings.contact
+    model_engine = scene.settings.engine
     if contact is not None:
         scene = scene.with_settings(contact=contact)
+    if engine is not None:
+        scene = scene.with_settings(engine=engine)
     grid = model_grid(model)
     if model.partition is None or model.n_cells != grid.n_voxels:
         raise ModelError("the model's partition is not on its report grid")
@@ -346,6 +352,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         "simulation_seconds": sim_seconds,
         "states": model.n_states,
         "contact": scene.settings.contact, "model_contact": model_contact,
+        "engine": scene.settings.engine, "model_engine": model_engine,
     }
     if spread:
         d = np.concatenate(spread_diffs)

@@ -145,11 +145,45 @@ def check_writable_dir(path: str, option: str) -> None:
 
 
 def add_contact(parser: argparse.ArgumentParser) -> None:
-    """``--contact``: the floor-contact model of the simulator, the same meaning on every command."""
+    """``--contact`` and ``--engine``: the physics of the simulator, the same meaning on every command."""
     parser.add_argument("--contact", default=None, metavar="MODEL",
                         help="floor contact of the simulator: coulomb (distributed Coulomb friction, the "
                              "default), sphere (one support sphere, the default before simulator version 4) "
                              "or legs:K (K point legs); see docs/simulator.md")
+    add_engine(parser)
+
+
+def add_engine(parser: argparse.ArgumentParser) -> None:
+    """``--engine planar|pybullet``: the physics engine of every simulation and build of the command."""
+    from transition_builder.sim_settings import SimSettings
+    default = SimSettings().engine
+    parser.add_argument("--engine", default=None, metavar="ENGINE",
+                        help=f"physics engine: planar (the compiled planar engine for flat parts) or pybullet "
+                             f"(the reference); default {default}, chosen by the rule in docs/simulator.md")
+
+
+def parse_engine_arg(text: str | None):
+    """The canonical name of an ``--engine`` value (None stays None); one-line InputError."""
+    if text is None:
+        return None
+    from transition_builder.sim_settings import parse_engine
+    try:
+        return parse_engine(text)
+    except ValueError as exc:
+        raise InputError(f"--engine: {exc}") from None
+
+
+def physics_changes(args) -> dict:
+    """The :class:`~transition_builder.sim_settings.SimSettings` changes of ``--contact`` and ``--engine``
+    (only those given)."""
+    out = {}
+    contact = parse_contact_arg(getattr(args, "contact", None))
+    if contact is not None:
+        out["contact"] = contact
+    engine = parse_engine_arg(getattr(args, "engine", None))
+    if engine is not None:
+        out["engine"] = engine
+    return out
 
 
 #: the help of ``--friction`` on every command that simulates.
@@ -219,14 +253,14 @@ def scene_from_args(args):
             changes["tilt_deg"] = args.tilt_deg
         if _tilt_time_arg(args) is not None:
             changes["tilt_time_s"] = _tilt_time_arg(args)
-        contact = parse_contact_arg(getattr(args, "contact", None))
-        if contact is not None:
-            changes["settings"] = replace(scene.settings, contact=contact)
+        physics = physics_changes(args)
+        if physics:
+            try:
+                changes["settings"] = replace(scene.settings, **physics)
+            except ValueError as exc:
+                raise InputError(str(exc)) from None
         return replace(scene, **changes) if changes else scene
-    kw = {}
-    contact = parse_contact_arg(getattr(args, "contact", None))
-    if contact is not None:
-        kw["contact"] = contact
+    kw = dict(physics_changes(args))
     if args.friction is not None:
         kw["friction_spec"] = parse_friction_arg(args.friction)
     if args.tilt_deg is not None:

@@ -23,6 +23,8 @@ def add_range_options(parser: argparse.ArgumentParser, *, friction: bool = True,
                             help="answer over models of --shape across this friction range (see docs/fit.md)")
     if shape:
         parser.add_argument("--shape", default=None, help="with --friction LO..HI: the part (default allen-key)")
+    from analysis.commands._common import add_engine
+    add_engine(parser)
     parser.add_argument("--range-points", type=int, default=5,
                         help="with --friction LO..HI: models across the range (default 5)")
     parser.add_argument("--range-resolution", default="1,1", metavar="MM,DEG",
@@ -59,7 +61,7 @@ def _range(args):
 
 def range_models(args):
     """(range, [(spec, model, path), ...]) of the command's ``--friction LO..HI`` and ``--shape``."""
-    from analysis.commands._common import parse_resolution
+    from analysis.commands._common import parse_engine_arg, parse_resolution
     from analysis.friction_range import models_over_range
     from transition_builder.builder import BuildSettings
     from transition_builder.scene import scene_from_options
@@ -68,8 +70,9 @@ def range_models(args):
         raise InputError("--friction LO..HI builds its own models: drop --model/--automaton")
     fr = _range(args)
     mm, deg = parse_resolution(args.range_resolution)
+    engine = parse_engine_arg(getattr(args, "engine", None))
     try:
-        scene = scene_from_options(args.shape or "allen-key")
+        scene = scene_from_options(args.shape or "allen-key", **({"engine": engine} if engine else {}))
     except ValueError as exc:
         raise InputError(f"--shape: {exc}") from None
     bs = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=1, start_samples=2000)

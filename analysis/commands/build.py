@@ -92,7 +92,8 @@ def run(args: argparse.Namespace) -> dict:
            "voxels_total": stats.get("voxels_total"),
            "tilts_simulated": 0 if cached else stats.get("tilts_simulated"),
            "fault_rate": stats.get("fault_rate"), "cached": cached, "shape": scene.shape.name,
-           "friction": str(scene.friction), "tilt_time_s": scene.tilt_time_s, "noise": settings.noise, "contact": scene.settings.contact}
+           "friction": str(scene.friction), "tilt_time_s": scene.tilt_time_s, "noise": settings.noise, "contact": scene.settings.contact,
+           "engine": scene.settings.engine}
     if cached:
         stats["tilts_simulated_when_built"] = stats.pop("tilts_simulated", None)
     out.update({k: v for k, v in stats.items() if k not in out})

@@ -157,7 +157,7 @@ def run(args: argparse.Namespace) -> dict:
     result = fit_log(scene, log, settings, build_settings=bs, workers=args.workers, scheduler=args.scheduler,
                      progress=True if args.progress else None, grid=args.grid)
     out = result.to_dict()
-    out.update({"shape": scene.shape.name, "contact": scene.settings.contact, "range": args.range,
+    out.update({"shape": scene.shape.name, "contact": scene.settings.contact, "engine": scene.settings.engine, "range": args.range,
                 "tilts_from": log.source, "fit": list(settings.params)})
     seq = log.common_sequence()
     if seq is not None:

@@ -84,7 +84,8 @@ def run(args: argparse.Namespace) -> dict:
     ranking = rank_parts(metrics)
     for row in ranking:
         row.update(models[row["shape"]])
-    out = {"contact": next(iter(scenes.values())).settings.contact, "ranking": ranking, "order": [r["shape"] for r in ranking],
+    out = {"contact": next(iter(scenes.values())).settings.contact,
+           "engine": next(iter(scenes.values())).settings.engine, "ranking": ranking, "order": [r["shape"] for r in ranking],
            "resolution": [mm, deg], "seed": args.seed}
     if checks:
         out["check"] = {"sequence": [first.actions[a] for a in seq], "trials": args.check_trials,
@@ -130,7 +131,7 @@ def _command_line(args) -> str:
     import shlex
 
     parts = ["kruskal rank --shapes", " ".join(shlex.quote(s) for s in args.shapes)]
-    for opt in ("friction", "tilt_deg", "tilt_time", "scene", "contact", "support_points", "resolution",
+    for opt in ("friction", "tilt_deg", "tilt_time", "scene", "contact", "engine", "support_points", "resolution",
                 "recenter_rounds", "start_samples", "count", "runs", "sync_time_budget", "check_trials", "seed"):
         value = getattr(args, opt, None)
         if value is not None:

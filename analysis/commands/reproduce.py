@@ -10,7 +10,14 @@ from __future__ import annotations
 import argparse
 import sys
 
-from analysis.commands._common import add_contact, add_seed, check_positive, check_writable_dir, parse_contact_arg
+from analysis.commands._common import (
+    add_contact,
+    add_seed,
+    check_positive,
+    check_writable_dir,
+    parse_contact_arg,
+    parse_engine_arg,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,11 +37,15 @@ def run(args: argparse.Namespace) -> dict:
         check_positive(args.workers, "--workers")
     check_writable_dir(args.out, "--out")
     contact = parse_contact_arg(args.contact)
+    engine = parse_engine_arg(args.engine)
     settings = (ReproduceSettings.quick_settings(args.seed) if args.quick
                 else ReproduceSettings.full(args.seed))
     if contact is not None:
         import dataclasses
         settings = dataclasses.replace(settings, contact=contact)
+    if engine is not None:
+        import dataclasses
+        settings = dataclasses.replace(settings, engine=engine)
 
     def progress(text):
         print(f"reproduce: {text}", file=sys.stderr, flush=True)
@@ -44,6 +55,7 @@ def run(args: argparse.Namespace) -> dict:
     a = result["A"]
     return {"report": paths["report"], "figures": paths["figures"], "quick": args.quick,
             "contact": next(iter(result["contact_models"])),
+            "engine": result["engine"],
             "A_converged": a["converged"], "A_sequences": a["of"], "A_best_sequence": a["best_sequence"],
             "B_converged": result["B"]["converged"], "B_parts": len(result["B"]["parts"]),
             "sync_word": result["key_metrics"]["sync_word"],

@@ -78,6 +78,7 @@ def run(args: argparse.Namespace) -> dict:
     out["friction"] = str(scene.friction)
     out["tilt_time_s"] = scene.tilt_time_s
     out["contact"] = scene.settings.contact
+    out["engine"] = scene.settings.engine
     out["scene_hash"] = scene.content_hash()
     if args.poses is not None:
         out["poses"] = write_poses_csv(args.poses, result)

@@ -11,7 +11,7 @@ import argparse
 import math
 
 from analysis.commands import InputError
-from analysis.commands._common import add_contact, add_seed, check_positive, parse_contact_arg
+from analysis.commands._common import add_contact, add_seed, check_positive, parse_contact_arg, parse_engine_arg
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,6 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--spread", action="store_true",
                         help="also re-simulate the reference at half the time step")
     add_contact(parser)
+    parser.add_argument("--reference", default=None, metavar="ENGINE",
+                        help="simulate the reference in this engine (planar or pybullet; default the model's own); "
+                             "the same as --engine")
     parser.add_argument("--bands", type=int, default=40, help="posterior draws for the model's band (default 40)")
     parser.add_argument("--structural-delta", type=float, default=None, metavar="D",
                         help="relative structural error of the band: the share of the probability outside "
@@ -46,6 +49,9 @@ def run(args: argparse.Namespace) -> dict:
     if args.trials < 2:
         raise InputError("--trials must be at least 2 (the reference's noise is a bootstrap)")
     contact = parse_contact_arg(args.contact)     # checked before any work
+    engine = parse_engine_arg(args.reference) if args.reference is not None else parse_engine_arg(args.engine)
+    if args.reference is not None and args.engine is not None and parse_engine_arg(args.engine) != engine:
+        raise InputError("--reference and --engine name different engines: give one")
     delta = args.structural_delta
     if delta is not None and not (math.isfinite(delta) and delta >= 0):
         raise InputError(f"--structural-delta must be a non-negative number, got {args.structural_delta}")
@@ -57,7 +63,7 @@ def run(args: argparse.Namespace) -> dict:
         raise InputError("--calibrate needs a model built by `kruskal build` (an automaton has no structural term)")
     result = validate_model(model, args.sequences, args.trials, args.seed, args.length, spread=args.spread,
                             bands=args.bands, workers=args.workers, scheduler=args.scheduler,
-                            progress=True if args.progress else None, contact=contact,
+                            progress=True if args.progress else None, contact=contact, engine=engine,
                             structural_delta=delta)
     if args.calibrate:
         result["calibration"] = calibrate_model(model, result, args.model)
@@ -75,8 +81,8 @@ def calibrate_model(model, result: dict, path: str) -> dict:
 
     from kruskal_markov.structural import calibration_warning, conformal_quantile, with_calibration
 
-    if result.get("contact") != result.get("model_contact"):
-        raise InputError("--calibrate compares the model with its own physics: drop --contact")
+    if result.get("contact") != result.get("model_contact") or result.get("engine") != result.get("model_engine"):
+        raise InputError("--calibrate compares the model with its own physics: drop --contact/--engine/--reference")
     from kruskal_markov.structural import STRUCTURAL_RULE
 
     old = model.metadata.get("structural") if isinstance(model.metadata.get("structural"), dict) else {}

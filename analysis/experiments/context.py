@@ -182,6 +182,8 @@ class Context:
             options["friction_spec"] = s.friction
         if s.contact is not None:
             options["contact"] = s.contact
+        if getattr(s, "engine", None) is not None:
+            options["engine"] = s.engine
         return scene_from_options(shape or s.shape, tray_mm=s.tray_mm, **options)
 
     def key_model(self):

@@ -32,14 +32,20 @@ class Report(Mapping):
 
     @functools.cached_property
     def _json(self) -> dict:
-        out = {"settings": dataclasses.asdict(self.settings)}
+        out = {"settings": dataclasses.asdict(self.settings), "engine": self.engine}
         for result in self.results.values():
             out.update(result.to_dict())
         out["seconds"] = self.seconds
         return out
 
+    @property
+    def engine(self) -> str:
+        """The physics engine that answered (the settings' engine, else the simulator's default)."""
+        from transition_builder.sim_settings import SimSettings
+        return getattr(self.settings, "engine", None) or SimSettings().engine
+
     def to_dict(self) -> dict:
-        """``results.json``: ``settings``, every section's entries, ``seconds``."""
+        """``results.json``: ``settings``, ``engine``, every section's entries, ``seconds``."""
         return self._json
 
     def __getitem__(self, key):

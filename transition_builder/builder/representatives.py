@@ -7,9 +7,11 @@ farthest (:func:`_refinement_candidates`).
 """
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 from transition_builder._density import neighbour_counts
@@ -51,14 +53,29 @@ def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.n
     rot = _with_rotations(sym, cand[miss]).reshape(-1, G, 3)
     rq, _ = index.embed(rot.reshape(-1, 3))
     near = cKDTree(rq, boxsize=index.box).query_ball_point(q[miss], r=1.0 + 1e-12)
+    counts = np.fromiter((len(nb) for nb in near), dtype=np.int64, count=len(near))
+    flat = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=int(counts.sum()))
     founds = np.zeros(len(miss), dtype=bool)
-    for t, nb in enumerate(near):
-        owners = np.asarray(nb, dtype=np.int64) // G
-        founds[t] = not founds[owners[owners < t]].any()
+    _found_in_order(np.concatenate(([0], np.cumsum(counts))), flat, G, founds)
     if founds.any():
         index.add(rot[founds].reshape(-1, 3))
         ex.add_orbits(cand[miss[founds]])
     return int(founds.sum())
+
+
+@njit(cache=True)
+def _found_in_order(indptr, neighbours, G, founds):
+    """Miss ``t`` founds an orbit unless a rotation of an earlier miss that founded one lies within
+    tolerance (``neighbours[indptr[t]:indptr[t + 1]]``, rotation indices; rotation ``r`` belongs to
+    miss ``r // G``): the one pass in order of :func:`_offer`, compiled."""
+    for t in range(founds.shape[0]):
+        hit = False
+        for e in range(indptr[t], indptr[t + 1]):
+            owner = neighbours[e] // G
+            if owner < t and founds[owner]:
+                hit = True
+                break
+        founds[t] = not hit
 
 
 def _query_workers(n: int) -> int:
