@@ -39,7 +39,7 @@ G_MM_S2 = 9810.0
 #: most sequential-impulse iterations per step (the solve ends earlier once nothing changes)
 SOLVER_ITERATIONS = 20
 #: the solve ends once no impulse changes a velocity by more than this (mm/s)
-SOLVER_TOLERANCE_MM_S = 1e-9
+SOLVER_TOLERANCE_MM_S = 1e-4
 
 
 def _check_poses(poses) -> np.ndarray:
