@@ -25,7 +25,8 @@ from transition_builder._coulomb import integrate_free_sliding
 
 __all__ = ["FreeSlide", "engine_free_slide", "reference_free_slide", "disk_shape_spec", "rotate_start",
            "isotropy_error", "judges_table", "JUDGE_TARGETS", "TABLE_SLIDES", "engine_incline", "kinetic_distance_mm",
-           "onset_slope_deg", "pair_judges", "pair_judge_slopes", "PAIR_JUDGE_TARGETS", "InclineRun"]
+           "onset_slope_deg", "pair_judges", "pair_judge_slopes", "PAIR_JUDGE_TARGETS", "InclineRun",
+           "simultaneous_stop", "corner_wedge", "wedge_drift", "NEW_JUDGE_TARGETS", "STOP_RATIOS"]
 
 #: tilt of the "level" tray of the judges (degrees; a scene's tilt must be positive).
 LEVEL_TILT_DEG = 1e-6
@@ -353,3 +354,79 @@ def pair_judges(friction: str = PAIR_JUDGE_FRICTION, shapes=("allen-key", "recta
 
 #: targets of :func:`pair_judges` (a judge passes at or below its target).
 PAIR_JUDGE_TARGETS = {"hold_mm": 0.1, "hold_deg": 0.1, "slide_error": 0.02, "break_error": 0.02, "onset_deg": 0.5}
+
+
+# ---------------------------------------------------------------------------------------------------
+# Two judges added with the planar engine (docs/simulator.md, "The planar engine"): both engines face them.
+
+#: the simultaneous-stop judge's starts: a disk at the tray's centre with ``v0 / (R omega0)`` of 1/4, 1 and 4
+#: (R = 20 mm; v0 = 200 mm/s along 30 degrees).
+STOP_RATIOS = (0.25, 1.0, 4.0)
+
+
+def simultaneous_stop(engine: str = "pybullet", contact: str = "coulomb", refine: int = 16,
+                      mu: float = 0.3, ratios=STOP_RATIOS) -> float:
+    """The largest ``|t_slide - t_spin| / max(t_slide, t_spin)`` of a uniform disk sliding and spinning on
+    a level floor, over starts with ``v0 / (R omega0)`` in ``ratios``.
+
+    Under uniform Coulomb pressure a disk stops sliding and spinning at the same instant, whatever its
+    start (Farkas, Bartels, Unger and Wolf, "Frictional coupling between sliding and spinning motion",
+    PRL 90, 2003). A contact whose force and torque limits are independent (the ``sphere`` contact, a
+    "box" limit surface) stops one before the other. Target: 2% (:data:`NEW_JUDGE_TARGETS`).
+    """
+    disk = disk_shape_spec()
+    r = 20.0
+    worst = 0.0
+    for k in ratios:
+        v0 = 200.0
+        twist = (v0 * math.cos(math.pi / 6), v0 * math.sin(math.pi / 6), v0 / (k * r))
+        run = engine_free_slide(disk, (100.0, 100.0, 0.0), twist, contact=contact, refine=refine, mu=mu,
+                                duration_s=1.0, engine=engine)
+        worst = max(worst, abs(run.t_slide - run.t_spin) / max(run.t_slide, run.t_spin))
+    return float(worst)
+
+
+#: the corner judge: the part, the tilt (into the south-west corner) and how long the rest is watched (s).
+WEDGE_SHAPE = "triangle:1"
+WEDGE_WATCH_S = 2.0
+
+
+def wedge_drift(sim, starts, action: str = "SW", watch_s: float = WEDGE_WATCH_S) -> tuple[float, float, int]:
+    """Tilt ``sim`` toward ``action`` from every start, then keep the tray tilted for ``watch_s`` from each rest
+    pose: ``(largest drift (mm), largest turn (degrees), trials that did not come to rest)``, the drift and
+    turn over the watch's second half (the rest test stops a part moving slower than 1 mm/s; the first
+    half lets that motion end).
+
+    ``sim`` is any simulator (``tilt``, ``trajectory``): a part wedged in a corner by gravity is held by the
+    walls and by static friction, so once at rest it must not creep (no stale contact, no solver drift).
+    """
+    from transition_builder.status import OK
+    rest, status = sim.tilt(starts, action)
+    drift, turn = 0.0, 0.0
+    for pose in rest[status == OK]:
+        t, poses, _ = sim.trajectory(pose, action, watch_s)
+        late = poses[t >= watch_s / 2]            # the first half settles what the rest test left moving
+        drift = max(drift, float(np.max(np.hypot(late[:, 0] - late[0, 0], late[:, 1] - late[0, 1]))))
+        turn = max(turn, float(np.degrees(np.max(np.abs(late[:, 2] - late[0, 2])))))
+    return drift, turn, int(np.sum(status != OK))
+
+
+def corner_wedge(engine: str = "pybullet", shape: str = WEDGE_SHAPE, n_starts: int = 6, seed: int = 11) -> dict:
+    """The corner judge on ``engine``: ``{"drift_mm", "turn_deg", "not_at_rest"}`` of ``shape`` tilted into
+    the south-west corner from ``n_starts`` uniform starts (seed ``seed``), each watched for
+    :data:`WEDGE_WATCH_S` after it came to rest. Targets in :data:`NEW_JUDGE_TARGETS`."""
+    from transition_builder.sampling import sample_start_poses
+    from transition_builder.scene import scene_from_options
+    from transition_builder.simulators import make_simulator
+    sc = scene_from_options(shape, engine=engine)
+    starts = sample_start_poses(sc.shape, sc.tray_x_mm, sc.tray_y_mm, n_starts, np.random.default_rng(seed))
+    sim = make_simulator(sc)
+    try:
+        drift, turn, bad = wedge_drift(sim, starts)
+    finally:
+        sim.close()
+    return {"drift_mm": drift, "turn_deg": turn, "not_at_rest": bad}
+
+
+#: targets of the two new judges (a judge passes at or below its target).
+NEW_JUDGE_TARGETS = {"simultaneous_stop": 0.02, "drift_mm": 0.01, "turn_deg": 0.01, "not_at_rest": 0}

@@ -2,7 +2,7 @@
 cache key of the small allen-key build (8 mm / 8 deg, 50 starts, seed 5) under one physics.
 
 Run from the repository root with the code to record, only when that physics is meant to change:
-``python tests/data/make_build_identity.py default`` (or ``legacy``).
+``python tests/data/make_build_identity.py planar`` (or ``pybullet``, ``legacy``).
 """
 import sys
 
@@ -22,4 +22,4 @@ def record(physics: str) -> str:
 
 
 if __name__ == "__main__":
-    print(record(sys.argv[1] if len(sys.argv) > 1 else "default"))
+    print(record(sys.argv[1] if len(sys.argv) > 1 else "planar"))

@@ -47,9 +47,10 @@ def deadline(seconds: int):
         signal.signal(signal.SIGALRM, old)
 
 
-@pytest.fixture(scope="module")
-def scene():
-    return scene_from_options("allen-key")
+@pytest.fixture(scope="module", params=["pybullet", "planar"])
+def scene(request):
+    """The key in either engine: the same results on every executor and worker count, for both."""
+    return scene_from_options("allen-key", engine=request.param)
 
 
 @pytest.fixture(scope="module")
@@ -133,8 +134,11 @@ def test_bad_scheduler_address(address, needle):
 def test_simulator_for_keeps_one_per_scene(scene):
     a = simulator_for(scene)
     assert simulator_for(scene) is a
-    assert simulator_for(scene_from_options("allen-key")) is a  # same content, same simulator
-    assert simulator_for(scene_from_options("rectangle:40x20")) is not a
+    engine = scene.settings.engine
+    assert simulator_for(scene_from_options("allen-key", engine=engine)) is a  # same content, same simulator
+    assert simulator_for(scene_from_options("rectangle:40x20", engine=engine)) is not a
+    other = "pybullet" if engine == "planar" else "planar"
+    assert simulator_for(scene_from_options("allen-key", engine=other)) is not a  # never the other engine
 
 
 _CHILD = textwrap.dedent("""
