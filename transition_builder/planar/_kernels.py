@@ -46,21 +46,22 @@ _TRANSLATION_SHARE = 1e-9
 
 
 @njit(cache=True)
-def _point_mu(x, y, cs, sn, bx, by, mu_grid, tile):
-    """The floor's coefficient under the body point ``(bx, by)`` of a part at ``(x, y)``, rotation ``cs, sn``."""
+def _point_mu(x, y, cs, sn, bx, by, mu_grid, inv_tile):
+    """The floor's coefficient under the body point ``(bx, by)`` of a part at ``(x, y)``, rotation ``cs, sn``
+    (tile ``(floor(x / tile), floor(y / tile))``, clamped to the map; ``inv_tile = 1 / tile``)."""
     nx = mu_grid.shape[0]
     ny = mu_grid.shape[1]
     if nx * ny == 1:
         return mu_grid[0, 0]
     px = x + cs * bx - sn * by
     py = y + sn * bx + cs * by
-    ix = min(max(int(px // tile), 0), nx - 1)
-    iy = min(max(int(py // tile), 0), ny - 1)
+    ix = min(max(int(px * inv_tile), 0), nx - 1)      # int() truncates: negative positions clamp to 0 alike
+    iy = min(max(int(py * inv_tile), 0), ny - 1)
     return mu_grid[ix, iy]
 
 
 @njit(cache=True)
-def _floor_wrench(s, geom, mu_grid, tile, gn, r_max, out):
+def _floor_wrench(s, geom, mu_grid, inv_tile, gn, r_max, out):
     """Kinetic floor friction per unit mass at the state ``s``: ``out = (fx, fy, tz)`` (mm/s^2, mm^2/s^2).
 
     Uniform pressure, quadrature over the footprint: ``-gN sum_i w_i mu_i u_i`` and its moment, ``u_i``
@@ -72,12 +73,34 @@ def _floor_wrench(s, geom, mu_grid, tile, gn, r_max, out):
     wz = s[5]
     uniform = mu_grid.shape[0] * mu_grid.shape[1] == 1
     sp = math.sqrt(vx * vx + vy * vy)
-    if uniform and abs(wz) * r_max <= _TRANSLATION_SHARE * sp:
-        # the spin changes no point's velocity direction by more than 1e-9 rad: a pure translation
-        k = gn * mu_grid[0, 0] / sp
-        out[0] = -k * vx
-        out[1] = -k * vy
-        out[2] = 0.0
+    if abs(wz) * r_max <= _TRANSLATION_SHARE * sp:
+        # the spin changes no point's velocity direction by more than 1e-9 rad: a pure translation, every
+        # point moving along u = v / |v|: force -gN (sum w_i mu_i) u, moment -gN (sum w_i mu_i r_i) x u
+        if uniform:
+            k = gn * mu_grid[0, 0] / sp
+            out[0] = -k * vx
+            out[1] = -k * vy
+            out[2] = 0.0
+            return
+        ux = vx / sp
+        uy = vy / sp
+        cs = math.cos(s[2])
+        sn = math.sin(s[2])
+        msum = 0.0
+        mx = 0.0
+        my = 0.0
+        for i in range(geom.shape[1]):
+            bx = geom[0, i]
+            by = geom[1, i]
+            m = geom[2, i] * _point_mu(s[0], s[1], cs, sn, bx, by, mu_grid, inv_tile)
+            msum += m
+            mx += m * bx
+            my += m * by
+        rx = cs * mx - sn * my
+        ry = sn * mx + cs * my
+        out[0] = -gn * msum * ux
+        out[1] = -gn * msum * uy
+        out[2] = -gn * (rx * uy - ry * ux)
         return
     # in the body frame: point i moves at R^T v + omega x b_i, so no point is rotated; the sums are
     # turned back into the tray frame once
@@ -97,7 +120,7 @@ def _floor_wrench(s, geom, mu_grid, tile, gn, r_max, out):
         if sp > 0.0:
             m = geom[2, i] / sp
             if not uniform:
-                m *= _point_mu(s[0], s[1], cs, sn, bx, by, mu_grid, tile)
+                m *= _point_mu(s[0], s[1], cs, sn, bx, by, mu_grid, inv_tile)
             fx -= m * ux
             fy -= m * uy
             tz -= m * (bx * uy - by * ux)
@@ -111,7 +134,7 @@ def _floor_wrench(s, geom, mu_grid, tile, gn, r_max, out):
 
 
 @njit(cache=True)
-def _static_limits(s, geom, mu_grid, tile, ratio, p_lat, p_spin):
+def _static_limits(s, geom, mu_grid, inv_tile, ratio, p_lat, p_spin):
     """``(sum_i w_i mu_s,i, sum_i w_i mu_s,i r_i)``: the static force and torque limits per unit normal
     force (``p_lat = sum_i w_i``, ``p_spin = sum_i w_i r_i``: a uniform floor needs no sum)."""
     nx = mu_grid.shape[0]
@@ -125,7 +148,7 @@ def _static_limits(s, geom, mu_grid, tile, ratio, p_lat, p_spin):
         cs = math.cos(s[2])
         sn = math.sin(s[2])
         for i in range(geom.shape[1]):
-            m = geom[2, i] * _point_mu(s[0], s[1], cs, sn, geom[0, i], geom[1, i], mu_grid, tile)
+            m = geom[2, i] * _point_mu(s[0], s[1], cs, sn, geom[0, i], geom[1, i], mu_grid, inv_tile)
             lat += m
             spin += m * geom[3, i]
     return lat * ratio, spin * ratio
@@ -275,7 +298,7 @@ def _solve(s, nc, cn, cr, cgap, cslot, warm, lam, pre, wrench, mode, lim_lat, li
 @njit(cache=True)
 def _step(s, geom, verts, mu_grid, p, gsin, gcos, dt, cn, cr, cgap, cslot, warm, lam, pre, wrench):
     """One physics step of ``dt`` (module docstring), in place on ``s``."""
-    tile = p[P_TILE]
+    inv_tile = 1.0 / p[P_TILE]
     vx0 = s[3]
     vy0 = s[4]
     w0 = s[5]
@@ -287,12 +310,12 @@ def _step(s, geom, verts, mu_grid, p, gsin, gcos, dt, cn, cr, cgap, cslot, warm,
     if gcos > 0.0:
         if fastest < p[P_STICK]:
             mode = 2
-            lat, spin = _static_limits(s, geom, mu_grid, tile, p[P_RATIO], p[P_WSUM], p[P_WRSUM])
+            lat, spin = _static_limits(s, geom, mu_grid, inv_tile, p[P_RATIO], p[P_WSUM], p[P_WRSUM])
             lim_lat = lat * gcos * dt
             lim_spin = spin * gcos * dt
         else:
             mode = 1
-            _floor_wrench(s, geom, mu_grid, tile, gcos, p[P_RMAX], wrench)
+            _floor_wrench(s, geom, mu_grid, inv_tile, gcos, p[P_RMAX], wrench)
     nc = _gather_walls(s, verts, p, dt, cn, cr, cgap, cslot)
     s[3] += gsin * p[P_DX] * dt
     s[4] += gsin * p[P_DY] * dt
