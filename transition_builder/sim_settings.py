@@ -200,7 +200,9 @@ class SimSettings:
         planar engine, :mod:`transition_builder.planar`; the coulomb contact only). ``pybullet`` is left
         out of the cache key, so every scene from before the planar engine keeps its key and reads back
         as ``pybullet``. With ``planar`` the PyBullet-only settings (``contact_pairs``, ``long_steps``,
-        ``part_links``) read as their legacy values: they change nothing (docs/simulator.md, "The planar engine").
+        ``part_links``) change nothing and are left out of :meth:`to_dict` (one key per physics); they are
+        kept, so that the same settings with ``engine="pybullet"`` are PyBullet's (docs/simulator.md, "The
+        planar engine").
     """
 
     time_step_s: float = 1.0 / 480.0
@@ -267,11 +269,8 @@ class SimSettings:
             object.__setattr__(self, "part_links", LEGACY_CHOICES["part_links"])
         if self.contact != "coulomb":
             object.__setattr__(self, "long_steps", LEGACY_CHOICES["long_steps"])
-        if self.engine == "planar":
-            if self.contact != "coulomb":
-                raise ValueError(f"the planar engine has the coulomb contact only, not {self.contact}")
-            for name in _PYBULLET_ONLY:
-                object.__setattr__(self, name, LEGACY_CHOICES[name])
+        if self.engine == "planar" and self.contact != "coulomb":
+            raise ValueError(f"the planar engine has the coulomb contact only, not {self.contact}")
 
     def to_dict(self) -> dict:
         """All fields, JSON-able (``contact_pairs``, ``long_steps`` and ``part_links`` only when not at their
@@ -281,6 +280,9 @@ class SimSettings:
         for name, legacy in LEGACY_CHOICES.items():
             if d[name] == legacy:
                 del d[name]
+        if self.engine == "planar":         # settings the planar engine does not have: one key per physics
+            for name in _PYBULLET_ONLY:
+                d.pop(name, None)
         return d
 
     @classmethod
@@ -295,7 +297,11 @@ class SimSettings:
             k = data.pop("support_points")
             data["contact"] = "sphere" if k == 1 else f"legs:{k}"
         if isinstance(data, dict) and all(name in data for name in _ALWAYS_SAVED):
-            data = {**LEGACY_CHOICES, **data}
+            legacy = dict(LEGACY_CHOICES)
+            if data.get("engine") == "planar":      # never saved by a planar scene: PyBullet's defaults
+                for name in _PYBULLET_ONLY:
+                    legacy.pop(name)
+            data = {**legacy, **data}
         return cls(**check_fields(data, cls, "sim setting"))
 
     @property

@@ -50,11 +50,16 @@ def test_old_saved_settings_and_scene_files_read_as_pybullet(tmp_path, key):
     assert Scene.load(str(path)).settings.engine == "planar"
 
 
-def test_planar_reads_pybullet_only_settings_as_legacy():
-    """Settings the planar engine does not have change nothing, so they do not split its keys."""
+def test_pybullet_only_settings_do_not_split_planar_keys():
+    """Settings the planar engine does not have change nothing, so they do not split its keys; they are
+    kept, so switching a planar scene back to PyBullet gives PyBullet's own defaults."""
     a = SimSettings(engine="planar")
     b = SimSettings(engine="planar", part_links="per-part", contact_pairs="all", long_steps="free")
-    assert a == b and a.to_dict() == b.to_dict()
+    assert a.to_dict() == b.to_dict()
+    assert dataclasses.replace(a, engine="pybullet") == SimSettings(engine="pybullet")
+    saved = SimSettings.from_dict(a.to_dict())
+    assert saved.to_dict() == a.to_dict()
+    assert dataclasses.replace(saved, engine="pybullet") == SimSettings(engine="pybullet")
 
 
 @pytest.mark.parametrize("bad", ["bullet", "", "PLANAR2", 3])
