@@ -120,6 +120,9 @@ class ReproduceSettings:
     contact: str | None = None
     #: the physics engine of every scene (None: the simulator's default)
     engine: str | None = None
+    #: the engine-against-engine section (analysis.experiments.engines): the key's answers from both engines'
+    #: models at the compared resolution, and the judges on both (with ``judges``)
+    engines: bool = True
     compare_contacts: tuple = (("sphere, 1/240 s (the old default)",
                                 {"contact": "sphere", "time_step_s": 1.0 / 240.0, "substeps": 4, **LEGACY_CHOICES}),
                                ("coulomb, joint chain, all pairs, short steps (the default up to the sixth session)",
@@ -169,7 +172,7 @@ class ReproduceSettings:
                    a_check_trials=200, b_trials=100, c_trials=60, replay_trials=500, validate_sequences=2,
                    validate_trials=200, validate_length=20, metrics_count=500, metrics_runs=200,
                    sync_time_budget=20.0, part_sync_time_budget=10.0, compare_contacts=(),
-                   compare_refine=(), judges=False, sensitivity=False)
+                   compare_refine=(), judges=False, sensitivity=False, engines=False)
 
 
 def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progress=None,

@@ -55,6 +55,7 @@ register("ensemble", "analysis.experiments.ensemble")          # A at scale: a m
 register("sync", "analysis.experiments.sync")                  # the optimal plan, expected random length
 register("plans", "analysis.experiments.plans")                # plans for every target, replayed
 register("contact", "analysis.experiments.contact")            # contact models and time steps
+register("engines", "analysis.experiments.engines")            # engine against engine
 register("sensitivity", "analysis.experiments.sensitivity")    # intervals and the settings' sensitivity
 register("robot_log", "analysis.experiments.robot_log")        # a robot's log beside the model
 register("tray_log", "analysis.experiments.tray_log")          # a tray's log: the friction fitted
