@@ -261,6 +261,13 @@ def _groups(maps: dict) -> dict:
     return g
 
 
+def study_physics() -> dict:
+    """The physics the study simulates (the default simulator settings, engine included): a report cites
+    the study's figures only when they come from the report's own physics."""
+    from transition_builder.sim_settings import SimSettings
+    return SimSettings().to_dict()
+
+
 @dataclass(frozen=True)
 class FrictionStudyResult:
     """The study's measurements: C's readings (per map and grouped) and the physics search."""
@@ -275,6 +282,7 @@ class FrictionStudyResult:
         out = asdict(self)
         out["c_groups"] = {"amplitude": _groups(self.c_amplitude), "mean": _groups(self.c_mean)}
         out["paper"] = PAPER
+        out["physics"] = study_physics()
         return out
 
     def markdown(self) -> str:

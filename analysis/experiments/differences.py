@@ -73,6 +73,9 @@ def run(ctx) -> Result:
         return _result(saved, study.to_dict(), "this run's friction section")
     path = getattr(ctx.settings, "friction_study_dir", None)
     loaded = _study_from_dir(path)
+    if loaded is not None and loaded.get("physics") != ctx.scene().settings.to_dict():
+        # a study of another physics (or of one it did not record) is not cited beside this run's tables
+        return _result(saved, None, None)
     return _result(saved, loaded, None if loaded is None else f"{path}/friction_study.json")
 
 
@@ -85,7 +88,16 @@ def from_saved(saved: dict, report_dir: str) -> Result:
     friction study committed beside it (``report_dir/friction_study/friction_study.json``)."""
     path = os.path.join(report_dir, "friction_study")
     loaded = _study_from_dir(path)
+    if loaded is not None and not _same_engine(loaded, saved):
+        return _result(saved, None, None)
     return _result(saved, loaded, None if loaded is None else f"{path}/friction_study.json")
+
+
+def _same_engine(study: dict, saved: dict) -> bool:
+    """Whether a saved study was simulated by the saved report's engine (a study that recorded no physics
+    was not: it predates the record)."""
+    physics = study.get("physics")
+    return isinstance(physics, dict) and physics.get("engine", "pybullet") == saved.get("engine", "pybullet")
 
 
 def _share(k: int, n: int) -> str:
@@ -275,7 +287,7 @@ def markdown(r: Result) -> str:
              "Each row of the paper table, point by point: the paper's figure (with its 95% interval where it is a "
              "count), ours, and what explains the gap"
              + (f" (the friction study: `{r.study_source}`)." if r.study_source else "; the friction study was not run "
-                "with this report, so its explanations are missing."), "",
+                "with this report's physics, so its explanations are missing."), "",
              "| point | paper | this report | verdict |", "|---|---|---|---|"]
     lines += [f"| {p.topic} | {p.paper} | {p.ours} | {p.verdict} |" for p in r.points]
     lines.append("")

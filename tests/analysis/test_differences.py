@@ -40,7 +40,7 @@ def _study():
     return {"c_groups": {"mean": {"low": group(13, 13, 0.22, 0.35), "medium": group(0, 3, 0.38, 0.44),
                                   "high": group(1, 4, 0.46, 0.49)},
                          "amplitude": {"low": group(4, 4, 0.3, 0.3)}},
-            "search": search, "b_search": b_search}
+            "search": search, "b_search": b_search, "physics": {"engine": "planar"}}
 
 
 def _point(points, topic):
@@ -91,7 +91,8 @@ def test_rerun_section_renders_differences_from_a_saved_report(tmp_path):
     spec = importlib.util.spec_from_file_location("rerun_section", str(tests.ROOT / "tools" / "rerun_section.py"))
     rerun = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(rerun)
-    saved = dict(_saved(), settings=json.loads(json.dumps(dataclasses.asdict(ReproduceSettings.full()))))
+    saved = dict(_saved(), settings=json.loads(json.dumps(dataclasses.asdict(ReproduceSettings.full()))),
+                 engine="planar")
     (tmp_path / "results.json").write_text(json.dumps(saved))
     (tmp_path / "index.md").write_text("# R\n\n## How the differences arise\n\nstale text\n\n## Z\n\nz\n")
     (tmp_path / "friction_study").mkdir()
@@ -115,3 +116,17 @@ def test_short_runs_and_a_mean_that_reaches_zero_are_read_as_they_are():
     assert mean_point.ours.startswith("0.50 bits at tilt 10; not near zero within 10")
     s["ensemble"] = dict(s["ensemble"], mean=[5.0] + [0.05] * 50, mean_near_zero_by=12)
     assert _point(differences(s), "A: mean entropy").verdict == "no gap"
+
+
+def test_a_study_of_another_physics_is_not_cited(tmp_path):
+    """The differences section cites a friction study only when it ran in the report's own engine: a
+    study of the other engine, or one that recorded no physics, leaves its explanations out."""
+    (tmp_path / "friction_study").mkdir()
+    for physics in ({"engine": "pybullet"}, None):
+        study = dict(_study(), physics=physics) if physics else {k: v for k, v in _study().items() if k != "physics"}
+        (tmp_path / "friction_study" / "friction_study.json").write_text(json.dumps(study))
+        r = from_saved(dict(_saved(), engine="planar"), str(tmp_path))
+        assert r.study_source is None and "growing the amplitude" not in markdown(r)
+    (tmp_path / "friction_study" / "friction_study.json").write_text(json.dumps(_study()))
+    r = from_saved(dict(_saved(), engine="planar"), str(tmp_path))
+    assert r.study_source.endswith("friction_study.json") and "growing the amplitude leaves 4 of 4" in markdown(r)
