@@ -37,6 +37,8 @@ import sys
 
 import numpy as np
 
+from transition_builder.cache import cache_key, model_file
+
 HERE = pathlib.Path(__file__).parent / "data" / "coverage"
 
 
@@ -99,7 +101,7 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
             continue
         sim = kept_references(resume, model) if resume else None
         res = validate_model(model, sequences=k, trials=m, seed=seed, length=30, workers=2, simulate=sim)
-        res["model_path"] = model_path
+        res["model_path"] = cache_key(model_path)     # the cache key (or file name), never a machine's path
         res["label"] = label
         atomic_write_text(str(out), json.dumps(res))
         print(f"{out.name}: coverage {res['band_coverage']:.3f} (Dirichlet alone {res['band_coverage_dirichlet']:.3f}),"
@@ -178,7 +180,7 @@ def _steps(res: dict, delta: float, model=None, rule: str = "relative"):
 
 def _model(res: dict, fallback: str | None = None):
     from kruskal_markov.model import TransitionModel
-    return TransitionModel.load(fallback or res.get("model_path"))
+    return TransitionModel.load(model_file(fallback or res.get("model_path")))
 
 
 def calibrated_delta(files: list[str], model, rule: str = "relative") -> tuple[float, np.ndarray, list]:
@@ -201,7 +203,7 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     print(f"{len(s)} calibration steps from {len(files)} runs: conformal 90% delta = {q:.4f} "
           f"(share of steps needing none: {np.mean(s == 0):.3f})")
     if store:
-        path = model_path or json.load(open(files[0]))["model_path"]
+        path = model_file(model_path or json.load(open(files[0]))["model_path"])
         model = _model({}, path)
         sequences = sum(len(json.load(open(f))["per_sequence"]) for f in files)
         with_calibration(model, q, level=0.9, steps=len(s), sequences=sequences, seeds=seeds,
@@ -408,7 +410,7 @@ def summary() -> None:
     pooled: dict[str, list] = {}
     for f in runs:
         res = json.load(open(f))
-        if not os.path.exists(res.get("model_path", "")):
+        if not os.path.exists(model_file(res.get("model_path", ""))):
             print(f"| {res['label']} | {res['seed']} | model not built here ({res.get('model_path')}: "
                   "`kruskal build --shape allen-key --seed 0 [--noise pose:0.5,0.5]` builds it to that path) |")
             continue

@@ -34,9 +34,13 @@ def stream_seed(seed: int, name: str) -> int:
 
 @dataclasses.dataclass(frozen=True)
 class ModelInfo:
-    """How a model of the report was obtained (the ``key_model`` and every ``model`` entry)."""
+    """How a model of the report was obtained (the ``key_model`` and every ``model`` entry).
 
-    path: str
+    ``cache_key`` names the model by its file in the model cache
+    (:func:`transition_builder.cache.cache_key`), never by a machine's path.
+    """
+
+    cache_key: str
     cached: bool
     states: int
     tilts: int | None
@@ -158,7 +162,7 @@ class Context:
         return self.memo(("build", build_key(scene, settings)), lambda: self._build(scene, settings, changes, what))
 
     def _build(self, scene, settings, changes, what):
-        from transition_builder.cache import cached_build
+        from transition_builder.cache import cache_key, cached_build
 
         t0 = self.clock()
         result, path, cached = cached_build(scene, settings, workers=self.workers)
@@ -166,7 +170,7 @@ class Context:
         seconds = self.clock() - t0
         self.log(f"{what}: model with {result.model.n_states} states "
                  f"({'cached' if cached else f'built in {seconds:.0f} s'})")
-        return result.model, ModelInfo(path=path, cached=cached, states=result.model.n_states,
+        return result.model, ModelInfo(cache_key=cache_key(path), cached=cached, states=result.model.n_states,
                                        tilts=st.get("tilts_simulated"), fault_rate=st.get("fault_rate"),
                                        seconds=seconds, settings=dict(changes))
 

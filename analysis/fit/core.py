@@ -252,7 +252,8 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         Settings of the grid's builds (default: ``BuildSettings(tol_mm=1, tol_deg=1,
         recenter_rounds=1, start_samples=2000)``, the report's compared resolution).
     build : callable, optional
-        ``build(scene, build_settings) -> (model, path)``; default cached builds.
+        ``build(scene, build_settings) -> (model, name)``; default cached builds, named by their
+        cache keys (:func:`transition_builder.cache.cache_key`), as ``FitResult.models`` lists them.
     workers, scheduler, progress
         Passed to the builds.
     grid : str
@@ -270,9 +271,9 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     rgrid = report_grid_for(scene, grid)
     if build is None:
         def build(sc, st):
-            from transition_builder.cache import cached_build
+            from transition_builder.cache import cache_key, cached_build
             res, path, _ = cached_build(sc, st, workers=workers, scheduler=scheduler, progress=progress)
-            return res.model, path
+            return res.model, cache_key(path)
 
     def build_point(point, replicate=0):
         sc, st = scene, (bs if not replicate else replace(bs, seed=bs.seed + replicate))
@@ -310,7 +311,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
 
 
 def _model_paths(g: _Grid, pts) -> dict:
-    """Point label -> model file; a replicate build is labelled ``mu#r``."""
+    """Point label -> the model's name (its cache key); a replicate build is labelled ``mu#r``."""
     out = {",".join(f"{v:g}" for v in p): g.paths[p] for p in pts}
     for p, reps in g.rep.items():
         for r in range(1, len(reps) + 1):
