@@ -3,7 +3,6 @@ shared results and named random streams (:class:`Context`)."""
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import importlib
 import os
 import tempfile
@@ -12,24 +11,9 @@ from typing import Callable
 
 import numpy as np
 
+from analysis.streams import stream_seed
+
 __all__ = ["Context", "ModelInfo", "direct_summary", "stream_seed"]
-
-
-def stream_seed(seed: int, name: str) -> int:
-    """The seed of the random stream ``name`` under the run's ``seed``: a
-    :class:`numpy.random.SeedSequence` of ``(seed, sha256(name))``, reduced to 31 bits.
-
-    Two names, or two run seeds, give unrelated streams (``seed + k`` would not: seed 1's first
-    stream would be seed 0's second). The name's hash is stable across runs and machines.
-
-    >>> stream_seed(0, "A") == stream_seed(0, "A") != stream_seed(1, "A")
-    True
-    >>> stream_seed(0, "A") != stream_seed(0, "ensemble")
-    True
-    """
-    h = int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
-    state = np.random.SeedSequence([int(seed), h]).generate_state(1, np.uint32)[0]
-    return int(state >> 1)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,7 +72,8 @@ class Context:
 
     Notes
     -----
-    Random choices come from named streams (:meth:`seed`, :meth:`rng`): ``ctx.seed("A")`` is the
+    Random choices come from named streams (:meth:`seed`, :meth:`rng`; every name the report uses is
+    listed in :data:`analysis.streams.REPORT_STREAMS`): ``ctx.seed("A")`` is the
     same in every experiment that asks for it (common random numbers where a comparison wants the
     same sequences) and unrelated to every other name and every other ``--seed``. Model builds keep
     ``settings.seed`` as their build seed (the model cache's key).
