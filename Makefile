@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 
-.PHONY: run test test-slow lint docs bench mutate clean
+.PHONY: run test test-slow lint docs bench bench-test mutate clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -41,6 +41,11 @@ docs: $(VENV)/.installed
 
 bench: $(VENV)/.installed
 	$(PY) -m benchmarks
+
+# The benchmarks' own machinery (benchmarks/tests/: kept runs, resumption, summaries; the slow recovery
+# protocol included). The product's suite (tests/) never imports benchmarks.
+bench-test: $(VENV)/.installed
+	$(PY) -m pytest -q -m '' benchmarks/tests
 
 # Mutation testing of the core modules (tools/mutate.py, docs/testing.md): mutmut, one module at a
 # time against the tests that cover it, two workers (MUTATE_JOBS=1 for one), the slow modules

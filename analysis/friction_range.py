@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analysis.streams import offset_seed
+
 __all__ = ["FrictionRange", "answers_over_range", "between_points", "check_plan_between", "is_friction_range",
            "models_over_range", "parse_friction_range", "plan_cell", "rankings_over_range"]
 
@@ -155,7 +157,7 @@ def models_over_range(scene, frange: FrictionRange, points: int, build_settings=
     from transition_builder.cache import cached_build
     from transition_builder.friction import parse_friction
 
-    bs = build_settings or BuildSettings(tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, start_samples=2000)
+    bs = build_settings or BuildSettings.compared()
     out = []
     for spec in frange.points(points):
         res, path, _ = cached_build(replace(scene, friction=parse_friction(spec)), bs, **build_kwargs)
@@ -305,13 +307,13 @@ def check_plan_between(scene, word, final_cell, frange: FrictionRange | None, po
     out = []
     for i, mu in enumerate(mus):
         sc = replace(scene, friction=parse_friction(mu))
-        res = run_direct(sc, list(word), trials, seed=seed + i, workers=workers, grid=grid,
+        res = run_direct(sc, list(word), trials, seed=offset_seed(seed, i), workers=workers, grid=grid,
                          simulator_factory=simulator_factory)
         g = report_grid_for(sc, grid)
         ok = res.status[:, -1] == OK
         cells = g.voxel_index(res.poses[ok, -1]) if ok.any() else np.zeros(0, dtype=np.int64)
         counts = np.bincount(cells, minlength=1) if cells.size else np.zeros(1, dtype=np.int64)
-        row = {"mu": float(round(mu, 10)), "seed": int(seed + i), "trials": int(trials), "cell": cell,
+        row = {"mu": float(round(mu, 10)), "seed": offset_seed(seed, i), "trials": int(trials), "cell": cell,
                "faulted": int(trials - ok.sum()), "modal_cell": int(np.argmax(counts)) if cells.size else None,
                "share_in_modal_cell": float(counts.max() / trials)}
         if cell is not None:

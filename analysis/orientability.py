@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from analysis.streams import salted
 from kruskal_markov.entropy import CONVERGED_BITS
 from kruskal_markov.model import TransitionModel
 
@@ -120,7 +121,7 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     model : TransitionModel
         A built model (report partition expected; without one the entropy is on the states).
     seed : int
-        Seeds the random sequences (ensemble: ``seed``; Monte Carlo lengths: ``[seed, 5]``, ``[seed, 6]``).
+        Seeds the random sequences (ensemble: ``seed``; Monte Carlo lengths: the salted streams ``orientability.*`` of :mod:`analysis.streams`).
     count : int
         Random 50-tilt sequences of the ensemble (mean entropy at 10 and 50, converging share).
     runs : int
@@ -172,8 +173,8 @@ def part_metrics(model: TransitionModel, *, seed: int = 0, count: int = 2000, ru
     aut = support_automaton(model, 0.0)
     start = start_set(model, False)
     sync = shortest_word(model, "state", start="initial", time_budget=sync_time_budget, node_budget=sync_node_budget)
-    tilts = monte_carlo_entropy_tilts(model, epsilon, runs=runs, seed=[seed, 5], max_steps=max_tilts)
-    rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=[seed, 6], max_steps=max_tilts)
+    tilts = monte_carlo_entropy_tilts(model, epsilon, runs=runs, seed=salted(seed, "orientability.entropy_tilts"), max_steps=max_tilts)
+    rsync = monte_carlo_sync_length(aut, start, runs=runs, seed=salted(seed, "orientability.sync_length"), max_steps=max_tilts)
     h0 = float(entropy_trajectory(model, []).entropy_bits[0])
     from kruskal_markov.answers import answer_intervals
 

@@ -30,6 +30,7 @@ from analysis.experiments.context import direct_summary
 from analysis.experiments.curves import first_at_most, settled_steps
 from analysis.experiments.paper import PAPER
 from analysis.orientability import CONVERGED_BITS
+from transition_builder.builder.build_settings import COMPARED_RESOLUTION
 from transition_builder.sim_settings import LEGACY_CHOICES
 
 __all__ = ["PAPER", "ReproduceSettings", "direct_summary", "first_at_most", "reproduce", "settled_steps"]
@@ -129,8 +130,7 @@ class ReproduceSettings:
                                 dict(LEGACY_CHOICES)))
     compare_refine: tuple = (4,)
     judges: bool = True
-    contact_build: dict | None = dataclasses.field(default_factory=lambda: {
-        "tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1, "start_samples": 2000})
+    contact_build: dict | None = dataclasses.field(default_factory=lambda: dict(COMPARED_RESOLUTION))
     contact_ensemble_count: int = 100_000
     epsilon: float = CONVERGED_BITS
     #: the sensitivity study (analysis.sensitivity): the key rebuilt at ``contact_build`` under half the
@@ -166,7 +166,7 @@ class ReproduceSettings:
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":
         """``--quick``: coarse models (1 mm / 1 degree), 3 triangles, 3 maps, few trials."""
-        coarse = {"tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1, "start_samples": 2000}
+        coarse = dict(COMPARED_RESOLUTION)
         return cls(quick=True, seed=seed, ensemble_count=10_000, parts=("triangle:1", "triangle:2", "triangle:3"),
                    maps=("map:low:1", "map:medium:1", "map:high:1"), key_build=coarse, part_build=coarse,
                    a_check_trials=200, b_trials=100, c_trials=60, replay_trials=500, validate_sequences=2,

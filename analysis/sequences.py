@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from analysis.streams import SALTS, salted_rng
+
 __all__ = ["SEQUENCE_STREAM", "sequence_rng", "random_sequences_for"]
 
-#: seed stream of random sequences (start poses use the bare seed; noise its own stream).
-SEQUENCE_STREAM = 1
+#: seed stream of random sequences (start poses use the bare seed; noise its own stream):
+#: ``SALTS["sequences"]`` of :mod:`analysis.streams`.
+SEQUENCE_STREAM = SALTS["sequences"]
 
 
 def sequence_rng(seed: int) -> np.random.Generator:
     """The generator of ``--sequence random:N --seed seed``."""
-    return np.random.default_rng([seed, SEQUENCE_STREAM])
+    return salted_rng(seed, "sequences")
 
 
 def random_sequences_for(n_actions: int, count: int, length: int, seed: int) -> np.ndarray:

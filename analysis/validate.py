@@ -37,6 +37,7 @@ import numpy as np
 
 from analysis.montecarlo import run_direct
 from analysis.sequences import random_sequences_for
+from analysis.streams import salted_rng
 from kruskal_markov.answers import wilson_interval
 from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
 from kruskal_markov.model import ModelError, TransitionModel
@@ -59,7 +60,6 @@ __all__ = ["model_scene", "model_grid", "reference_seed", "validate_model", "ran
 #: The coverage a nominal 90% band should show: a band outside it is too narrow or too wide.
 COVERAGE_WINDOW = (0.85, 0.95)
 
-_REFERENCE_STREAM = 2
 _PLUGIN_DRAWS = 200
 _BOOTSTRAP = 200
 _Z90 = 1.6448536269514722
@@ -84,7 +84,7 @@ def model_grid(model: TransitionModel) -> ReportGrid:
 
 def reference_seed(seed: int, i: int) -> int:
     """The trial seed of the direct-simulation reference of random sequence ``i`` under ``seed``."""
-    return int(np.random.default_rng([seed, _REFERENCE_STREAM, i]).integers(0, 2 ** 31 - 1))
+    return int(salted_rng(seed, "validate.reference", i).integers(0, 2 ** 31 - 1))
 
 
 def _cell_labels(result, grid: ReportGrid) -> list[np.ndarray]:
@@ -258,11 +258,11 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         raise ModelError("the model's partition is not on its report grid")
     noise = model.metadata.get("noise", "none")
     seqs = random_sequences_for(model.n_actions, sequences, length, seed)
-    rng = np.random.default_rng([seed, 3])
+    rng = salted_rng(seed, "validate.bootstrap")
     draws = []
     t_model = time.perf_counter()
     if bands and has_counts(model):
-        draws = [resample_model(model, np.random.default_rng([seed, 4, r])) for r in range(bands)]
+        draws = [resample_model(model, salted_rng(seed, "validate.posterior", r)) for r in range(bands)]
     model_seconds = time.perf_counter() - t_model
     sim_seconds = 0.0
     per_seq = []

@@ -18,7 +18,7 @@ Two measurements of one allen-key build (from scratch, no cache), each in a fres
 Run: ``python -m benchmarks build_profile``. Settings: ``KRUSKAL_BENCH_PROFILE=RES:START[,...]``
 (default ``4,4:300``: 4 mm / 4 deg, 300 start poses, about 30 s serial; the key's default build is
 ``0.25,0.25:5000``), ``KRUSKAL_BENCH_PROFILE_PARTS=serial,parallel``; ``KRUSKAL_BENCH_PROFILE_BEFORE=DIR``
-runs the same measurements with the code of another checkout (e.g. ``/work/main``) first, side by
+runs the same measurements with the code of another checkout (e.g. ``../main``, a sibling worktree) first, side by
 side in one run (``KRUSKAL_BENCH_PROFILE_ONLY=before`` or ``after``: one of the two). The parallel
 build also profiles the parent alone: the time it waits for results, against the work only it
 does (snapping, weights, assembly, checkpoints), during which the workers wait. Every build also prints a digest of the model's arrays, so a before/after pair

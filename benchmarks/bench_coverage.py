@@ -37,6 +37,9 @@ import sys
 
 import numpy as np
 
+from kruskal_markov.coverage import calibration_study, sequence_bootstrap_interval, sequence_risk_delta
+from transition_builder.cache import cache_key, model_file
+
 HERE = pathlib.Path(__file__).parent / "data" / "coverage"
 
 
@@ -99,7 +102,7 @@ def run(model_path: str, label: str, seeds: list[int]) -> None:
             continue
         sim = kept_references(resume, model) if resume else None
         res = validate_model(model, sequences=k, trials=m, seed=seed, length=30, workers=2, simulate=sim)
-        res["model_path"] = model_path
+        res["model_path"] = cache_key(model_path)     # the cache key (or file name), never a machine's path
         res["label"] = label
         atomic_write_text(str(out), json.dumps(res))
         print(f"{out.name}: coverage {res['band_coverage']:.3f} (Dirichlet alone {res['band_coverage_dirichlet']:.3f}),"
@@ -178,7 +181,7 @@ def _steps(res: dict, delta: float, model=None, rule: str = "relative"):
 
 def _model(res: dict, fallback: str | None = None):
     from kruskal_markov.model import TransitionModel
-    return TransitionModel.load(fallback or res.get("model_path"))
+    return TransitionModel.load(model_file(fallback or res.get("model_path")))
 
 
 def calibrated_delta(files: list[str], model, rule: str = "relative") -> tuple[float, np.ndarray, list]:
@@ -201,102 +204,13 @@ def calibrate(files: list[str], model_path: str | None = None, store: bool = Fal
     print(f"{len(s)} calibration steps from {len(files)} runs: conformal 90% delta = {q:.4f} "
           f"(share of steps needing none: {np.mean(s == 0):.3f})")
     if store:
-        path = model_path or json.load(open(files[0]))["model_path"]
+        path = model_file(model_path or json.load(open(files[0]))["model_path"])
         model = _model({}, path)
         sequences = sum(len(json.load(open(f))["per_sequence"]) for f in files)
         with_calibration(model, q, level=0.9, steps=len(s), sequences=sequences, seeds=seeds,
                          scores=[round(float(x), 6) if math.isfinite(x) else None for x in s]).save(path)
         print(f"stored in {path}")
     return q
-
-
-def sequence_bootstrap_interval(per_sequence: list[np.ndarray], resamples: int = 10_000,
-                                seed: int = 0) -> tuple[float, float]:
-    """A 95% interval of the pooled coverage that takes the sequence, not the step, as the unit.
-
-    Steps of one sequence are correlated (a chunk error persists to the sequence's end), so the
-    Wilson interval over steps is too narrow. This resamples whole sequences with replacement
-    (Efron and Tibshirani 1993, ch. 6: the bootstrap of a ratio of sums) ``resamples`` times and
-    returns the 2.5% and 97.5% quantiles of the resampled pooled coverage
-    (steps inside / steps), seeded by ``numpy.random.default_rng(seed)``.
-
-    Parameters
-    ----------
-    per_sequence : list of numpy.ndarray
-        One boolean array per sequence: whether each of its steps is inside the band.
-    """
-    if not per_sequence:
-        raise ValueError("no sequences")
-    hits = np.array([float(np.sum(x)) for x in per_sequence])
-    steps = np.array([float(len(x)) for x in per_sequence])
-    pick = np.random.default_rng(seed).integers(0, len(hits), size=(resamples, len(hits)))
-    share = hits[pick].sum(axis=1) / steps[pick].sum(axis=1)
-    return float(np.quantile(share, 0.025)), float(np.quantile(share, 0.975))
-
-
-def calibration_study(per_sequence: list[np.ndarray], sizes=(2, 4, 8, 12), resamples: int = 2000,
-                      seed: int = 0, level: float = 0.9) -> dict:
-    """How many sequences a per-model calibration needs: resampled calibrations from ``k`` of a model's kept
-    sequences, each scored on the sequences it did not use and on all of them.
-
-    For each ``k`` in ``sizes`` (below the number of sequences), ``resamples`` times: ``k`` sequences drawn
-    without replacement (``numpy.random.default_rng(seed)``), delta = the split-conformal ``level``
-    quantile of their pooled steps' scores (what ``kruskal validate --calibrate`` stores), and the pooled
-    coverage at that delta of (a) the other sequences (``held_out``: calibration and test noise together)
-    and (b) all sequences (``all``: the calibration's own spread; optimistic, the calibration sequences are
-    among them).
-
-    Parameters
-    ----------
-    per_sequence : list of numpy.ndarray
-        Per sequence, its steps' relative-rule scores (:func:`kruskal_markov.structural.structural_score`).
-
-    Returns
-    -------
-    dict
-        ``{k: {"held_out": array, "all": array}}`` of the resampled coverages.
-    """
-    from kruskal_markov.structural import conformal_quantile
-
-    seqs = [np.asarray(x, dtype=np.float64) for x in per_sequence]
-    if len(seqs) < 2:
-        raise ValueError("need at least two sequences")
-    every = np.concatenate(seqs)
-    rng = np.random.default_rng(seed)
-    out = {}
-    for k in sizes:
-        if not 0 < k < len(seqs):
-            continue
-        held, pool = np.empty(resamples), np.empty(resamples)
-        for r in range(resamples):
-            p = rng.permutation(len(seqs))
-            d = conformal_quantile(np.concatenate([seqs[i] for i in p[:k]]), level)
-            held[r] = np.mean(np.concatenate([seqs[i] for i in p[k:]]) <= d)
-            pool[r] = np.mean(every <= d)
-        out[k] = {"held_out": held, "all": pool}
-    return out
-
-
-def sequence_risk_delta(per_sequence: list[np.ndarray], alpha: float = 0.1) -> float:
-    """The sequence-as-unit calibration (considered, not adopted: docs/uncertainty.md): the smallest delta
-    with ``(sum_i L_i(delta) + 1) / (k + 1) <= alpha``, ``L_i`` the share of sequence i's steps outside the
-    band (score above delta), ``k`` the number of sequences; ``inf`` if there is none (always below
-    ``1 / alpha - 1`` sequences). Conformal risk control with a loss in [0, 1] per sequence (Angelopoulos
-    et al., "Conformal risk control", ICLR 2024, Theorem 1), valid for exchangeable sequences.
-
-    Parameters
-    ----------
-    per_sequence : list of numpy.ndarray
-        Per sequence, its steps' relative-rule scores (``inf`` for a step no finite delta covers).
-    """
-    seqs = [np.asarray(x, dtype=np.float64) for x in per_sequence]
-    if not seqs or any(len(x) == 0 for x in seqs):
-        raise ValueError("need sequences with at least one step each")
-    k = len(seqs)
-    for d in np.unique(np.concatenate([[0.0], *[x[np.isfinite(x)] for x in seqs]])):
-        if (sum(float(np.mean(x > d)) for x in seqs) + 1) / (k + 1) <= alpha:
-            return float(d)
-    return math.inf
 
 
 def _split(res: dict, inside: np.ndarray) -> list[np.ndarray]:
@@ -408,7 +322,7 @@ def summary() -> None:
     pooled: dict[str, list] = {}
     for f in runs:
         res = json.load(open(f))
-        if not os.path.exists(res.get("model_path", "")):
+        if not os.path.exists(model_file(res.get("model_path", ""))):
             print(f"| {res['label']} | {res['seed']} | model not built here ({res.get('model_path')}: "
                   "`kruskal build --shape allen-key --seed 0 [--noise pose:0.5,0.5]` builds it to that path) |")
             continue

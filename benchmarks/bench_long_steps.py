@@ -242,7 +242,7 @@ def main():
             validate(int(os.environ.get("KRUSKAL_BENCH_LONG_TRIALS", "2000")))
         elif part.startswith("family:"):
             _, label, mu = part.split(":")
-            build(label, BuildSettings(tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, start_samples=2000), float(mu))
+            build(label, BuildSettings.compared(), float(mu))
         else:
             raise SystemExit(f"unknown part {part!r}: cpu, worlds, judges, build:LABEL, validate, "
                              "family:LABEL:MU")

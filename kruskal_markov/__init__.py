@@ -27,7 +27,9 @@ Expected length of random synchronizing sequences
 Error bands
     :func:`resample_model` (Dirichlet posterior of a built model's rows), :func:`entropy_range_tv`,
     :func:`band_with_structure`, :func:`structural_score`, :func:`conformal_quantile`,
-    :data:`STRUCTURAL_DELTA` (the model's structural error, calibrated by split conformal prediction).
+    :data:`STRUCTURAL_DELTA` (the model's structural error, calibrated by split conformal prediction);
+    how sure a measured coverage is, with the sequence as the unit: :func:`sequence_bootstrap_interval`,
+    :func:`calibration_study`, :func:`sequence_risk_delta`.
 """
 from kruskal_markov.lazy import lazy_exports
 
@@ -80,6 +82,9 @@ _EXPORTS = {
     "band_with_structure": "structural",
     "structural_score": "structural",
     "conformal_quantile": "structural",
+    "sequence_bootstrap_interval": "coverage",
+    "calibration_study": "coverage",
+    "sequence_risk_delta": "coverage",
 }
 __all__ = sorted(_EXPORTS)
 

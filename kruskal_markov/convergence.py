@@ -225,7 +225,8 @@ class _OverBudget(Exception):
 
 def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=None, max_iterations: int = 200_000,
                       time_budget: float = 45.0, tol: float = 1e-12, memory_budget_mb: float | None = None,
-                      clock=time.perf_counter):
+                      clock=time.perf_counter, direct_max_pairs: int = _DIRECT_SOLVE_MAX_PAIRS,
+                      iterative_solver=None):
     """Lower and upper bounds on ``E[T]`` from the chain on pairs (deterministic automata).
 
     Returns ``dict(lower, upper, pairs, memory_mb, iterations, residual)``; bounds are ``inf``
@@ -245,12 +246,19 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
         Skip when the pair chain would need more.
     clock : callable
         Seconds, for ``time_budget`` (tests pass a fake one).
+    direct_max_pairs : int
+        Chains up to this many pairs are solved directly (sparse LU), larger ones iteratively.
+    iterative_solver : callable, optional
+        ``iterative_solver(A, b, rtol=, maxiter=, callback=) -> (x, info)``, the first iterative
+        solve (default :func:`scipy.sparse.linalg.bicgstab`); when ``info != 0`` GMRES continues
+        from its iterate.
 
     Returns
     -------
     dict
     """
     aut, start = as_automaton(aut, start)
+    solve = spla.bicgstab if iterative_solver is None else iterative_solver
     t0 = clock()
     s = as_start(aut, start)
     w = letter_weights(aut.k, weights)
@@ -298,7 +306,7 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
         Q = sp.csr_matrix((np.tile(w_use, R)[keep], (rows[keep], img.ravel()[keep])), shape=(R, R))
         A = sp.identity(R, format="csr") - Q
         mem += (Q.data.nbytes + Q.indices.nbytes + Q.indptr.nbytes) * 2 / 2 ** 20
-        if R <= _DIRECT_SOLVE_MAX_PAIRS:
+        if R <= direct_max_pairs:
             h = spla.spsolve(A.tocsc(), np.ones(R))
         else:
             def stop_at_budget(*_):
@@ -306,7 +314,7 @@ def pair_chain_bounds(aut: SyncAutomaton | TransitionModel, start=None, weights=
                     raise _OverBudget
 
             try:
-                h, info = spla.bicgstab(A, np.ones(R), rtol=1e-12, maxiter=20_000, callback=stop_at_budget)
+                h, info = solve(A, np.ones(R), rtol=1e-12, maxiter=20_000, callback=stop_at_budget)
                 if info != 0:
                     h, info = spla.gmres(A, np.ones(R), x0=h, rtol=1e-12, restart=50, maxiter=100,
                                          callback=stop_at_budget, callback_type="pr_norm")

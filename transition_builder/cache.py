@@ -8,7 +8,10 @@ foreign, truncated) is rebuilt with a one-line warning, never used. The in-progr
 build lives beside it (``<key>.ckpt.npz``), so a killed build resumes when started again; with
 ``use_cache=False`` nothing is reused, neither a cached model nor a checkpoint.
 
-The directory is ``$KRUSKAL_CACHE`` if set, else ``~/.cache/kruskal/models``.
+The directory is ``$KRUSKAL_CACHE`` if set, else ``~/.cache/kruskal/models``. What a record (a report's
+``results.json``, a benchmark's data) keeps of a model is its cache key (:func:`cache_key`: the file's
+path relative to the cache, ``<build key>.npz``), never a machine's absolute path; :func:`model_file`
+turns a key back into the file on this machine.
 """
 from __future__ import annotations
 
@@ -22,7 +25,7 @@ from kruskal_markov.model import ModelError, TransitionModel
 from transition_builder.builder import BuildResult, BuildSettings, BuildWarning, build_key, build_model
 from transition_builder.scene import Scene
 
-__all__ = ["CachedBuild", "cache_dir", "cached_build"]
+__all__ = ["CachedBuild", "cache_dir", "cache_key", "cached_build", "model_file"]
 
 
 class CachedBuild(NamedTuple):
@@ -54,6 +57,58 @@ def cache_dir() -> str:
     d = os.environ.get("KRUSKAL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "kruskal", "models")
     os.makedirs(d, exist_ok=True)
     return d
+
+
+def cache_key(path: str, directory: str | None = None) -> str:
+    """The name a record keeps for a model file: its path relative to the model cache.
+
+    Parameters
+    ----------
+    path : str
+        A model file, e.g. the ``path`` of a :class:`CachedBuild`.
+    directory : str, optional
+        The cache directory (default :func:`cache_dir`).
+
+    Returns
+    -------
+    str
+        ``<build key>.npz`` for a file in the cache; for a file elsewhere (a build's ``out`` copy),
+        its file name. Never an absolute path, so a record written on one machine names the same
+        model on another (:func:`model_file` finds it).
+
+    Examples
+    --------
+    >>> cache_key("/any/cache/ab12.npz", directory="/any/cache")
+    'ab12.npz'
+    >>> cache_key("/elsewhere/allen.npz", directory="/any/cache")
+    'allen.npz'
+    """
+    d = os.path.abspath(directory or cache_dir())
+    p = os.path.abspath(path)
+    if os.path.commonpath([d, p]) == d and p != d:
+        return os.path.relpath(p, d).replace(os.sep, "/")
+    return os.path.basename(p)
+
+
+def model_file(key: str, directory: str | None = None) -> str:
+    """The file of a model named by ``key``: ``key`` itself when it is a file here, else the file
+    under the model cache (:func:`cache_key` turned around).
+
+    Parameters
+    ----------
+    key : str
+        A cache key (``<build key>.npz``) or a path.
+    directory : str, optional
+        The cache directory (default :func:`cache_dir`).
+
+    Returns
+    -------
+    str
+        The path to load (it may not exist when the model was never built on this machine).
+    """
+    if os.path.isfile(key):
+        return key
+    return os.path.join(directory or cache_dir(), key)
 
 
 def _copy_atomic(src: str, dst: str) -> None:

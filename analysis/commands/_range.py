@@ -75,7 +75,7 @@ def range_models(args):
         scene = scene_from_options(args.shape or "allen-key", **({"engine": engine} if engine else {}))
     except ValueError as exc:
         raise InputError(f"--shape: {exc}") from None
-    bs = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=1, start_samples=2000)
+    bs = BuildSettings.compared(tol_mm=mm, tol_deg=deg)
     return fr, scene, models_over_range(scene, fr, args.range_points, bs, workers=getattr(args, "workers", None))
 
 

@@ -28,7 +28,8 @@ How to add an experiment
 ------------------------
 1. Write ``analysis/experiments/my_study.py`` with ``Settings`` (if it has any), ``Result``,
    ``run``, ``markdown`` and ``figures`` as above; draw every random number from a stream named
-   after the study (``ctx.seed("my_study")``, ``ctx.seed(f"my_study:{i}")``).
+   after the study (``ctx.seed("my_study")``, ``ctx.seed(f"my_study:{i}")``), and list the name in
+   :data:`analysis.streams.REPORT_STREAMS`, the table of every stream.
 2. Add one line below: ``register("my_study", "analysis.experiments.my_study")``, where the section
    belongs in the report.
 3. Its settings: add fields to :class:`analysis.reproduce.ReproduceSettings` (and to

@@ -3,7 +3,6 @@ shared results and named random streams (:class:`Context`)."""
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import importlib
 import os
 import tempfile
@@ -12,31 +11,20 @@ from typing import Callable
 
 import numpy as np
 
+from analysis.streams import stream_seed
+
 __all__ = ["Context", "ModelInfo", "direct_summary", "stream_seed"]
-
-
-def stream_seed(seed: int, name: str) -> int:
-    """The seed of the random stream ``name`` under the run's ``seed``: a
-    :class:`numpy.random.SeedSequence` of ``(seed, sha256(name))``, reduced to 31 bits.
-
-    Two names, or two run seeds, give unrelated streams (``seed + k`` would not: seed 1's first
-    stream would be seed 0's second). The name's hash is stable across runs and machines.
-
-    >>> stream_seed(0, "A") == stream_seed(0, "A") != stream_seed(1, "A")
-    True
-    >>> stream_seed(0, "A") != stream_seed(0, "ensemble")
-    True
-    """
-    h = int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
-    state = np.random.SeedSequence([int(seed), h]).generate_state(1, np.uint32)[0]
-    return int(state >> 1)
 
 
 @dataclasses.dataclass(frozen=True)
 class ModelInfo:
-    """How a model of the report was obtained (the ``key_model`` and every ``model`` entry)."""
+    """How a model of the report was obtained (the ``key_model`` and every ``model`` entry).
 
-    path: str
+    ``cache_key`` names the model by its file in the model cache
+    (:func:`transition_builder.cache.cache_key`), never by a machine's path.
+    """
+
+    cache_key: str
     cached: bool
     states: int
     tilts: int | None
@@ -84,7 +72,8 @@ class Context:
 
     Notes
     -----
-    Random choices come from named streams (:meth:`seed`, :meth:`rng`): ``ctx.seed("A")`` is the
+    Random choices come from named streams (:meth:`seed`, :meth:`rng`; every name the report uses is
+    listed in :data:`analysis.streams.REPORT_STREAMS`): ``ctx.seed("A")`` is the
     same in every experiment that asks for it (common random numbers where a comparison wants the
     same sequences) and unrelated to every other name and every other ``--seed``. Model builds keep
     ``settings.seed`` as their build seed (the model cache's key).
@@ -158,7 +147,7 @@ class Context:
         return self.memo(("build", build_key(scene, settings)), lambda: self._build(scene, settings, changes, what))
 
     def _build(self, scene, settings, changes, what):
-        from transition_builder.cache import cached_build
+        from transition_builder.cache import cache_key, cached_build
 
         t0 = self.clock()
         result, path, cached = cached_build(scene, settings, workers=self.workers)
@@ -166,7 +155,7 @@ class Context:
         seconds = self.clock() - t0
         self.log(f"{what}: model with {result.model.n_states} states "
                  f"({'cached' if cached else f'built in {seconds:.0f} s'})")
-        return result.model, ModelInfo(path=path, cached=cached, states=result.model.n_states,
+        return result.model, ModelInfo(cache_key=cache_key(path), cached=cached, states=result.model.n_states,
                                        tilts=st.get("tilts_simulated"), fault_rate=st.get("fault_rate"),
                                        seconds=seconds, settings=dict(changes))
 

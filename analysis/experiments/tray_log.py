@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 
+from transition_builder.builder.build_settings import COMPARED_RESOLUTION
+
 
 @dataclasses.dataclass(frozen=True)
 class Settings:
@@ -23,8 +25,7 @@ class Settings:
     @classmethod
     def from_settings(cls, s) -> "Settings":
         return cls(bool(s.tray_log), int(s.tray_log_trials), int(s.tray_log_tilts),
-                   dict(s.contact_build or {"tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1,
-                                            "start_samples": 2000}))
+                   dict(s.contact_build or COMPARED_RESOLUTION))
 
 
 @dataclasses.dataclass(frozen=True)

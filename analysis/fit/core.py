@@ -39,6 +39,7 @@ from analysis.fit.model_error import (
     weighted_vertex,
 )
 from analysis.fit.pair import PAIR, pair_axes, pair_grid, pair_refinement, pair_summary
+from analysis.streams import salted_rng
 
 __all__ = ["FitSettings", "FitResult", "PARAMETERS", "FITS", "fit_log", "CAMERA_CANDIDATES"]
 
@@ -46,7 +47,6 @@ __all__ = ["FitSettings", "FitResult", "PARAMETERS", "FITS", "fit_log", "CAMERA_
 CAMERA_CANDIDATES = (0.1, 0.25, 0.5, 1.0, 2.0)
 #: chi-square(1) 90% quantile / 2: the profile-likelihood drop of a 90% interval.
 _PROFILE_DROP = 1.3528
-_SALT = 0x464954
 
 
 def _set_mu(scene, settings, value):
@@ -249,10 +249,11 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         The log (:func:`analysis.fit.log.read_fit_log`).
     settings : FitSettings, optional
     build_settings : transition_builder.builder.BuildSettings, optional
-        Settings of the grid's builds (default: ``BuildSettings(tol_mm=1, tol_deg=1,
-        recenter_rounds=1, start_samples=2000)``, the report's compared resolution).
+        Settings of the grid's builds (default: ``BuildSettings.compared()``, the report's compared
+        resolution).
     build : callable, optional
-        ``build(scene, build_settings) -> (model, path)``; default cached builds.
+        ``build(scene, build_settings) -> (model, name)``; default cached builds, named by their
+        cache keys (:func:`transition_builder.cache.cache_key`), as ``FitResult.models`` lists them.
     workers, scheduler, progress
         Passed to the builds.
     grid : str
@@ -266,13 +267,13 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     from transition_builder.builder import BuildSettings
 
     s = settings or FitSettings()
-    bs = build_settings or BuildSettings(tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, start_samples=2000)
+    bs = build_settings or BuildSettings.compared()
     rgrid = report_grid_for(scene, grid)
     if build is None:
         def build(sc, st):
-            from transition_builder.cache import cached_build
+            from transition_builder.cache import cache_key, cached_build
             res, path, _ = cached_build(sc, st, workers=workers, scheduler=scheduler, progress=progress)
-            return res.model, path
+            return res.model, cache_key(path)
 
     def build_point(point, replicate=0):
         sc, st = scene, (bs if not replicate else replace(bs, seed=bs.seed + replicate))
@@ -289,7 +290,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     best_point = min(pts, key=lambda p: sum((a - b) ** 2 for a, b in zip(p, out["estimate_tuple"])))
     model, _ = build_point(best_point)
     pred = predicted_histograms(model, log)
-    band = entropy_band(pred, g.counts, np.random.default_rng([s.seed, _SALT, 1]))
+    band = entropy_band(pred, g.counts, salted_rng(s.seed, "fit", 1))
     crit = []
     for p in pts:
         row = {name: v for name, v in zip(s.params, p)}
@@ -310,7 +311,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
 
 
 def _model_paths(g: _Grid, pts) -> dict:
-    """Point label -> model file; a replicate build is labelled ``mu#r``."""
+    """Point label -> the model's name (its cache key); a replicate build is labelled ``mu#r``."""
     out = {",".join(f"{v:g}" for v in p): g.paths[p] for p in pts}
     for p, reps in g.rep.items():
         for r in range(1, len(reps) + 1):
@@ -381,7 +382,7 @@ def _fit_pair(g: _Grid, s: FitSettings):
     y = _criterion_values(g, pts, cam, s.criterion)
     L = np.stack([g.ll[p][cam] for p in pts], axis=1) if s.criterion == "likelihood" else None
     out = pair_summary(np.array(pts), y, L, s.ranges, steps, s.bootstrap,
-                       np.random.default_rng([s.seed, _SALT]))
+                       salted_rng(s.seed, "fit"))
     return out, pts, cam
 
 
@@ -432,7 +433,7 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     diffs = [float(g.ll[p][cam].sum() - r[cam].sum()) for p in pts for r in g.rep.get(p, [])]
     h = float(min(np.diff(x)[max(0, j - 1):j + 1]))        # the finest spacing beside the best point
     err = model_error(x, y, n, j, diffs, resolution=h)
-    rng = np.random.default_rng([s.seed, _SALT])
+    rng = salted_rng(s.seed, "fit")
     B = max(s.bootstrap, 2)
     both = resample_vertices(x, L, n, err, rng, B, estimator=estimator)
     only_trials = resample_vertices(x, L, n, err, rng, B, model=False, estimator=estimator)
@@ -467,7 +468,7 @@ def _summary_nd(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     j = int(np.argmax(y))
     best = pts[j]
     at_edge = any(len(ax) > 1 and (v <= ax[0] + 1e-9 or v >= ax[-1] - 1e-9) for v, ax in zip(best, axes))
-    rng = np.random.default_rng([s.seed, _SALT])
+    rng = salted_rng(s.seed, "fit")
     T = g.log.trials
     interval = None
     if s.criterion == "likelihood" and not at_edge and T > 1:

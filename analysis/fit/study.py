@@ -13,20 +13,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["TrayLogStudy", "tray_log_study", "hidden_coefficient", "add_camera_noise"]
+from analysis.streams import salted_rng
 
-_SALT = 0x7E41
+__all__ = ["TrayLogStudy", "tray_log_study", "hidden_coefficient", "add_camera_noise"]
 
 
 def hidden_coefficient(seed: int, lo: float = 0.15, hi: float = 0.45) -> float:
     """The coefficient a study's log is made at, drawn from the report's ``seed`` (3 decimals)."""
-    return round(float(np.random.default_rng([seed, _SALT]).uniform(lo, hi)), 3)
+    return round(float(salted_rng(seed, "tray_log").uniform(lo, hi)), 3)
 
 
 def add_camera_noise(result, sigma_mm: float, sigma_deg: float, seed: int):
     """A copy of a :class:`~analysis.montecarlo.DirectResult` whose poses carry Gaussian camera noise
     (x and y in mm, theta in degrees, theta wrapped to [0, 2 pi)); faults stay NaN."""
-    rng = np.random.default_rng([seed, 0xCA])
+    rng = salted_rng(seed, "tray_log.camera")
     p = result.poses.copy()
     p[..., :2] += rng.normal(0.0, sigma_mm, p[..., :2].shape)
     p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(sigma_deg), p[..., 2].shape), 2 * np.pi)
@@ -137,7 +137,7 @@ def tray_log_study(scene, seed: int, *, trials: int = 500, tilts: int = 50, came
     from transition_builder.friction import parse_friction
 
     truth = hidden_coefficient(seed)
-    seq = np.random.default_rng([seed, _SALT, 1]).integers(0, len(scene.actions), tilts)
+    seq = salted_rng(seed, "tray_log", 1).integers(0, len(scene.actions), tilts)
     names = [scene.actions[a] for a in seq]
     res = run_direct(replace(scene, friction=parse_friction(truth)), names, trials, seed=seed, workers=workers)
     noisy = add_camera_noise(res, camera[0], camera[1], seed)

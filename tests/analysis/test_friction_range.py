@@ -101,10 +101,31 @@ def _one_tilt_models(scene, tmp_path):
     return _range_models(scene, tmp_path, [(100.0, 100.0, 0.0)], matrix)
 
 
-def test_plan_command_replays_its_robust_plan(monkeypatch, scene, tmp_path, capsys):
-    import analysis.friction_range as fr_mod
+def file_in_the_cache(monkeypatch, tmp_path, models, frange: str, points: int, shape: str = SHAPE,
+                      resolution=(1.0, 1.0)) -> None:
+    """Put stand-in models where a range command's builds look for them, so that the command runs
+    whole (nothing in it replaced) and reads them as cached builds: a fresh model cache
+    (``KRUSKAL_CACHE``) under ``tmp_path``, each model filed under the build key of what the command
+    builds at that point (``shape`` at the point's friction, ``BuildSettings.compared`` at the range's
+    resolution, ``--range-resolution``'s default 1,1). ``models(scene, frange, points)`` gives
+    ``(spec, model, path)`` per point, as ``models_over_range`` does."""
+    from dataclasses import replace
 
-    monkeypatch.setattr(fr_mod, "models_over_range", _one_tilt_models(scene, tmp_path))
+    from transition_builder.builder import BuildSettings, build_key
+    from transition_builder.cache import cache_dir
+    from transition_builder.friction import parse_friction
+
+    monkeypatch.setenv("KRUSKAL_CACHE", str(tmp_path / "cache"))
+    base = scene_from_options(shape)
+    settings = BuildSettings.compared(tol_mm=resolution[0], tol_deg=resolution[1])
+    for spec, model, _ in models(base, parse_friction_range(frange), points):
+        key = build_key(replace(base, friction=parse_friction(spec)), settings)
+        model.metadata["build_key"] = key
+        model.save(f"{cache_dir()}/{key}.npz")
+
+
+def test_plan_command_replays_its_robust_plan(monkeypatch, scene, tmp_path, capsys):
+    file_in_the_cache(monkeypatch, tmp_path, _one_tilt_models(scene, tmp_path), "0.2..0.3", 2)
     assert main(["plan", "--friction", "0.2..0.3", "--shape", SHAPE, "--range-points", "2", "--target", "cell",
                  "--check-trials", "3", "--check-at", "0.27", "--seed", "9", "--workers", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -122,9 +143,7 @@ def test_plan_command_replays_its_robust_plan(monkeypatch, scene, tmp_path, caps
     (["--check-trials", "2", "--workers", "0"], "--workers"),
 ])
 def test_bad_check_options_exit_2(extra, words, monkeypatch, scene, tmp_path, capsys):
-    import analysis.friction_range as fr_mod
-
-    monkeypatch.setattr(fr_mod, "models_over_range", _one_tilt_models(scene, tmp_path))
+    file_in_the_cache(monkeypatch, tmp_path, _one_tilt_models(scene, tmp_path), "0.2..0.3", 2)
     assert main(["plan", "--friction", "0.2..0.3", "--shape", SHAPE, "--range-points", "2", *extra]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and words in err
@@ -141,7 +160,7 @@ def test_rank_builds_the_fit_grid_models_with_the_fit_grid_settings():
     args = build_parser().parse_args(["rank", "--shapes", "allen-key", SHAPE, "--friction", "0.2", "--resolution",
                                       "1,1", "--start-samples", "2000", "--recenter-rounds", "1"])
     scenes, settings = scenes_and_settings(args)
-    fit_grid = BuildSettings(tol_mm=1.0, tol_deg=1.0, recenter_rounds=1, start_samples=2000)
+    fit_grid = BuildSettings.compared()
     for spec, sc in scenes.items():
         from dataclasses import replace
 
@@ -162,9 +181,7 @@ def _two_way_models(scene, tmp_path):
 
 
 def test_ensemble_over_a_range_gives_each_points_answers(monkeypatch, scene, tmp_path, capsys):
-    import analysis.friction_range as fr_mod
-
-    monkeypatch.setattr(fr_mod, "models_over_range", _two_way_models(scene, tmp_path))
+    file_in_the_cache(monkeypatch, tmp_path, _two_way_models(scene, tmp_path), "0.0..0.4", 3)
     assert main(["ensemble", "--friction", "0.0..0.4", "--shape", SHAPE, "--count", "10", "--length", "4",
                  "--range-points", "3", "--draws", "0", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -179,9 +196,7 @@ def test_ensemble_over_a_range_gives_each_points_answers(monkeypatch, scene, tmp
 def test_convergence_over_a_range_gives_each_points_expected_length(monkeypatch, scene, tmp_path, capsys):
     """``at_points`` keeps nested answers: each point's ``expected_length`` (it dropped them, so a
     range's ends could not be told apart for ``convergence``)."""
-    import analysis.friction_range as fr_mod
-
-    monkeypatch.setattr(fr_mod, "models_over_range", _two_way_models(scene, tmp_path))
+    file_in_the_cache(monkeypatch, tmp_path, _two_way_models(scene, tmp_path), "0.0..0.4", 3)
     assert main(["convergence", "--friction", "0.0..0.4", "--shape", SHAPE, "--range-points", "3", "--draws", "0",
                  "--runs", "50", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

@@ -114,12 +114,27 @@ def test_parts_and_maps_sections(report):
     assert "polygon:0,0;30,0;0,20" in (out / "index.md").read_text()
 
 
+def test_the_report_names_models_by_cache_key_not_by_path(report, cache_dir):
+    """``results.json`` names each model by its file in the model cache: no absolute path of the machine
+    that wrote it, and the key finds the model's file in the cache."""
+    from transition_builder.cache import model_file
+
+    result, _, out = report
+    text = (out / "results.json").read_text()
+    assert str(cache_dir) not in text and str(out) not in text
+    saved = json.loads(text)
+    key = saved["key_model"]["cache_key"]
+    assert not os.path.isabs(key) and key.endswith(".npz")
+    assert pathlib.Path(model_file(key)).is_file()
+    assert pathlib.Path(model_file(key)).parent == cache_dir
+
+
 def test_contact_models_side_by_side(report):
     """The sphere's model is a different model of the same scene, with its own paper-level answers."""
     result, _, out = report
     cm = result["contact_models"]
     assert list(cm) == ["coulomb", "coulomb (compared resolution)", "sphere"]   # the default first
-    assert cm["sphere"]["model"]["path"] != result["key_model"]["path"]
+    assert cm["sphere"]["model"]["cache_key"] != result["key_model"]["cache_key"]
     assert cm["coulomb"]["a_converged"] == result["A"]["converged"]      # the same 43-sequence sample
     assert cm["sphere"]["model"]["settings"] == CONTACT and result["key_model"]["settings"] == SMALL
     for k in cm:

@@ -492,21 +492,21 @@ def test_pair_chain_memory_estimate_by_its_parts():
         assert pair_chain_memory_mb(n, k, s) == pytest.approx(by_hand(n, k, s), rel=1e-12)
 
 
-def _big_pair_solve(monkeypatch):
-    """Send every pair chain to the iterative solver (the branch of chains over 30,000 pairs)."""
-    import kruskal_markov.convergence as conv
-
-    monkeypatch.setattr(conv, "_DIRECT_SOLVE_MAX_PAIRS", 0)
-    return conv
+#: every pair chain to the iterative solver (the branch of chains over 30,000 pairs)
+ITERATIVE = {"direct_max_pairs": 0}
 
 
-def test_iterative_pair_solve_gives_the_direct_answer(monkeypatch):
+def _no_convergence(A, b, **kw):
+    """A BiCGSTAB that does not converge (info > 0) and leaves a useless iterate."""
+    return np.zeros_like(b), 7
+
+
+def test_iterative_pair_solve_gives_the_direct_answer():
     rng = np.random.default_rng(5)
     cases = [(random_table(7, 2, rng), rng.random(2) + 0.1) for _ in range(6)]
     direct = [pair_chain_bounds(SyncAutomaton.from_table(t), None, w, time_budget=math.inf) for t, w in cases]
-    _big_pair_solve(monkeypatch)
     for (t, w), d in zip(cases, direct):
-        it = pair_chain_bounds(SyncAutomaton.from_table(t), None, w, time_budget=math.inf)
+        it = pair_chain_bounds(SyncAutomaton.from_table(t), None, w, time_budget=math.inf, **ITERATIVE)
         if math.isinf(d["lower"]):
             assert math.isinf(it["lower"])
             continue
@@ -514,51 +514,48 @@ def test_iterative_pair_solve_gives_the_direct_answer(monkeypatch):
         assert it["residual"] < 1e-8 and it["pairs"] == d["pairs"]
 
 
-def test_iterative_pair_solve_falls_back_to_gmres(monkeypatch):
+def test_iterative_pair_solve_falls_back_to_gmres():
     """BiCGSTAB that does not converge (info > 0, a useless iterate): GMRES from there gives the
     merging times."""
-    conv = _big_pair_solve(monkeypatch)
     table = [[1, 2, 3, 0], [0, 1, 2, 0]]
     want = _pair_chain_judge(table, [1, 1], range(4))
-    monkeypatch.setattr(conv.spla, "bicgstab", lambda A, b, **kw: (np.zeros_like(b), 7))
-    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf)
+    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf, iterative_solver=_no_convergence,
+                           **ITERATIVE)
     assert pb["lower"] == pytest.approx(want["lower"], rel=1e-8) and pb["upper"] == pytest.approx(want["upper"], rel=1e-8)
 
 
-def test_gmres_fallback_restarts_to_full_accuracy(monkeypatch):
+def test_gmres_fallback_restarts_to_full_accuracy():
     """A chain of 69 pairs, more than GMRES's 50-vector restart: from BiCGSTAB's useless iterate,
     GMRES must restart until the residual is at round-off (rtol 1e-12), not stop at 1e-5."""
-    conv = _big_pair_solve(monkeypatch)
     table = random_table(14, 2, np.random.default_rng(0))
     want = _pair_chain_judge(table, [1, 1], range(14))
     assert want["pairs"] > 50
-    monkeypatch.setattr(conv.spla, "bicgstab", lambda A, b, **kw: (np.zeros_like(b), 7))
-    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf)
+    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf, iterative_solver=_no_convergence,
+                           **ITERATIVE)
     assert pb["residual"] < 1e-9
     assert pb["lower"] == pytest.approx(want["lower"], rel=1e-9) and pb["upper"] == pytest.approx(want["upper"], rel=1e-9)
 
 
-def test_residual_is_that_of_the_solution_used(monkeypatch):
+def test_residual_is_that_of_the_solution_used():
     """A solver that claims convergence with every merging time 0.25 too high: the residual
     reported is max |1 + Q h - h| of that h, i.e. 0.25 times the largest merge probability in one step."""
-    conv = _big_pair_solve(monkeypatch)
+    from scipy.sparse.linalg import spsolve
+
     table = [[1, 2, 3, 0], [0, 1, 2, 0]]
-    monkeypatch.setattr(conv.spla, "bicgstab",
-                        lambda A, b, **kw: (conv.spla.spsolve(A.tocsc(), b) + 0.25, 0))
-    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf)
+    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=math.inf,
+                           iterative_solver=lambda A, b, **kw: (spsolve(A.tocsc(), b) + 0.25, 0), **ITERATIVE)
     # Cerny C_4 under uniform letters: only the pair {0, 3} can merge (under b, probability 1/2)
     assert pb["residual"] == pytest.approx(0.25 * 0.5, rel=1e-12)
 
 
-def test_iterative_pair_solve_stops_at_the_time_budget(monkeypatch):
+def test_iterative_pair_solve_stops_at_the_time_budget():
     """A fake clock (one second per reading): GMRES, the fallback, checks the budget between its
     iterations and the answer says what stopped it."""
-    conv = _big_pair_solve(monkeypatch)
-    monkeypatch.setattr(conv.spla, "bicgstab", lambda A, b, **kw: (np.zeros_like(b), 7))
     ticks = itertools.count()
     table = [[1, 2, 3, 0], [0, 1, 2, 0]]
     j = _pair_chain_judge(table, [1, 1], range(4))
-    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=3.0, clock=lambda: float(next(ticks)))
+    pb = pair_chain_bounds(SyncAutomaton.from_table(table), time_budget=3.0, clock=lambda: float(next(ticks)),
+                           iterative_solver=_no_convergence, **ITERATIVE)
     mem = pb["memory_mb"]
     assert pb == {"lower": None, "upper": None, "pairs": j["pairs"], "memory_mb": mem, "iterations": 0,
                   "residual": None,
@@ -635,14 +632,18 @@ def test_the_documented_defaults():
     assert monte_carlo_entropy_tilts(_two_action_model(), 0.0)["runs"] == 500
 
 
-def test_default_memory_budget_is_2048_mb(monkeypatch):
-    import kruskal_markov.convergence as conv
+def test_the_pair_check_runs_within_half_the_memory_budget_of_2048_mb_by_default():
+    import inspect
 
+    from kruskal_markov.convergence import pair_check_memory_mb
+
+    assert inspect.signature(expected_sync_length).parameters["memory_budget_mb"].default == 2048.0
     cerny3 = SyncAutomaton.from_table([[1, 2, 0], [0, 1, 0]])
-    monkeypatch.setattr(conv, "pair_check_memory_mb", lambda n: 1024.25)     # just over half of 2,048 MB
-    assert expected_sync_length(cerny3, runs=10)["pair_check"].startswith("skipped: it needs 1,024 MB")
-    monkeypatch.setattr(conv, "pair_check_memory_mb", lambda n: 1024.0)      # exactly half: runs
-    assert expected_sync_length(cerny3, runs=10)["pair_check"] == "done"
+    need = pair_check_memory_mb(3)
+    assert need > 0
+    over = expected_sync_length(cerny3, runs=10, memory_budget_mb=2 * need * (1 - 1e-9))    # just under twice
+    assert over["pair_check"] == f"skipped: it needs {need:,.0f} MB, over half the memory budget"
+    assert expected_sync_length(cerny3, runs=10, memory_budget_mb=2 * need)["pair_check"] == "done"   # exactly
 
 
 def test_censored_mean_whole_answers():

@@ -84,3 +84,16 @@ def test_unusable_cached_file_is_rebuilt_with_a_warning(stub_build, scene, tmp_p
     assert cached is False and len(stub_build) == 1
     assert any(str(path) in str(w.message) and "rebuilding" in str(w.message) for w in caught)
     assert TransitionModel.load(p).metadata["build_key"] == key
+
+
+def test_a_record_names_a_model_by_its_cache_key_and_finds_it_again(stub_build, scene, tmp_path):
+    """The cache key is the file relative to the cache (the same on every machine); a file outside
+    the cache keeps its name only; the key leads back to the file under whatever cache is in use."""
+    d = tmp_path / "models"
+    _, path, _ = cache.cached_build(scene, directory=str(d))
+    key = cache.cache_key(path, directory=str(d))
+    assert key == f"{build_key(scene, BuildSettings())}.npz" and not os.path.isabs(key)
+    assert cache.model_file(key, directory=str(d)) == path
+    assert cache.model_file(key, directory=str(tmp_path / "other")) == str(tmp_path / "other" / key)
+    assert cache.cache_key(str(tmp_path / "out" / "allen.npz"), directory=str(d)) == "allen.npz"
+    assert cache.cache_key(str(d) + "-sibling/x.npz", directory=str(d)) == "x.npz"

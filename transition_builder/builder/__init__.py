@@ -79,6 +79,7 @@ _EXPORTS = {
     "BUILDER_VERSION": "build_settings",
     "BuildResult": "build_settings",
     "BuildSettings": "build_settings",
+    "COMPARED_RESOLUTION": "build_settings",
     "_DEFAULT_NOISY_EXPLORE_WEIGHT": "options",
     "_DEFAULT_NOISY_HEAVY_WEIGHT": "options",
     "_DEFAULT_NOISY_MAX_SAMPLES": "options",
@@ -117,7 +118,7 @@ _EXPORTS = {
     "_orbit_weights": "weights",
     "_proportional_samples": "weights",
 }
-__all__ = ["BUILDER_VERSION", "BuildSettings", "BuildResult", "BuildWarning", "build_model", "build_key",
+__all__ = ["BUILDER_VERSION", "COMPARED_RESOLUTION", "BuildSettings", "BuildResult", "BuildWarning", "build_model", "build_key",
            "settings_design", "compensated_noise", "tilt_chunk", "BUILD_OPTIONS", "BuildOption",
            "options_markdown", "STATE_START", "STATE_REST", "STATE_UNEXPLORED", "NOT_DRAWN"]
 

@@ -23,6 +23,11 @@ BUILDER_VERSION = "snap-1"
 #: weighted exploration's design, in the cache key of weighted builds: an unexplored state borrows
 #: the row of the nearest explored state in its report cell and contact group (``_BORROW_RADIUS``)
 _WEIGHTED_DESIGN = "borrow-2"
+#: the report's compared resolution (:meth:`BuildSettings.compared`): 1 mm / 1 degree snapping, one
+#: recentring round, 2000 start poses; the resolution at which models of different physics are compared
+#: (contact models, sensitivity, the fit's grid, friction ranges). Copy it (``dict(COMPARED_RESOLUTION)``)
+#: where a dict of changes is wanted.
+COMPARED_RESOLUTION = {"tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1, "start_samples": 2000}
 
 
 def _fields_from_options(cls):
@@ -68,6 +73,27 @@ class BuildSettings:
     def to_dict(self) -> dict:
         """All fields, JSON-able (a model's ``build_settings``)."""
         return asdict(self)
+
+    @classmethod
+    def compared(cls, **changes) -> "BuildSettings":
+        """The report's compared resolution (:data:`COMPARED_RESOLUTION`), with ``changes``.
+
+        Parameters
+        ----------
+        **changes
+            Fields to set besides (or instead of) the resolution's, e.g. ``seed`` or ``tol_mm``.
+
+        Returns
+        -------
+        BuildSettings
+
+        Examples
+        --------
+        >>> s = BuildSettings.compared(seed=3)
+        >>> (s.tol_mm, s.tol_deg, s.recenter_rounds, s.start_samples, s.seed)
+        (1.0, 1.0, 1, 2000, 3)
+        """
+        return cls(**{**COMPARED_RESOLUTION, **changes})
 
     @classmethod
     def from_dict(cls, data: dict) -> "BuildSettings":

@@ -1,16 +1,11 @@
-"""The sequence-level bootstrap interval of pooled band coverage (benchmarks.bench_coverage)."""
+"""kruskal_markov.coverage: band coverage with the sequence as the unit (the bootstrap interval of the
+pooled coverage, resampled calibrations, conformal risk control per sequence)."""
 import math
 
 import numpy as np
 import pytest
 
-from benchmarks.bench_coverage import (
-    _split,
-    calibration_study,
-    kept_references,
-    sequence_bootstrap_interval,
-    sequence_risk_delta,
-)
+from kruskal_markov.coverage import calibration_study, sequence_bootstrap_interval, sequence_risk_delta
 
 
 def test_all_or_nothing_sequences_give_the_binomial_spread_of_sequences():
@@ -41,14 +36,6 @@ def test_unequal_sequences_are_weighted_by_their_steps_and_no_sequences_is_refus
     assert hi == pytest.approx(270 / 340)
     with pytest.raises(ValueError):
         sequence_bootstrap_interval([])
-
-
-def test_split_cuts_a_kept_runs_steps_back_into_its_sequences():
-    res = {"per_sequence": [{"reference": [0.0] * 31}, {"reference": [0.0] * 21}]}
-    inside = np.arange(50) % 3 == 0
-    parts = _split(res, inside)
-    assert [len(p) for p in parts] == [30, 20]
-    assert np.array_equal(np.concatenate(parts), inside)
 
 
 def test_calibration_study_spreads_with_few_sequences_and_not_with_identical_ones():
@@ -90,31 +77,3 @@ def test_sequence_risk_delta_by_its_definition():
         sequence_risk_delta([])
     with pytest.raises(ValueError):
         sequence_risk_delta([np.zeros(3), np.zeros(0)])
-
-
-def test_kept_references_simulate_each_reference_once_and_resume_from_disk(tmp_path, monkeypatch):
-    """A stopped run resumes: a reference asked again (even by a new process's simulate) is read back, not
-    simulated; another seed, sequence or trial count is simulated anew."""
-    from types import SimpleNamespace
-
-    import analysis.validate as av
-
-    calls = []
-
-    def fake(scene, seq, trials, sd, noise):
-        calls.append((tuple(seq), trials, sd))
-        return {"seq": list(seq), "trials": trials, "seed": sd}
-
-    model = SimpleNamespace(metadata={"scene": {"shape": "toy"}})
-    monkeypatch.setattr(av, "model_grid", lambda m: None)
-    first = kept_references(str(tmp_path), model, simulate=fake)
-    a = first(None, [0, 1, 2], 10, 7, "none")
-    again = kept_references(str(tmp_path), model, simulate=fake)     # a new job
-    assert again(None, [0, 1, 2], 10, 7, "none") == a and len(calls) == 1
-    again(None, [0, 1, 2], 10, 8, "none")
-    again(None, [0, 1, 1], 10, 7, "none")
-    again(None, [0, 1, 2], 20, 7, "none")
-    assert len(calls) == 4
-    other = kept_references(str(tmp_path), SimpleNamespace(metadata={"scene": {"shape": "other"}}), simulate=fake)
-    other(None, [0, 1, 2], 10, 7, "none")                            # another scene: not the kept one
-    assert len(calls) == 5
