@@ -221,17 +221,18 @@ def test_engines_side_by_side(report):
     and its plan lengths are the shortest plans of the models it names (recomputed from the files)."""
     from kruskal_markov.model import TransitionModel
     from kruskal_markov.sync import shortest_plan
+    from transition_builder.cache import model_file
     from transition_builder.sim_settings import SimSettings
 
     result, _, out = report
     eng = result["engines"]
     assert eng["default"] == SimSettings().engine == result["engine"]
     assert list(eng["answers"]) == [eng["default"], "pybullet" if eng["default"] == "planar" else "planar"]
-    paths = [a["model"]["path"] for a in eng["answers"].values()]
-    assert paths[0] != paths[1]
+    keys = [a["model"]["cache_key"] for a in eng["answers"].values()]
+    assert keys[0] != keys[1]
     for name, a in eng["answers"].items():
         assert 0.0 <= a["converging_share"] <= 1.0
-        model = TransitionModel.load(a["model"]["path"])
+        model = TransitionModel.load(model_file(a["model"]["cache_key"]))
         assert model.metadata["scene"]["settings"].get("engine", "pybullet") == name
         cell = shortest_plan(model, "cell", node_budget=100_000)
         assert (cell.length, bool(cell.exact)) == (a["cell_plan"], a["cell_plan_exact"])
