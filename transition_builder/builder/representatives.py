@@ -7,7 +7,6 @@ farthest (:func:`_refinement_candidates`).
 """
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -52,11 +51,14 @@ def _offer(index: PoseIndex, ex: _Exploration, sym: TraySymmetry, landings: np.n
     G = sym.order
     rot = _with_rotations(sym, cand[miss]).reshape(-1, G, 3)
     rq, _ = index.embed(rot.reshape(-1, 3))
-    near = cKDTree(rq, boxsize=index.box).query_ball_point(q[miss], r=1.0 + 1e-12)
-    counts = np.fromiter((len(nb) for nb in near), dtype=np.int64, count=len(near))
-    flat = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=int(counts.sum()))
+    # every (rotation, miss) pair within tolerance, grouped by miss (the pairs of
+    # ``query_ball_point(q[miss], r)``, without a Python list per miss)
+    pairs = cKDTree(rq, boxsize=index.box).sparse_distance_matrix(
+        cKDTree(q[miss], boxsize=index.box), 1.0 + 1e-12, output_type="ndarray")
+    by_miss = np.argsort(pairs["j"], kind="stable")
+    indptr = np.concatenate(([0], np.cumsum(np.bincount(pairs["j"], minlength=len(miss)))))
     founds = np.zeros(len(miss), dtype=bool)
-    _found_in_order(np.concatenate(([0], np.cumsum(counts))), flat, G, founds)
+    _found_in_order(indptr, pairs["i"][by_miss].astype(np.int64), G, founds)
     if founds.any():
         index.add(rot[founds].reshape(-1, 3))
         ex.add_orbits(cand[miss[founds]])
