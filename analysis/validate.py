@@ -39,8 +39,9 @@ from analysis.montecarlo import run_direct
 from analysis.sequences import random_sequences_for
 from analysis.streams import salted_rng
 from kruskal_markov.answers import wilson_interval
-from kruskal_markov.entropy import entropy_trajectory, histogram_entropy_bits
+from kruskal_markov.entropy import entropy_trajectory
 from kruskal_markov.model import ModelError, TransitionModel
+from kruskal_markov.plugin_entropy import bootstrap_entropy_sd, expected_plugin_entropy
 from kruskal_markov.posterior import has_counts, resample_model
 from kruskal_markov.structural import (
     band_with_structure,
@@ -60,8 +61,6 @@ __all__ = ["model_scene", "model_grid", "reference_seed", "validate_model", "ran
 #: The coverage a nominal 90% band should show: a band outside it is too narrow or too wide.
 COVERAGE_WINDOW = (0.85, 0.95)
 
-_PLUGIN_DRAWS = 200
-_BOOTSTRAP = 200
 _Z90 = 1.6448536269514722
 
 
@@ -95,28 +94,8 @@ def _cell_labels(result, grid: ReportGrid) -> list[np.ndarray]:
     return out
 
 
-def _bootstrap_sd(labels: np.ndarray, n_cells: int, rng) -> float:
-    m = len(labels)
-    if m < 2:
-        return 0.0
-    hs = np.empty(_BOOTSTRAP)
-    for b in range(_BOOTSTRAP):
-        hs[b] = histogram_entropy_bits(np.bincount(labels[rng.integers(0, m, m)], minlength=n_cells))
-    return float(hs.std(ddof=1))
-
-
 def _finite_or_none(x: float):
     return float(x) if math.isfinite(x) else None
-
-
-def _expected_plugin(q: np.ndarray, m: int, rng) -> float:
-    """Mean plug-in entropy of ``m`` draws from the cell distribution ``q`` (Monte Carlo)."""
-    if m <= 0:
-        return 0.0
-    q = np.clip(q, 0.0, None)
-    q = q / q.sum()
-    draws = rng.multinomial(m, q, size=_PLUGIN_DRAWS)
-    return float(np.mean([histogram_entropy_bits(d) for d in draws]))
 
 
 def coverage_verdict(covered: int, steps: int, window: tuple[float, float] = COVERAGE_WINDOW) -> str:
@@ -175,7 +154,7 @@ def model_band(model: TransitionModel, sequence, draws, surviving, reference_sd,
     traj = entropy_trajectory(model, sequence, return_distributions=True)
     cells = np.stack([np.bincount(model.partition, weights=p, minlength=model.n_cells)
                       for p in traj.distributions])
-    matched = np.array([_expected_plugin(cells[k], int(surviving[k]), rng) for k in range(len(cells))])
+    matched = np.array([expected_plugin_entropy(cells[k], int(surviving[k]), rng) for k in range(len(cells))])
     exact = traj.entropy_bits
     out = {"cells": cells, "matched": matched, "exact": exact,
            "flow": structural_flow(model, sequence, traj.distributions)}
@@ -275,7 +254,7 @@ def validate_model(model: TransitionModel, sequences: int = 6, trials: int = 100
         sim_seconds += time.perf_counter() - t
         t = time.perf_counter()
         labels = _cell_labels(ref, grid)
-        sd = np.array([_bootstrap_sd(lab, grid.n_voxels, rng) for lab in labels])
+        sd = np.array([bootstrap_entropy_sd(lab, grid.n_voxels, rng) for lab in labels])
         band = model_band(model, seq, draws if bands else None, ref.surviving, sd, structural_delta, rng)
         cells, matched, exact = band["cells"], band["matched"], band["exact"]
         model_seconds += time.perf_counter() - t

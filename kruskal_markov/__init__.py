@@ -29,7 +29,8 @@ Error bands
     :func:`band_with_structure`, :func:`structural_score`, :func:`conformal_quantile`,
     :data:`STRUCTURAL_DELTA` (the model's structural error, calibrated by split conformal prediction);
     how sure a measured coverage is, with the sequence as the unit: :func:`sequence_bootstrap_interval`,
-    :func:`calibration_study`, :func:`sequence_risk_delta`.
+    :func:`calibration_study`, :func:`sequence_risk_delta`; the plug-in estimate's bias and noise:
+    :func:`expected_plugin_entropy`, :func:`bootstrap_entropy_sd`.
 """
 from kruskal_markov.lazy import lazy_exports
 
@@ -85,6 +86,8 @@ _EXPORTS = {
     "sequence_bootstrap_interval": "coverage",
     "calibration_study": "coverage",
     "sequence_risk_delta": "coverage",
+    "expected_plugin_entropy": "plugin_entropy",
+    "bootstrap_entropy_sd": "plugin_entropy",
 }
 __all__ = sorted(_EXPORTS)
 

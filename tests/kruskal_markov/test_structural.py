@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from analysis.validate import _bootstrap_sd, model_band, wilson_interval
+from analysis.validate import model_band, wilson_interval
 from kruskal_markov.entropy import histogram_entropy_bits
 from kruskal_markov.model import TransitionModel
+from kruskal_markov.plugin_entropy import bootstrap_entropy_sd
 from kruskal_markov.posterior import resample_model
 from kruskal_markov.structural import (
     band_with_structure,
@@ -183,7 +184,7 @@ def test_dirichlet_band_covers_simulated_references_at_its_nominal_rate():
             state = (rng.random(trials)[:, None] > cum).sum(1).clip(0, n - 1)
             labels.append(state.copy())
         href = np.array([histogram_entropy_bits(np.bincount(lab, minlength=n)) for lab in labels])
-        sd = np.array([_bootstrap_sd(lab, n, rng) for lab in labels])
+        sd = np.array([bootstrap_entropy_sd(lab, n, rng) for lab in labels])
         draws = [resample_model(model, rng) for _ in range(40)]
         band = model_band(model, seq, draws, np.full(steps + 1, trials), sd, 0.0, rng)
         inside.append(((href >= band["lo"] - 1e-12) & (href <= band["hi"] + 1e-12))[1:])
