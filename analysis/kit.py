@@ -125,6 +125,10 @@ class Kit:
                 "settings": self.settings, "compartments": comps}
         return parse_kit(data)
 
+    def with_tilt(self, tilt_deg: float) -> "Kit":
+        """The same kit tilted by ``tilt_deg`` (validated again)."""
+        return parse_kit(dict(self.to_dict(), tilt_deg=tilt_deg))
+
     def to_dict(self) -> dict:
         """The kit as a kit file's JSON object."""
         out = {"tilt_deg": self.tilt_deg, "tilt_time_s": self.tilt_time_s,
