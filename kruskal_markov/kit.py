@@ -325,4 +325,6 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> list:
     den = 1.0 + z * z / trials
     mid = (p + z * z / (2 * trials)) / den
     half = z * math.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / den
-    return [max(0.0, mid - half), min(1.0, mid + half)]
+    lo = 0.0 if successes <= 0 else max(0.0, mid - half)
+    hi = 1.0 if successes >= trials else min(1.0, mid + half)
+    return [lo, hi]
