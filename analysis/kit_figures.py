@@ -29,8 +29,8 @@ def _outlines(shape_vertices, poses):
     return np.stack([x, y], axis=2)
 
 
-def animate_kit(results, scenes, names, path, *, max_parts: int = 300, hold: int = 4, fade: int = 3,
-                fps: int = 6) -> str:
+def animate_kit(results, scenes, names, path, *, max_parts: int = 300, hold: int = 3, fade: int = 2,
+                fps: int = 5) -> str:
     """Write an animated GIF of a kit's direct simulation under one sequence.
 
     Parameters
@@ -71,8 +71,7 @@ def animate_kit(results, scenes, names, path, *, max_parts: int = 300, hold: int
         ax.set_xlim(-2, scene.tray_x_mm + 2)
         ax.set_ylim(-2, scene.tray_y_mm + 2)
         ax.set_aspect("equal")
-        ax.set_xticks([])
-        ax.set_yticks([])
+        ax.axis("off")
         ax.add_patch(plt.Rectangle((0, 0), scene.tray_x_mm, scene.tray_y_mm, fill=False, lw=2, color="0.3"))
         ax.set_title(f"{name} ({scene.shape.name})", fontsize=8)
         steps = [_outlines(scene.shape.vertices, res.poses[:max_parts, k, :]) for k in range(res.poses.shape[1])]
@@ -108,7 +107,7 @@ def animate_kit(results, scenes, names, path, *, max_parts: int = 300, hold: int
 
     fig.tight_layout()
     anim = FuncAnimation(fig, draw, frames=frames, blit=False)
-    anim.save(path, writer=PillowWriter(fps=fps), dpi=80)
+    anim.save(path, writer=PillowWriter(fps=fps), dpi=72)
     plt.close(fig)
     return str(path)
 

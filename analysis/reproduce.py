@@ -176,7 +176,7 @@ class ReproduceSettings:
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":
         """``--quick``: coarse models (1 mm / 1 degree), 3 triangles, 3 maps, few trials; the kits section on
-        2 mm models with two design variants."""
+        3 mm models with two design variants."""
         coarse = {"tol_mm": 1.0, "tol_deg": 1.0, "recenter_rounds": 1, "start_samples": 2000}
         return cls(quick=True, seed=seed, ensemble_count=10_000, parts=("triangle:1", "triangle:2", "triangle:3"),
                    maps=("map:low:1", "map:medium:1", "map:high:1"), key_build=coarse, part_build=coarse,
@@ -184,8 +184,8 @@ class ReproduceSettings:
                    validate_trials=200, validate_length=20, metrics_count=500, metrics_runs=200,
                    sync_time_budget=20.0, part_sync_time_budget=10.0, compare_contacts=(),
                    compare_refine=(), judges=False, sensitivity=False, kits=True,
-                   kit_build={"tol_mm": 2.0, "tol_deg": 2.0, "recenter_rounds": 1, "start_samples": 300},
-                   kit_design_tray_mm=(120.0, 200.0), kit_design_tilt_deg=(30.0,), kit_replay_trials=200,
+                   kit_build={"tol_mm": 3.0, "tol_deg": 3.0, "recenter_rounds": 1, "start_samples": 200},
+                   kit_design_tray_mm=(120.0, 200.0), kit_design_tilt_deg=(30.0,), kit_replay_trials=100,
                    kit_node_budget=500_000)
 
 

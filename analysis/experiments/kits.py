@@ -179,7 +179,8 @@ def markdown(r: Result) -> str:
         lines += ["", f"Replayed by direct simulation ({rep['trials']:,} trials per compartment, "
                       f"{rep['seconds']:.0f} s): " + "; ".join(
                           f"{c['name']} {c['share']:.1%} in its predicted cell {interval(c['share_ci95'], '.3f')}, "
-                          f"model {c['model_success']:.3f}" for c in rep["compartments"])
+                          f"model {c['model_success']:.3f}" + ("" if c["within"] else " (**outside the interval**)")
+                          for c in rep["compartments"])
                   + f". The whole kit in its cells: {rep['joint_share']:.1%} (model {rep['joint_model_success']:.3f}).",
                   "", "![the kit's plan](kits_animation.gif)"]
     if d and d.get("variants"):
@@ -188,8 +189,10 @@ def markdown(r: Result) -> str:
         lines += _design_rows(d)
         ref, best = d.get("reference"), d["variants"][d["best"]]
         if ref is not None and best["plan_length"] is not None and d["variants"][ref]["plan_length"] is not None:
-            lines += ["", f"The best tray shortens the plan from {d['variants'][ref]['plan_length']} (the paper's "
-                          f"200 mm at 30 degrees) to {best['plan_length']} tilts."]
+            old, new = d["variants"][ref]["plan_length"], best["plan_length"]
+            lines += ["", f"The best tray ({best['tray_mm'][0]:g} mm at {best['tilt_deg']:g} degrees) "
+                          + (f"shortens the plan from {old} (the paper's 200 mm at 30 degrees) to {new} tilts."
+                             if new < old else f"does not shorten the plan of the paper's tray ({old} tilts).")]
         lines += ["", "![design](fig_kit_design.png)"]
     return "\n".join(lines) + "\n"
 
