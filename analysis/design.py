@@ -170,7 +170,7 @@ def best_variant(rows: list) -> int | None:
 
 
 def run_design(kit: Kit, sweep: Sweep, build_settings, *, contact=None, workers=None, log=None,
-               **metric_options) -> dict:
+               setting_changes: dict | None = None, **metric_options) -> dict:
     """Build (or take from the cache) every variant's models and answer for each (:func:`kit_metrics`).
 
     Parameters
@@ -186,6 +186,8 @@ def run_design(kit: Kit, sweep: Sweep, build_settings, *, contact=None, workers=
         Worker processes of the builds.
     log : callable, optional
         Told one line per variant.
+    setting_changes : dict, optional
+        Simulator settings of every scene (e.g. the engine).
     **metric_options
         Passed to :func:`kit_metrics`.
 
@@ -201,7 +203,7 @@ def run_design(kit: Kit, sweep: Sweep, build_settings, *, contact=None, workers=
     rows, scenes = [], []
     for desc, v in found:
         t0 = time.perf_counter()
-        comps = kit_models(v, build_settings, contact=contact, workers=workers)
+        comps = kit_models(v, build_settings, contact=contact, workers=workers, setting_changes=setting_changes)
         row = dict(desc)
         row.update(kit_metrics([c["model"] for c in comps], **metric_options))
         row["models"] = [c["path"] for c in comps]

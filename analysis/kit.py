@@ -90,13 +90,15 @@ class Kit:
         """Total inner area of the compartments."""
         return float(sum(c.size_mm[0] * c.size_mm[1] for c in self.compartments))
 
-    def scenes(self, contact: str | None = None) -> list:
+    def scenes(self, contact: str | None = None, **setting_changes) -> list:
         """One :class:`~transition_builder.scene.Scene` per compartment (in order).
 
         Parameters
         ----------
         contact : str, optional
             Floor contact of every scene (None: the simulator's default).
+        **setting_changes
+            Further simulator settings of every scene (e.g. the engine), over the kit's own.
 
         Returns
         -------
@@ -104,7 +106,7 @@ class Kit:
         """
         from transition_builder.scene import scene_from_options
 
-        changes = dict(self.settings)
+        changes = {**self.settings, **setting_changes}
         if contact is not None:
             changes["contact"] = contact
         out = []
@@ -263,7 +265,8 @@ def load_kit(path: str) -> Kit:
     return parse_kit(data)
 
 
-def kit_models(kit: Kit, settings, *, contact: str | None = None, workers: int | None = None, log=None):
+def kit_models(kit: Kit, settings, *, contact: str | None = None, workers: int | None = None, log=None,
+               setting_changes: dict | None = None):
     """The built model of every compartment, from the model cache when built before.
 
     Parameters
@@ -277,6 +280,8 @@ def kit_models(kit: Kit, settings, *, contact: str | None = None, workers: int |
         Worker processes of the builds.
     log : callable, optional
         Told one line per compartment.
+    setting_changes : dict, optional
+        Simulator settings of every compartment's scene (e.g. ``{"engine": "planar"}``).
 
     Returns
     -------
@@ -286,7 +291,7 @@ def kit_models(kit: Kit, settings, *, contact: str | None = None, workers: int |
     from transition_builder.cache import cached_build
 
     out = []
-    for c, scene in zip(kit.compartments, kit.scenes(contact)):
+    for c, scene in zip(kit.compartments, kit.scenes(contact, **(setting_changes or {}))):
         result, path, cached = cached_build(scene, settings, workers=workers)
         if log is not None:
             log(f"compartment {c.name}: {result.model.n_states} states ({'cached' if cached else 'built'})")

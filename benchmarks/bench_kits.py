@@ -4,6 +4,7 @@ Runs the documented command lines in this process, one after the other, and appe
 JSON (with its command line, the date and the commit) to ``benchmarks/data/kits.jsonl``::
 
     PYTHONPATH=. python -m benchmarks.bench_kits kit [--resolution 1,1] [--workers 1]
+    PYTHONPATH=. python -m benchmarks.bench_kits check [--resolution 1,1] [--workers 1]
     PYTHONPATH=. python -m benchmarks.bench_kits design [--resolution 2,2] [--start-samples 500] [--workers 1]
 
 ``kit`` runs ``plan --kit`` (cell target), then ``simulate --kit`` of the plan with 1,000 trials
@@ -53,16 +54,19 @@ def run(argv: list[str]) -> dict:
     return out
 
 
+def _workers(options: list[str]) -> list[str]:
+    """The ``--workers W`` of ``options`` (simulate takes no build options)."""
+    return next((["--workers", options[i + 1]] for i, o in enumerate(options[:-1]) if o == "--workers"), [])
+
+
 def kit(options: list[str]) -> None:
     """The three-part kit: common plan, replay (with the animation), ensemble, convergence."""
     plan = run(["plan", "--kit", KIT, "--target", "cell", *options])
     print(f"plan {plan['word']} length {plan['length']} exact {plan['exact']} lower {plan['lower_bound']}; own "
           f"{[(p['name'], p['length'], p['exact']) for p in plan['per_compartment']]} ({plan['seconds']:.0f} s)")
-    workers = [o for i, o in enumerate(options) if i and options[i - 1] == "--workers"]
     if plan["word"]:
         sim = run(["simulate", "--kit", KIT, "--sequence", ",".join(plan["word"]), "--trials", "1000", "--seed", "1",
-                   "--animation", str(ROOT / "docs" / "kits_animation.gif"),
-                   *(["--workers", workers[0]] if workers else [])])
+                   "--animation", str(ROOT / "docs" / "kits_animation.gif"), *_workers(options)])
         for c, cell in zip(sim["compartments"], plan["final_cell"]):
             print(f"  replay {c['name']}: {c['final_cells'].get(str(cell), c['final_cells'].get(cell, 0))} of "
                   f"{sim['trials']} in cell {cell}; entropy {c['entropy_bits'][-1]:.3f} ({sim['seconds']:.0f} s)")
@@ -70,6 +74,30 @@ def kit(options: list[str]) -> None:
     print(f"ensemble: {ens['converged']} of 2000 converge ({ens['seconds']:.0f} s)")
     conv = run(["convergence", "--kit", KIT, "--runs", "1000", "--epsilon", "0.001", *options])
     print(f"convergence: {conv['expected_length']} / tilts {conv['entropy_tilts']} ({conv['seconds']:.0f} s)")
+
+
+def check(options: list[str]) -> None:
+    """The independence the kit answers use, checked: one random 50-tilt sequence through the kit,
+    the models' kit entropy (the sum of the compartments' predictions) against direct simulation
+    (the sum of the compartments' simulated entropies), 300 trials per compartment."""
+    from analysis.cli import build_parser
+    from analysis.commands._kit import build_settings
+    from analysis.kit import kit_models, load_kit
+    from kruskal_markov.entropy import entropy_trajectory
+
+    sim = run(["simulate", "--kit", KIT, "--sequence", "random:50", "--seed", "2", "--trials", "300",
+               *_workers(options)])
+    args = build_parser().parse_args(["plan", "--kit", KIT, *options])
+    comps = kit_models(load_kit(KIT), build_settings(args), workers=args.workers)
+    model = [sum(h) for h in zip(*(entropy_trajectory(c["model"], sim["sequence"]).entropy_bits for c in comps))]
+    err = [abs(a - b) for a, b in zip(model, sim["entropy_bits"])]
+    first = [next((t for t, h in enumerate(c["entropy_bits"]) if h <= 1e-3), None) for c in sim["compartments"]]
+    print(f"kit entropy along random:50 (seed 2): mean |model - direct| {sum(err[1:]) / 50:.3f} bits, max "
+          f"{max(err):.3f}; final model {model[-1]:.3f} / direct {sim['entropy_bits'][-1]:.3f} bits; "
+          f"first step <= 1e-3 per compartment (direct) {first}")
+    with open(OUT, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps({"command": "model kit entropy along the same sequence", "commit": _commit(),
+                             "model_entropy_bits": model, "direct_entropy_bits": sim["entropy_bits"]}) + "\n")
 
 
 def design(options: list[str]) -> None:
@@ -84,4 +112,4 @@ def design(options: list[str]) -> None:
 
 if __name__ == "__main__":
     what, rest = sys.argv[1], sys.argv[2:]
-    {"kit": kit, "design": design}[what](rest)
+    {"kit": kit, "check": check, "design": design}[what](rest)

@@ -62,6 +62,21 @@ def build_settings(args):
         raise InputError(str(exc)) from None
 
 
+def setting_changes(args) -> dict:
+    """The simulator settings of the command's own options over the kit's (``--engine`` where the
+    command has it)."""
+    engine = getattr(args, "engine", None)
+    return {} if engine is None else {"engine": engine}
+
+
+def scenes_of(kit, args) -> list:
+    """The kit's scenes under the command's ``--contact`` and ``--engine`` (one-line InputError)."""
+    try:
+        return kit.scenes(getattr(args, "contact", None), **setting_changes(args))
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
+
+
 def models_of(args):
     """``(kit, [compartment dicts])``: the kit and its models (:func:`analysis.kit.kit_models`)."""
     from analysis.kit import kit_models
@@ -69,14 +84,16 @@ def models_of(args):
     _reject(args, ("model", "automaton", "shape", "friction"))
     kit = load(args)
     settings = build_settings(args)
-    comps = kit_models(kit, settings, workers=getattr(args, "workers", None),
-                       log=lambda text: sys.stderr.write(f"kruskal: {text}\n"))
+    scenes_of(kit, args)            # bad --contact/--engine values: one line before any build
+    comps = kit_models(kit, settings, contact=getattr(args, "contact", None), workers=getattr(args, "workers", None),
+                       log=lambda text: sys.stderr.write(f"kruskal: {text}\n"), setting_changes=setting_changes(args))
     return kit, comps
 
 
 def _models_entry(comps) -> list:
     return [{"name": c["name"], "shape": c["scene"].shape.name, "tray_mm": [c["scene"].tray_x_mm, c["scene"].tray_y_mm],
-             "model": c["path"], "states": c["model"].n_states, "cached": c["cached"]} for c in comps]
+             "model": c["path"], "states": c["model"].n_states, "cached": c["cached"],
+             "engine": getattr(c["scene"].settings, "engine", "pybullet")} for c in comps]
 
 
 def plan(args) -> dict:
@@ -194,7 +211,7 @@ def simulate(args) -> dict:
         check_positive(args.workers, "--workers")
     check_writable_file(args.animation, "--animation")
     kit = load(args)
-    scenes = kit.scenes(getattr(args, "contact", None))
+    scenes = scenes_of(kit, args)
     sequence = parse_sequence(args.sequence, scenes[0].actions, sequence_rng(args.seed))
     results = simulate_kit(scenes, sequence, args.trials, seed=args.seed, workers=args.workers, grid=args.grid)
     comps = []
@@ -208,7 +225,7 @@ def simulate(args) -> dict:
            "sequence": [scenes[0].actions[a] for a in sequence],
            "entropy_bits": [float(sum(h)) for h in zip(*(c["entropy_bits"] for c in comps))],
            "entropy_on": "kit: the sum of the compartments' report-grid entropies", "seed": args.seed,
-           "grid": args.grid, "kit": args.kit}
+           "grid": args.grid, "kit": args.kit, "engine": getattr(scenes[0].settings, "engine", "pybullet")}
     if args.animation:
         from analysis.kit_figures import animate_kit
 

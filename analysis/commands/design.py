@@ -104,7 +104,11 @@ def run(args: argparse.Namespace) -> dict:
         raise InputError(str(exc)) from None
     if args.tray_mm is None and args.aspect is not None and args.kit:
         raise InputError("--aspect with --kit needs --tray-mm (the kit's own sizes are kept otherwise)")
+    from analysis.commands._kit import scenes_of, setting_changes
+
+    scenes_of(kit, args)            # bad --contact/--engine values: one line before any build
     res = run_design(kit, sweep, settings, contact=args.contact, workers=args.workers,
+                     setting_changes=setting_changes(args),
                      log=lambda text: sys.stderr.write(f"kruskal design: {text}\n"), target=target, seed=args.seed,
                      count=args.count, length=args.length, runs=args.runs, epsilon=args.epsilon,
                      node_budget=args.node_budget)
