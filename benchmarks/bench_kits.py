@@ -36,6 +36,10 @@ def _commit() -> str:
         return "unknown"
 
 
+#: the commit of the code that runs (read once, at import: a later commit does not change the running code)
+COMMIT = _commit()
+
+
 def run(argv: list[str]) -> dict:
     """Run ``kruskal ARGV --json`` here; record and return its JSON."""
     from analysis.cli import main
@@ -48,7 +52,7 @@ def run(argv: list[str]) -> dict:
     out = json.loads(buf.getvalue())
     OUT.parent.mkdir(parents=True, exist_ok=True)
     with open(OUT, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({"command": "kruskal " + " ".join(argv), "commit": _commit(),
+        fh.write(json.dumps({"command": ("kruskal " + " ".join(argv)).replace(str(ROOT) + "/", ""), "commit": COMMIT,
                              "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
                              "result": out}) + "\n")
     return out
@@ -95,9 +99,31 @@ def check(options: list[str]) -> None:
     print(f"kit entropy along random:50 (seed 2): mean |model - direct| {sum(err[1:]) / 50:.3f} bits, max "
           f"{max(err):.3f}; final model {model[-1]:.3f} / direct {sim['entropy_bits'][-1]:.3f} bits; "
           f"first step <= 1e-3 per compartment (direct) {first}")
+    own = own_replays(comps, args.workers)
     with open(OUT, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({"command": "model kit entropy along the same sequence", "commit": _commit(),
+        fh.write(json.dumps({"command": "model kit entropy along the same sequence", "commit": COMMIT,
                              "model_entropy_bits": model, "direct_entropy_bits": sim["entropy_bits"]}) + "\n")
+        fh.write(json.dumps({"command": "each compartment's own plan replayed (1,000 trials, seed 1)",
+                             "commit": COMMIT, "result": own}) + "\n")
+
+
+def own_replays(comps, workers) -> list:
+    """Each compartment's own shortest cell plan replayed alone (1,000 trials, seed 1): does a part
+    miss its cell under the common plan only, or under its own plan too?"""
+    from analysis.kit_replay import replay_plan
+    from kruskal_markov.sync.plan import shortest_plan
+
+    out = []
+    for c in comps:
+        p = shortest_plan(c["model"], "cell")
+        rep = replay_plan([c["scene"]], [c["name"]], list(p.word), [p.final_cell], [p.success_probability], 1000,
+                          seed=1, workers=workers)
+        row = rep["compartments"][0]
+        out.append({"name": c["name"], "word": list(p.word), "model_success": row["model_success"],
+                    "share": row["share"], "share_ci95": row["share_ci95"]})
+        print(f"  own plan of {c['name']} ({','.join(p.word)}): {row['share']:.3f} in its cell "
+              f"(model {row['model_success']:.3f})")
+    return out
 
 
 def design(options: list[str]) -> None:

@@ -89,8 +89,8 @@ def kit_plan(models, target="cell", **budgets) -> dict:
     models = _check_models(models)
     cells = budgets.pop("cells", None)
     common = shortest_plan(models, target, cells=cells, **budgets)
-    own = [shortest_plan(m, target, cells=None if cells is None else [cells[i]], **budgets)
-           for i, m in enumerate(models)]
+    own = [common] if len(models) == 1 else [
+        shortest_plan(m, target, cells=None if cells is None else [cells[i]], **budgets) for i, m in enumerate(models)]
     joint = None
     if common.word is not None:
         probs = common.success_probability
