@@ -15,8 +15,9 @@ before costs nothing), and :func:`kit_metrics` answers, with the ranking's defin
   Carlo over shared sequences, 95% interval; censored runs give only a lower bound).
 
 The Pareto front keeps the variants no other variant beats on tray area, plan length and expected
-tilts at once; the best variant has the shortest plan (then the fewest expected tilts, then the
-smallest area).
+tilts at once (a variant that never orients the part is not on it); the best variant has the
+shortest plan, and among those the smallest tray whose expected tilts are not clearly worse than
+the fewest (:func:`best_variant`).
 """
 from __future__ import annotations
 
@@ -143,16 +144,21 @@ def _objectives(v: dict) -> tuple:
 
 def pareto_front(rows: list, keys=(0, 1, 2)) -> list:
     """Indices of the rows no other row beats on the objectives ``keys`` of (area, plan length,
-    expected tilts), all minimised (at least as good on each, better on one).
+    expected tilts), all minimised (at least as good on each, better on one). A variant that
+    orients nothing on the front's terms (no plan and, with the tilts among the keys, no finite
+    expected tilts) is never on it, however small its tray.
 
     >>> rows = [{"area_mm2": 1, "plan_length": 5, "expected_tilts": 9}, {"area_mm2": 2, "plan_length": 4,
-    ...          "expected_tilts": 9}, {"area_mm2": 2, "plan_length": 6, "expected_tilts": 9}]
+    ...          "expected_tilts": 9}, {"area_mm2": 2, "plan_length": 6, "expected_tilts": 9},
+    ...         {"area_mm2": 0.5, "plan_length": None, "expected_tilts": None}]
     >>> pareto_front(rows), pareto_front(rows, (0, 2))
     ([0, 1], [0])
     """
     objs = [tuple(_objectives(r)[k] for k in keys) for r in rows]
     front = []
     for i, a in enumerate(objs):
+        if all(x == float("inf") for x in a[1:]):
+            continue
         beaten = any(all(b[j] <= a[j] for j in range(len(a))) and any(b[j] < a[j] for j in range(len(a)))
                      for b in objs)
         if not beaten:
@@ -161,12 +167,35 @@ def pareto_front(rows: list, keys=(0, 1, 2)) -> list:
 
 
 def best_variant(rows: list) -> int | None:
-    """The index of the best variant: a plan first, the shortest plan, then the fewest expected
-    tilts, then the smallest area (then the first); None without variants."""
+    """The index of the best variant: the shortest plan; among those, the variants whose expected
+    random tilts are not clearly worse than the fewest (their 95% interval reaches the fewest's);
+    among those the smallest tray (then the fewest expected tilts, then the first). Without any
+    plan: the fewest expected tilts. None without variants.
+
+    >>> rows = [{"area_mm2": 4, "plan_length": 5, "expected_tilts": 30.0, "expected_tilts_ci": [28, 32]},
+    ...         {"area_mm2": 1, "plan_length": 5, "expected_tilts": 31.0, "expected_tilts_ci": [29, 33]},
+    ...         {"area_mm2": 0.5, "plan_length": 5, "expected_tilts": 40.0, "expected_tilts_ci": [38, 42]}]
+    >>> best_variant(rows)
+    1
+    """
     if not rows:
         return None
-    return min(range(len(rows)), key=lambda i: (rows[i]["plan_length"] is None,) + _objectives(rows[i])[1:]
-               + (rows[i]["area_mm2"], i))
+    inf = float("inf")
+    with_plan = [i for i, r in enumerate(rows) if r["plan_length"] is not None]
+    if not with_plan:
+        return min(range(len(rows)), key=lambda i: (_objectives(rows[i])[2], rows[i]["area_mm2"], i))
+    shortest = min(rows[i]["plan_length"] for i in with_plan)
+    tied = [i for i in with_plan if rows[i]["plan_length"] == shortest]
+    fewest = min(tied, key=lambda i: (_objectives(rows[i])[2], i))
+    top = (rows[fewest].get("expected_tilts_ci") or [None, None])[1]
+    top = _objectives(rows[fewest])[2] if top is None else top
+
+    def not_worse(i):
+        lo = (rows[i].get("expected_tilts_ci") or [None, None])[0]
+        return (inf if rows[i]["expected_tilts"] is None else (lo if lo is not None else inf)) <= top
+
+    close = [i for i in tied if i == fewest or not_worse(i)]
+    return min(close, key=lambda i: (rows[i]["area_mm2"], _objectives(rows[i])[2], i))
 
 
 def run_design(kit: Kit, sweep: Sweep, build_settings, *, contact=None, workers=None, log=None,
