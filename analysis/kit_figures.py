@@ -161,6 +161,12 @@ def pareto_figure(design: dict, path) -> str:
         if key == "plan_length":
             ax.yaxis.get_major_locator().set_params(integer=True)
     axes[0].legend(fontsize=7)
+    never = [r for r in rows if r["plan_length"] is None and r["expected_tilts"] is None]
+    if never:
+        names = ", ".join(sorted({"kit's own" if r["tray_mm"] is None else f"{r['tray_mm'][0]:g} x {r['tray_mm'][1]:g}"
+                                  for r in never}))
+        fig.text(0.01, 0.01, f"not shown: {len(never)} variant(s) that never orient every part ({names} mm)",
+                 fontsize=7, color="0.3")
     fig.suptitle(f"tray design for {design.get('source', '')} (target {design.get('target', 'cell')})", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
