@@ -48,12 +48,13 @@ def parse_sweep_range(text: str | None, points: int, what: str, default):
 
     >>> parse_sweep_range("80..200:4", 3, "--tray-mm", None)
     (80.0, 120.0, 160.0, 200.0)
-    >>> parse_sweep_range("30", 3, "--tilt-deg", None), parse_sweep_range(None, 3, "--aspect", 1.0)
-    ((30.0,), (1.0,))
+    >>> parse_sweep_range("20..40", 3, "--tilt-deg", None), parse_sweep_range("1.5", 3, "--aspect", 1.0)
+    ((20.0, 30.0, 40.0), (1.5,))
     """
     if text is None:
         return (default,)
-    m = re.fullmatch(r"\s*([0-9.eE+]+)\s*(?:\.\.\s*([0-9.eE+]+)\s*(?::\s*(\d+))?)?\s*", text)
+    number = r"((?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
+    m = re.fullmatch(rf"\s*{number}\s*(?:\.\.\s*{number}\s*(?::\s*(\d+))?)?\s*", text)
     try:
         lo = float(m.group(1))
         hi = float(m.group(2)) if m.group(2) else None

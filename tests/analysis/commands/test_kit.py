@@ -201,3 +201,29 @@ def test_kit_with_other_model_sources_is_exit_2(kits, capsys):
         code = main(argv)
         _, err = capsys.readouterr()
         assert code == 2 and len(err.strip().splitlines()) == 1, (argv, err)
+
+
+def test_design_of_a_kit_keeps_its_own_sizes_and_replays_every_compartment(kits):
+    plan = _json("plan", "--kit", kits["two"], "--target", "cell", *COARSE)
+    out = _json("design", "--kit", kits["two"], "--count", "100", "--runs", "60", "--check-trials", "20", *COARSE)
+    (row,) = out["variants"]
+    assert row["tray_mm"] is None and row["area_mm2"] == 70 * 70 + 80 * 66 and row["cached"]
+    assert out["best"] == 0 and out["pareto"] == [0] and out["reference"] is None
+    assert row["word"] == plan["word"] and row["final_cells"] == plan["final_cell"]
+    assert [c["name"] for c in out["replay"]["compartments"]] == ["a", "b"]
+
+
+def test_sweep_values_and_bad_ranges():
+    from analysis.design import Kit, Sweep, parse_sweep_range, variants
+    from analysis.kit import parse_kit
+
+    assert parse_sweep_range("1..4", 2, "--aspect", None) == (1.0, 4.0)
+    for bad in ("0..3", "5..2", "x", "3..5:1"):
+        with pytest.raises(ValueError):
+            parse_sweep_range(bad, 3, "--tray-mm", None)
+    kit = parse_kit({"compartments": [{"name": "a", "size_mm": [70, 70], **SQUARE}]})
+    assert isinstance(kit, Kit)
+    found, skipped = variants(kit, Sweep((40.0, 80.0), (1.0, 4.0), (30.0,)))
+    sizes = [d["tray_mm"] for d, _ in found]
+    assert sizes == [[40.0, 40.0], [80.0, 80.0], [160.0, 40.0]]      # T^2 the area, x/y the aspect
+    assert [d["tray_mm"] for d, _ in skipped] == [[80.0, 20.0]] and "too small" in skipped[0][1]
