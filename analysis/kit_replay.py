@@ -66,7 +66,7 @@ def replay_plan(scenes, names, word, final_cells, success, trials: int, seed: in
                 workers: int | None = None) -> dict:
     """Replay a kit plan in direct simulation: per compartment the share of trials in the model's
     predicted final cell, its 95% (Wilson) interval and whether the model's success probability
-    lies in it; the kit's share (every compartment in its cell, estimated as the product of the
+    lies in it (within 1e-9: a model's probability of 1 can be a rounding above it); the kit's share (every compartment in its cell, estimated as the product of the
     compartments' shares: they are simulated independently) beside the model's joint success.
 
     Parameters
@@ -94,7 +94,7 @@ def replay_plan(scenes, names, word, final_cells, success, trials: int, seed: in
         hits = final_cell_counts(res).get(int(cell), 0)
         lo, hi = wilson_interval(hits, trials)
         rows.append({"name": name, "predicted_cell": int(cell), "model_success": float(p), "share": hits / trials,
-                     "share_ci95": [lo, hi], "within": bool(lo <= p <= hi), "faults": dict(res.faults),
+                     "share_ci95": [lo, hi], "within": bool(lo - 1e-9 <= p <= hi + 1e-9), "faults": dict(res.faults),
                      "entropy_bits": float(res.entropy_bits[-1])})
     return {"compartments": rows, "joint_share": float(np.prod([r["share"] for r in rows])),
             "joint_model_success": float(np.prod([r["model_success"] for r in rows])), "trials": int(trials),
