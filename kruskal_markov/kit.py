@@ -211,6 +211,12 @@ def kit_sync_lengths(automata, starts, weights=None, runs: int = 2000, seed=0, m
     if runs < 2:
         raise ValueError("Monte Carlo needs at least 2 runs")
     union, comp_of, offsets = union_automaton(list(automata))
+    if not union.deterministic:        # the kernel's successor bitsets: letters x states x words
+        from kruskal_markov.limits import check_memory
+
+        check_memory(8.0 * union.k * union.n * union.n_words,
+                     f"the Monte Carlo bitsets of a kit of {union.n:,} states in all",
+                     "use coarser compartment models (--resolution)")
     start = np.concatenate([np.asarray(s, dtype=np.int64) + offsets[i] for i, s in enumerate(starts)])
     w = letter_weights(union.k, weights)
     rng = np.random.default_rng(seed)
