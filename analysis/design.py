@@ -170,12 +170,12 @@ def pareto_front(rows: list, keys=(0, 1, 2)) -> list:
 def best_variant(rows: list) -> int | None:
     """The index of the best variant: the shortest plan; among those, the variants whose expected
     random tilts are not clearly worse than the fewest (their 95% interval reaches the fewest's);
-    among those the smallest tray (then the fewest expected tilts, then the first). Without any
+    among those the smallest tray in whole cm^2 (then the fewest expected tilts, then the first). Without any
     plan: the fewest expected tilts. None without variants.
 
-    >>> rows = [{"area_mm2": 4, "plan_length": 5, "expected_tilts": 30.0, "expected_tilts_ci": [28, 32]},
-    ...         {"area_mm2": 1, "plan_length": 5, "expected_tilts": 31.0, "expected_tilts_ci": [29, 33]},
-    ...         {"area_mm2": 0.5, "plan_length": 5, "expected_tilts": 40.0, "expected_tilts_ci": [38, 42]}]
+    >>> rows = [{"area_mm2": 40000, "plan_length": 5, "expected_tilts": 30.0, "expected_tilts_ci": [28, 32]},
+    ...         {"area_mm2": 10000, "plan_length": 5, "expected_tilts": 31.0, "expected_tilts_ci": [29, 33]},
+    ...         {"area_mm2": 5000, "plan_length": 5, "expected_tilts": 40.0, "expected_tilts_ci": [38, 42]}]
     >>> best_variant(rows)
     1
     """
@@ -196,7 +196,8 @@ def best_variant(rows: list) -> int | None:
         return (inf if rows[i]["expected_tilts"] is None else (lo if lo is not None else inf)) <= top
 
     close = [i for i in tied if i == fewest or not_worse(i)]
-    return min(close, key=lambda i: (rows[i]["area_mm2"], _objectives(rows[i])[2], i))
+    # areas compared in whole cm^2: a variant of another aspect has the same area up to rounding
+    return min(close, key=lambda i: (round(rows[i]["area_mm2"] / 100.0), _objectives(rows[i])[2], i))
 
 
 def run_design(kit: Kit, sweep: Sweep, build_settings, *, contact=None, workers=None, log=None,
