@@ -86,6 +86,10 @@ class ReproduceSettings:
         The sensitivity study (:mod:`analysis.sensitivity`): whether it runs, the pose noises, the
         static/kinetic pairs and tilt times (``(label, friction or None, tilt_time_s)``) and floor
         friction coefficients the key is rebuilt under, and the direct checks of the friction curve.
+    kits, kit_compartments, kit_build, kit_design_tray_mm, kit_design_tilt_deg, kit_replay_trials, kit_node_budget
+        The kits section (:mod:`analysis.experiments.kits`): whether it runs, the kit (name, shape, x mm,
+        y mm per compartment), its models' build settings, the key's design sweep (compartment sides and
+        tilts), the replay's trials and the plan search's node budget.
     """
 
     quick: bool = False
@@ -155,24 +159,39 @@ class ReproduceSettings:
     tray_log: bool = False
     tray_log_trials: int = 500
     tray_log_tilts: int = 50
+    #: the kits section (analysis.experiments.kits): a kit of parts in one tray, its common plan, replay and
+    #: animation, and the key's tray design sweep; off by default (on in :meth:`full` and :meth:`quick_settings`)
+    kits: bool = False
+    kit_compartments: tuple = (("key", "allen-key", 120.0, 90.0), ("triangle 1", "triangle:1", 100.0, 80.0),
+                               ("triangle 2", "triangle:2", 100.0, 100.0))
+    kit_build: dict = dataclasses.field(default_factory=lambda: {"tol_mm": 1.0, "tol_deg": 1.0,
+                                                                 "recenter_rounds": 1, "start_samples": 2000})
+    kit_design_tray_mm: tuple = (80.0, 120.0, 160.0, 200.0)
+    kit_design_tilt_deg: tuple = (20.0, 30.0, 40.0)
+    kit_replay_trials: int = 1000
+    kit_node_budget: int = 2_000_000
 
     @classmethod
     def full(cls, seed: int = 0) -> "ReproduceSettings":
         """The committed report's settings: every section but the friction study, which is its own
         command (``python -m analysis.friction_study``, about 40 minutes of direct simulation; its
         measured parts are committed beside the report in ``reports/full/friction_study/``)."""
-        return cls(seed=seed, tray_log=True, friction_study_dir="reports/full/friction_study")
+        return cls(seed=seed, tray_log=True, friction_study_dir="reports/full/friction_study", kits=True)
 
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":
-        """``--quick``: coarse models (1 mm / 1 degree), 3 triangles, 3 maps, few trials."""
+        """``--quick``: coarse models (1 mm / 1 degree), 3 triangles, 3 maps, few trials; the kits section on
+        3 mm models with two design variants."""
         coarse = dict(COMPARED_RESOLUTION)
         return cls(quick=True, seed=seed, ensemble_count=10_000, parts=("triangle:1", "triangle:2", "triangle:3"),
                    maps=("map:low:1", "map:medium:1", "map:high:1"), key_build=coarse, part_build=coarse,
                    a_check_trials=200, b_trials=100, c_trials=60, replay_trials=500, validate_sequences=2,
                    validate_trials=200, validate_length=20, metrics_count=500, metrics_runs=200,
                    sync_time_budget=20.0, part_sync_time_budget=10.0, compare_contacts=(),
-                   compare_refine=(), judges=False, sensitivity=False, engines=False)
+                   compare_refine=(), judges=False, sensitivity=False, engines=False, kits=True,
+                   kit_build={"tol_mm": 3.0, "tol_deg": 3.0, "recenter_rounds": 1, "start_samples": 200},
+                   kit_design_tray_mm=(120.0, 200.0), kit_design_tilt_deg=(30.0,), kit_replay_trials=100,
+                   kit_node_budget=500_000)
 
 
 def reproduce(settings: ReproduceSettings, *, workers: int | None = None, progress=None,

@@ -55,6 +55,8 @@ register("convergence", "analysis.commands.convergence",
          "expected length of a random synchronizing sequence")
 register("validate", "analysis.commands.validate", "model prediction against direct simulation")
 register("rank", "analysis.commands.rank", "orientability ranking of shapes")
+register("design", "analysis.commands.design",
+         "tray variants (compartment size, aspect, tilt) ranked for a part or a kit, with the Pareto front")
 register("fit", "analysis.commands.fit",
          "the tray's physics (floor friction, process noise) from a pose log, with a 90% interval")
 register("reproduce", "analysis.commands.reproduce", "the paper's experiments as a report")

@@ -20,6 +20,7 @@ from analysis.commands._common import (
     parse_weights,
     positive_float,
 )
+from analysis.commands._kit import add_kit_options
 from analysis.commands._range import add_range_options, is_range, run_over_range
 
 
@@ -53,6 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="stochastic models: also Monte Carlo of tilts until entropy <= E bits")
     add_interval_options(parser)
     add_range_options(parser)
+    add_kit_options(parser, workers=True)
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -73,6 +75,10 @@ def run(args: argparse.Namespace) -> dict:
         raise InputError("--max-steps and --max-subsets must be >= 1")
     if not 0.0 <= args.threshold <= 1.0:
         raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
+    if getattr(args, "kit", None):
+        from analysis.commands import _kit
+
+        return _kit.convergence(args)
     model = load_model_source(args)
     weights = parse_weights(args.weights, model.actions)
     w = letter_weights(model.n_actions, weights)

@@ -17,6 +17,7 @@ from analysis.commands._common import (
     load_model_source,
     parse_weights,
 )
+from analysis.commands._kit import add_kit_options
 from analysis.commands._range import add_range_options, is_range, run_over_range
 
 
@@ -33,11 +34,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--threads", type=int, default=None, help="Numba threads (default: all cores)")
     add_interval_options(parser)
     add_range_options(parser)
+    add_kit_options(parser, workers=True)
 
 
 def run(args: argparse.Namespace) -> dict:
     from kruskal_markov.ensemble import run_ensemble
 
+    if getattr(args, "kit", None):
+        from analysis.commands import _kit
+
+        return _kit.ensemble(args)
     if is_range(args):
         return run_over_range(args, run)
     check_positive(args.count, "--count")
@@ -94,6 +100,10 @@ def format_intervals(intervals: dict) -> list[str]:
 
 def format_text(result: dict) -> str:
     """Human summary: the per-step statistics and the best sequence."""
+    if result.get("kit"):
+        from analysis.commands._kit import format_text as kit_text
+
+        return kit_text(result)
     lines = [f"{result['count']} random sequences of length {result['length']} (seed {result['seed']}), "
              f"entropy on {result['entropy_on']}",
              "step      mean       q25       q75"]

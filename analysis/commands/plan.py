@@ -15,6 +15,7 @@ import numpy as np
 
 from analysis.commands import InputError
 from analysis.commands._common import positive_float
+from analysis.commands._kit import add_kit_options
 from analysis.commands._range import add_range_options, is_range, plan_over_range
 
 
@@ -40,6 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--threshold", type=float, default=0.0,
                         help="state/cell targets: the support automaton keeps entries >= T (default 0)")
     add_range_options(parser, check=True)
+    add_kit_options(parser)
 
 
 def grid_cells(model, spec: str) -> np.ndarray:
@@ -80,6 +82,10 @@ def run(args: argparse.Namespace) -> dict:
             raise InputError(f"--{name.replace('_', '-')} must be a positive integer")
     if not 0.0 <= args.threshold <= 1.0:
         raise InputError(f"--threshold must lie in [0, 1], got {args.threshold}")
+    if getattr(args, "kit", None):
+        from analysis.commands import _kit
+
+        return _kit.plan(args)
     if is_range(args):
         return plan_over_range(args, run)
     if args.model:
@@ -129,5 +135,9 @@ def format_text(result: dict) -> str:
         lines.append(f"lower bound (proven): {result['lower_bound']}")
     for note in result.get("notes") or []:
         lines.append(f"note: {note}")
+    if "per_compartment" in result:
+        from analysis.commands._kit import format_plan
+
+        lines.append(format_plan(result))
     lines.append(f"seconds: {result['seconds']:.3f}")
     return "\n".join(lines)

@@ -21,6 +21,7 @@ from analysis.commands._common import (
     scene_from_args,
     sequence_rng,
 )
+from analysis.commands._kit import add_kit_options
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -53,6 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run on a Dask cluster, e.g. tcp://host:8786 (needs kruskal[distributed]; "
                              "--workers is then not used)")
+    add_kit_options(parser, models=False)
+    parser.add_argument("--animation", metavar="FILE.gif", default=None,
+                        help="with --kit: an animated GIF of every compartment's trials after every tilt")
     parser.add_argument("--progress", action="store_true",
                         help="show a progress bar on standard error (default: only on a terminal)")
 
@@ -61,6 +65,14 @@ def run(args: argparse.Namespace) -> dict:
     from analysis.montecarlo import run_direct, write_poses_csv
     from transition_builder.noise import parse_noise
 
+    if args.kit:
+        from analysis.commands import _kit
+
+        return _kit.simulate(args)
+    if args.animation:
+        from analysis.commands import InputError
+
+        raise InputError("--animation needs --kit")
     noise = parse_noise(args.noise)
     check_positive(args.trials, "--trials")
     if args.workers is not None:
@@ -87,6 +99,10 @@ def run(args: argparse.Namespace) -> dict:
 
 def format_text(result: dict) -> str:
     """A short human summary: the entropy curve and the faults."""
+    if result.get("kit"):
+        from analysis.commands._kit import format_text as kit_text
+
+        return kit_text(result)
     lines = [(f"shape {result['shape']}  friction {result['friction']}  trials {result['trials']}  "
               f"tilts {result['tilts']}  grid {result['grid']}  seed {result['seed']}  "
               f"noise {result.get('noise', 'none')}"),

@@ -64,3 +64,4 @@ register("B", "analysis.experiments.experiment_b")             # B: other parts 
 register("C", "analysis.experiments.experiment_c")             # C: friction maps (Fig. 6)
 register("friction", "analysis.experiments.friction")          # C by mean, the physics of A (issue 40)
 register("differences", "analysis.experiments.differences")    # how the differences arise, point by point
+register("kits", "analysis.experiments.kits")                  # kits and trays: one plan for a kit, tray design
