@@ -116,7 +116,13 @@ def plan(args) -> dict:
                               for c, p in zip(comps, res["own"])]
     out["compartments"] = _models_entry(comps)
     out["kit"] = args.kit
+    out["engine"] = _engine(comps)
     return out
+
+
+def _engine(comps) -> str:
+    """The engine every compartment's model was built in (one per kit: the command's ``--engine``)."""
+    return getattr(comps[0]["scene"].settings, "engine", "pybullet")
 
 
 def ensemble(args) -> dict:
@@ -144,7 +150,8 @@ def ensemble(args) -> dict:
             "best_entropy_bits": r["best_entropy"].tolist(),
             "entropy_on": "kit: the sum of the compartments' report-cell entropies (the joint distribution's)",
             "count": args.count, "length": args.length, "seed": args.seed, "epsilon": r["epsilon"],
-            "compartments": [dict(p, **m) for p, m in zip(per, _models_entry(comps))], "kit": args.kit}
+            "compartments": [dict(p, **m) for p, m in zip(per, _models_entry(comps))], "kit": args.kit,
+            "engine": _engine(comps)}
 
 
 def convergence(args) -> dict:
@@ -195,6 +202,7 @@ def convergence(args) -> dict:
                                                                         "monte_carlo_lower", "pair_lower",
                                                                         "pair_upper")})
                            for m, o in zip(_models_entry(comps), own)]
+    out["engine"] = _engine(comps)
     return out
 
 
