@@ -18,6 +18,7 @@ from __future__ import annotations
 import datetime
 import io
 import json
+import os
 import pathlib
 import subprocess
 import sys
@@ -51,10 +52,14 @@ def run(argv: list[str]) -> dict:
         raise SystemExit(f"kruskal {' '.join(argv)} exited {code}")
     out = json.loads(buf.getvalue())
     OUT.parent.mkdir(parents=True, exist_ok=True)
+    from transition_builder.cache import cache_dir
+    line = json.dumps({"command": "kruskal " + " ".join(argv), "commit": COMMIT,
+                       "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                       "result": out})
+    # no machine's paths in committed data: models by their cache key, files relative to the checkout
+    line = line.replace(os.path.join(cache_dir(), ""), "").replace(str(ROOT) + "/", "")
     with open(OUT, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps({"command": ("kruskal " + " ".join(argv)).replace(str(ROOT) + "/", ""), "commit": COMMIT,
-                             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                             "result": out}) + "\n")
+        fh.write(line + "\n")
     return out
 
 
