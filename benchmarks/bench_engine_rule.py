@@ -166,7 +166,7 @@ def _build(scene, workers=None):
     from transition_builder.cache import cached_build
     t = time.perf_counter()
     cb = cached_build(scene, BuildSettings(**COMPARED), workers=workers)
-    return cb.model, time.perf_counter() - t
+    return cb.result.model, time.perf_counter() - t
 
 
 def models() -> dict:
