@@ -30,6 +30,7 @@ import time
 import numpy as np
 
 from analysis.kit import Kit
+from analysis.streams import salted
 
 __all__ = ["Sweep", "parse_sweep_range", "variants", "kit_metrics", "pareto_front", "best_variant", "run_design"]
 
@@ -123,7 +124,9 @@ def kit_metrics(models, *, target="cell", seed: int = 0, count: int = 500, lengt
     plan = kit_plan(models, target, node_budget=node_budget, max_length=max_length)
     common = plan["common"]
     ens = kit_ensemble(models, count, length, seed=seed, epsilon=epsilon)
-    tilts = kit_entropy_tilts(models, epsilon, runs=runs, seed=[seed, 5], max_steps=max_tilts)
+    # the single part's stream (orientability's random tilts): a one-part design answers as `rank` does
+    tilts = kit_entropy_tilts(models, epsilon, runs=runs, seed=salted(seed, "orientability.entropy_tilts"),
+                              max_steps=max_tilts)
 
     def listed(x):
         return None if x is None else (list(x) if isinstance(x, list) else [x])

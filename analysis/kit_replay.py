@@ -23,7 +23,9 @@ def compartment_seed(seed: int, i: int) -> int:
     """
     if i == 0:
         return int(seed)
-    return int(np.random.SeedSequence([int(seed), int(i), 0x6B6974]).generate_state(1, np.uint32)[0] >> 1)
+    from analysis.streams import SALTS
+    salt = SALTS["kit.compartment"]
+    return int(np.random.SeedSequence([int(seed), int(i), salt]).generate_state(1, np.uint32)[0] >> 1)
 
 
 def simulate_kit(scenes, sequence, trials: int, seed: int = 0, workers: int | None = None, grid: str = "4x4x4") -> list:

@@ -37,6 +37,7 @@ SALTS: dict[str, int] = {
     "fit": 0x464954,                      # analysis.fit.core: bootstraps [seed, fit]; entropy band [seed, fit, 1]
     "tray_log": 0x7E41,                   # analysis.fit.study: hidden coefficient [seed, s]; sequence [seed, s, 1]
     "tray_log.camera": 0xCA,              # analysis.fit.study.add_camera_noise
+    "kit.compartment": 0x6B6974,          # analysis.kit_replay.compartment_seed: [seed, i, salt], compartment i > 0
 }
 
 #: the report's named streams (``ctx.seed(name)``): family -> what draws from it. ``family:x`` is
@@ -57,6 +58,9 @@ REPORT_STREAMS: dict[str, str] = {
     "C": "experiment C's direct simulation on each friction map (C:MAP)",
     "friction_study": "the friction study's seed",
     "tray_log": "the tray-log study's seed (its hidden coefficient, log and fit)",
+    "kits": "the kits section's random sequences (the kit's ensemble and convergence)",
+    "kits.design": "the key's tray design sweep",
+    "kits.replay": "the kit's common plan replayed in direct simulation",
 }
 
 

@@ -22,7 +22,7 @@ SEEDING = {"default_rng", "SeedSequence", "salted", "salted_rng"}
 def test_the_salts_keep_the_values_every_published_output_was_drawn_with():
     assert SALTS == {"sequences": 1, "validate.reference": 2, "validate.bootstrap": 3, "validate.posterior": 4,
                      "orientability.entropy_tilts": 5, "orientability.sync_length": 6, "fit": 0x464954,
-                     "tray_log": 0x7E41, "tray_log.camera": 0xCA}
+                     "tray_log": 0x7E41, "tray_log.camera": 0xCA, "kit.compartment": 0x6B6974}
     assert len(set(SALTS.values())) == len(SALTS)                     # two uses never share a stream
     assert salted(np.int64(9), "validate.posterior", 3) == [9, 4, 3]
     a, b = salted_rng(5, "fit", 1).random(4), np.random.default_rng([5, 0x464954, 1]).random(4)

@@ -211,11 +211,12 @@ def test_spread_and_every_other_key_by_value_on_the_hand_checked_case():
     assert out["band_draws"] == 5 and out["states"] == 8
     assert (out["sequences"], out["trials"], out["length"], out["seed"], out["noise"]) == (2, m, length, seed, "none")
     assert out["contact"] == out["model_contact"] == model_scene(model).settings.contact
+    assert out["engine"] == out["model_engine"] == model_scene(model).settings.engine
     assert out["steps_compared"] == "1..N (step 0 is the start distribution)"
     assert out["estimator"] == "model curve = expected plug-in entropy of M draws from its report-grid distribution"
     assert out["model_seconds"] > 0 and out["simulation_seconds"] >= 0
     assert set(out) == {
-        "mean_abs_error_bits", "max_abs_error_bits", "median_abs_error_bits", "share_steps_above_0_25",
+        "engine", "model_engine", "mean_abs_error_bits", "max_abs_error_bits", "median_abs_error_bits", "share_steps_above_0_25",
         "mean_abs_error_bits_exact_curve", "final_tv_distance", "reference_noise_bits", "reference_noise_bits_max",
         "band_coverage", "band_coverage_ci95", "band_coverage_dirichlet", "band_coverage_dirichlet_ci95",
         "band_steps", "band_verdict", "structural_delta", "structural_source", "structural_note",

@@ -98,7 +98,7 @@ def test_a_new_section_is_one_module_and_one_registry_line(tmp_path, monkeypatch
     saved = json.loads((tmp_path / "out" / "results.json").read_text())
     draw = saved["trivial"]["draw"]
     assert draw == int(np.random.default_rng(stream_seed(4, "trivial")).integers(1000))
-    assert saved["settings"]["seed"] == 4 and list(saved) == ["settings", "trivial", "seconds"]
+    assert saved["settings"]["seed"] == 4 and list(saved) == ["settings", "engine", "trivial", "seconds"]
     text = (tmp_path / "out" / "index.md").read_text()
     assert f"The draw was {draw}." in text and text.startswith("# Sensorless orientation")
     assert paths["figures"] == []
