@@ -15,6 +15,7 @@ Usage::
 
     python tools/rerun_section.py --out reports/full --section tray_log [--workers 2]
     python tools/rerun_section.py --out reports/full --section differences --from-saved
+    python tools/rerun_section.py --out reports/full --section engines --before "## NEXT HEADING"
 """
 from __future__ import annotations
 
@@ -49,12 +50,21 @@ def settings_from_results(saved: dict) -> ReproduceSettings:
     return dataclasses.replace(default, **{k: like(v, getattr(default, k)) for k, v in saved.items()})
 
 
-def splice_section(index_text: str, new_text: str) -> str:
-    """``index_text`` with the section that starts at ``new_text``'s heading replaced by ``new_text``."""
+def splice_section(index_text: str, new_text: str, before: str | None = None) -> str:
+    """``index_text`` with the section that starts at ``new_text``'s heading replaced by ``new_text``; a
+    section the report does not have yet goes in just before the heading ``before`` (a section added to
+    the registry after the report was written)."""
     heading = new_text.splitlines()[0]
     if not heading.startswith("## "):
         raise ValueError(f"a section must start with a '## ' heading, got {heading!r}")
     lines = index_text.splitlines()
+    if heading not in lines and before == "END":
+        return "\n".join(lines + [""] + new_text.rstrip("\n").splitlines()) + "\n"
+    if heading not in lines and before is not None:
+        if before not in lines:
+            raise ValueError(f"the report has no section {before!r} to put {heading!r} before")
+        at = lines.index(before)
+        return "\n".join(lines[:at] + new_text.rstrip("\n").splitlines() + [""] + lines[at:]) + "\n"
     try:
         start = lines.index(heading)
     except ValueError:
@@ -70,6 +80,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--from-saved", action="store_true",
                     help="render the section from the saved results.json (sections with from_saved only)")
+    ap.add_argument("--before", default=None, metavar="HEADING",
+                    help="a section the report does not have yet goes in before this heading (e.g. '## B: other parts'; END: at the end)")
     args = ap.parse_args(argv)
     results_path, index_path = (os.path.join(args.out, n) for n in ("results.json", "index.md"))
     try:
@@ -94,7 +106,11 @@ def main(argv=None) -> int:
         result, seconds = report.results[args.section], report.seconds
     saved.update(result.to_dict())
     text = module.markdown(result)
-    new_index = splice_section(index_text, text) if text else index_text
+    try:
+        new_index = splice_section(index_text, text, args.before) if text else index_text
+    except ValueError as exc:
+        print(f"rerun_section: {exc}", file=sys.stderr)
+        return 2
     atomic_write_text(results_path, strict_json(saved, indent=1))
     figures = module.figures(result, args.out)
     atomic_write_text(index_path, new_index)

@@ -115,7 +115,7 @@ def markdown(r: Result) -> str:
     if not r.settings.engines:
         return ""
     engines = list(r.answers)
-    lines = [f"**Which engine answered**: every model and direct simulation of this report ran in the "
+    lines = ["## Engine against engine", "", f"**Which engine answered**: every model and direct simulation of this report ran in the "
              f"`{r.default}` engine (the default chosen by the rule in docs/simulator.md); the other engine is "
              f"its reference. The key's models of both engines at the compared resolution "
              f"(`{r.settings.compare_build}`), asked the same questions on the same random sequences:", "",

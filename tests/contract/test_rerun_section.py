@@ -38,3 +38,12 @@ def test_splice_replaces_only_its_section():
         rerun.splice_section(INDEX, "## D\n\nd\n")
     with pytest.raises(ValueError, match="heading"):
         rerun.splice_section(INDEX, "B without a heading\n")
+
+
+def test_splice_puts_a_new_section_before_a_heading_or_at_the_end():
+    out = rerun.splice_section(INDEX, "## A2\n\nnew\n", before="## B")
+    assert out == "# Title\n\nintro\n\n## A\n\nold a\n\n## A2\n\nnew\n\n## B\n\nold b\nmore b\n\n## C\n\nc\n"
+    assert rerun.splice_section(INDEX, "## D\n\nd\n", before="END").endswith("## C\n\nc\n\n## D\n\nd\n")
+    assert rerun.splice_section(INDEX, "## B\n\nnew b\n", before="## C") == rerun.splice_section(INDEX, "## B\n\nnew b\n")
+    with pytest.raises(ValueError, match="to put"):
+        rerun.splice_section(INDEX, "## D\n\nd\n", before="## Z")
