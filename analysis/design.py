@@ -240,7 +240,8 @@ def run_design(kit: Kit, sweep: Sweep, build_settings, *, contact=None, workers=
         comps = kit_models(v, build_settings, contact=contact, workers=workers, setting_changes=setting_changes)
         row = dict(desc)
         row.update(kit_metrics([c["model"] for c in comps], **metric_options))
-        row["models"] = [c["path"] for c in comps]
+        from transition_builder.cache import cache_key
+        row["models"] = [cache_key(c["path"]) for c in comps]          # by cache key, never a machine's path
         row["states"] = [c["model"].n_states for c in comps]
         row["cached"] = all(c["cached"] for c in comps)
         row["seconds"] = time.perf_counter() - t0

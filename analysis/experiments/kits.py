@@ -79,7 +79,7 @@ def _kit_answers(ctx, st: Settings, kit) -> tuple:
     own = [kit_metrics([x], target="cell", seed=ctx.seed("kits"), count=st.count, runs=st.runs, epsilon=st.epsilon,
                        node_budget=st.node_budget) for x in models]
     model_seconds = ctx.clock() - t0
-    out = {"compartments": [dict(c.to_dict(), states=x.n_states, model=info.path)
+    out = {"compartments": [dict(c.to_dict(), states=x.n_states, model=info.cache_key)
                             for c, (x, info) in zip(kit.compartments, built)],
            "plan": {k: m[k] for k in ("word", "plan_length", "exact", "lower_bound", "final_cells",
                                       "success_probabilities", "joint_success")},

@@ -50,7 +50,11 @@ def report(cache_dir, tmp_path_factory):
                           compare_contacts=(("sphere", {"contact": "sphere"}),), compare_refine=(), judges=False,
                           contact_ensemble_count=200,
                           contact_build=CONTACT, sensitivity_noise=(), sensitivity_mu=(0.2,),
-                          sensitivity_check_mu=(0.1,), sensitivity_check_sequences=2, sensitivity_check_trials=10)
+                          sensitivity_check_mu=(0.1,), sensitivity_check_sequences=2, sensitivity_check_trials=10,
+                          kits=True, kit_compartments=(("square", "rectangle:30x30", 90.0, 90.0),
+                                                       ("bar", "rectangle:40x20", 80.0, 70.0)),
+                          kit_build=CONTACT, kit_design_tray_mm=(90.0,), kit_design_tilt_deg=(30.0,),
+                          kit_replay_trials=20, kit_node_budget=100_000)
     result = reproduce(s, workers=2)
     out = tmp_path_factory.mktemp("report")
     return result, write_report(result, str(out)), out
@@ -238,3 +242,16 @@ def test_engines_side_by_side(report):
         assert (cell.length, bool(cell.exact)) == (a["cell_plan"], a["cell_plan_exact"])
     text = (out / "index.md").read_text()
     assert f"ran in the `{eng['default']}` engine" in text
+
+
+def test_kits_section_names_models_by_cache_key(report):
+    """The kits section runs in a report: its common plan is no shorter than any compartment's own, and
+    its models are named by their cache keys (which find the files), never by a machine's path."""
+    from transition_builder.cache import model_file
+
+    result, _, out = report
+    kit = result["kits"]
+    for c in kit["compartments"]:
+        assert os.path.basename(c["model"]) == c["model"] and os.path.exists(model_file(c["model"]))
+    text = json.dumps(kit) + json.dumps(result["kit_design"])
+    assert str(out) not in text and os.path.expanduser("~") not in text

@@ -151,11 +151,12 @@ def test_design_of_one_part_has_the_rankings_numbers(kits):
     of a part's variant are part_metrics' on the same model with the same seed."""
     from analysis.orientability import part_metrics
     from kruskal_markov.model import TransitionModel
+    from transition_builder.cache import model_file
 
     out = _json("design", "--shape", "rectangle:30x30", "--friction", "0.1", "--tray-mm", "70", "--count", "100",
                 "--runs", "60", "--check-trials", "0", "--seed", "4", *COARSE)
     (row,) = out["variants"]
-    m = part_metrics(TransitionModel.load(row["models"][0]), seed=4, count=100, runs=60, draws=0,
+    m = part_metrics(TransitionModel.load(model_file(row["models"][0])), seed=4, count=100, runs=60, draws=0,
                      sync_node_budget=100_000)
     assert row["converging_share"] == m.converging_share_50
     assert row["expected_tilts"] == m.random_tilts
