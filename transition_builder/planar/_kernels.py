@@ -390,19 +390,19 @@ def _tilt_one(s, geom, verts, mu_grid, p, ramp_sin, ramp_cos, cn, cr, cgap, cslo
 
 
 @njit(cache=True)
+def _scratch(m):
+    """The work arrays of one trial of a part of ``m`` vertices (at most ``4 m`` wall contacts): contact
+    normals, lever arms, gaps, impulses, slots, per-contact constants, warm starts, the floor's wrench and
+    the state."""
+    return (np.empty((4 * m, 2)), np.empty((4 * m, 2)), np.empty(4 * m), np.empty((4 * m, 2)),
+            np.empty(4 * m, dtype=np.int64), np.empty((4 * m, 5)), np.zeros((4 * m, 2)), np.zeros(3), np.empty(6))
+
+
+@njit(cache=True)
 def _tilt_batch(starts, valid, geom, verts, mu_grid, p, ramp_sin, ramp_cos, out, status):
     """Tilt every valid start pose (rows of ``starts``, at rest) to rest: poses into ``out`` (theta
     unwrapped; NaN where faulted), codes into ``status``. Trials share nothing but the inputs."""
-    m = verts.shape[0]
-    cn = np.empty((4 * m, 2))
-    cr = np.empty((4 * m, 2))
-    cgap = np.empty(4 * m)
-    lam = np.empty((4 * m, 2))
-    cslot = np.empty(4 * m, dtype=np.int64)
-    pre = np.empty((4 * m, 5))
-    warm = np.zeros((4 * m, 2))
-    wrench = np.zeros(3)
-    s = np.empty(6)
+    cn, cr, cgap, lam, cslot, pre, warm, wrench, s = _scratch(verts.shape[0])
     no_record = np.empty((0, 3))
     for t in range(starts.shape[0]):
         out[t, 0] = np.nan
@@ -429,16 +429,7 @@ def _tilt_batch(starts, valid, geom, verts, mu_grid, p, ramp_sin, ramp_cos, out,
 def _free_run(start, twist, geom, verts, mu_grid, p, ramp_sin, ramp_cos, record):
     """Free-run one trial from ``start`` with the tray-frame ``twist`` and record it (``record`` rows:
     the pose after every rest-test interval, row 0 the start). Returns the status code."""
-    m = verts.shape[0]
-    cn = np.empty((4 * m, 2))
-    cr = np.empty((4 * m, 2))
-    cgap = np.empty(4 * m)
-    lam = np.empty((4 * m, 2))
-    cslot = np.empty(4 * m, dtype=np.int64)
-    pre = np.empty((4 * m, 5))
-    warm = np.zeros((4 * m, 2))
-    wrench = np.zeros(3)
-    s = np.empty(6)
+    cn, cr, cgap, lam, cslot, pre, warm, wrench, s = _scratch(verts.shape[0])
     for q in range(3):
         s[q] = start[q]
         s[q + 3] = twist[q]

@@ -28,6 +28,7 @@ import numpy as np
 
 from transition_builder import status as st_codes
 from transition_builder._coulomb import footprint_points
+from transition_builder._tilt_contract import check_poses, ramp_fractions, valid_start
 from transition_builder.friction import friction_map
 from transition_builder.planar import _kernels as K
 from transition_builder.scene import Scene
@@ -40,15 +41,6 @@ G_MM_S2 = 9810.0
 SOLVER_ITERATIONS = 20
 #: the solve ends once no impulse changes a velocity by more than this (mm/s)
 SOLVER_TOLERANCE_MM_S = 1e-4
-
-
-def _check_poses(poses) -> np.ndarray:
-    p = np.asarray(poses, dtype=np.float64)
-    if p.ndim == 1 and p.shape == (3,):
-        p = p[None, :]
-    if p.ndim != 2 or p.shape[1] != 3:
-        raise ValueError(f"poses must be an (n, 3) array of (x_mm, y_mm, theta_rad); got shape {p.shape}")
-    return np.ascontiguousarray(p)
 
 
 def _wrap(theta: np.ndarray) -> np.ndarray:
@@ -76,7 +68,6 @@ class PlanarSimulator:
     def __init__(self, scene: Scene):
         if not isinstance(scene, Scene):
             raise ValueError(f"PlanarSimulator needs a Scene, got {type(scene).__name__}")
-        from transition_builder.sim import ramp_fractions
         self.scene = scene
         st = scene.settings
         shape = scene.shape
@@ -150,8 +141,7 @@ class PlanarSimulator:
         or not inside the tray is ``INVALID``; a landing outside it ``ESCAPED``; still moving after
         ``max_time_s`` ``UNSETTLED``).
         """
-        from transition_builder.sim import valid_start
-        p = _check_poses(poses)
+        p = check_poses(poses)
         params = self._params_for(action)
         n = len(p)
         out = np.empty((n, 3))
@@ -173,8 +163,7 @@ class PlanarSimulator:
         Returns ``(t, poses, z)`` as :meth:`transition_builder.sim.TraySimulator.trajectory` does
         (theta unwrapped; ``z`` is zero: a planar part never leaves the floor).
         """
-        from transition_builder.sim import valid_start
-        p = _check_poses(pose)[0]
+        p = check_poses(pose)[0]
         if not valid_start(self.scene, p[None])[0]:
             raise ValueError(f"start pose {p.tolist()} is not inside the tray")
         dt = self.scene.settings.check_interval_s
