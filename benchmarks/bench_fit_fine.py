@@ -1,0 +1,157 @@
+"""``kruskal fit`` with the planar engine: estimates finer than the grid, camera misreads, other physics.
+
+Protocols named here (truths, seeds, sizes) and committed before any of their logs was made
+(docs/fit.md, "Finer than the grid"). Every log is the allen key, one random 50-tilt sequence
+(``--sequence random:50 --seed SEED``), camera noise 0.5 mm / 0.5 degree, made once and kept under
+``benchmarks/results/fit_fine/``; smaller logs are the first trials of the 1,000-trial log.
+
+- ``TUNING_FINE``: truths ``default_rng(5656).uniform(0.175, 0.425, 3)`` rounded (0.267, 0.312,
+  0.211), seeds 5600-5602, planar physics: the local grid's settings are chosen on these.
+- ``VALID_FINE``: truths ``default_rng(5757).uniform(0.175, 0.425, 8)`` rounded, seeds 5700-5707,
+  planar physics: the validation of the estimate at 100 / 200 / 500 / 1,000 trials.
+- ``PYBULLET``: truths ``default_rng(5858).uniform(0.175, 0.425, 3)`` rounded, seeds 5800-5802,
+  PyBullet physics (200 trials; slower), fitted by planar models.
+- ``MAP``: truths ``default_rng(5959).uniform(0.175, 0.425, 3)`` rounded, seeds 5900-5902, planar
+  physics on a mild friction map ``map:low:SEED:TRUTH`` (the mean is the truth), fitted by uniform
+  planar models.
+
+``python -m benchmarks.bench_fit_fine logs|fit|summary SET [SIZES...]`` (SET: tuning, valid,
+pybullet, map); extra ``kruskal fit`` options after ``--``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import sys
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+HERE = pathlib.Path(__file__).parent
+OUT = HERE / "results" / "fit_fine"
+SIZES = (100, 200, 500, 1000)
+CAMERA = (0.5, 0.5)
+TILTS = 50
+#: the fit's options shared by every set (the grid before refinement: 0.15..0.5, 8 points).
+FIT_OPTIONS = ("--engine", "planar", "--workers", "1", "--range", "0.15..0.5", "--points", "8")
+
+
+@dataclass(frozen=True)
+class FineSet:
+    """A named set of logs: truths, first seed, trials of the full log, physics."""
+
+    name: str
+    truths: tuple
+    seed0: int
+    trials: int = 1000
+    engine: str = "planar"
+    friction: str = "{mu}"          # the log's friction spec; ``{mu}`` the truth, ``{seed}`` the log's seed
+
+
+TUNING_FINE = FineSet("tuning", (0.267, 0.312, 0.211), 5600)
+VALID_FINE = FineSet("valid", (0.239, 0.242, 0.216, 0.333, 0.184, 0.35, 0.299, 0.208), 5700)
+PYBULLET = FineSet("pybullet", (0.374, 0.205, 0.392), 5800, trials=200, engine="pybullet")
+MAP = FineSet("map", (0.35, 0.276, 0.237), 5900, friction="map:low:{seed}:{mu}")
+SETS = {s.name: s for s in (TUNING_FINE, VALID_FINE, PYBULLET, MAP)}
+
+
+def _names(seed: int) -> list:
+    from analysis.commands._common import parse_sequence, sequence_rng
+    from transition_builder.scene import scene_from_options
+
+    scene = scene_from_options("allen-key")
+    return [scene.actions[a] for a in parse_sequence(f"random:{TILTS}", scene.actions, sequence_rng(seed))]
+
+
+def make_log(fs: FineSet, i: int, trials: int | None = None) -> tuple[str, list]:
+    """Log ``i`` of ``fs`` cut to ``trials`` (made once, kept): its path and action names."""
+    from analysis.montecarlo import run_direct, write_poses_csv
+    from benchmarks.bench_fit import _cut_log
+    from transition_builder.scene import scene_from_options
+
+    seed = fs.seed0 + i
+    names = _names(seed)
+    full = OUT / fs.name / f"log{i}.csv"
+    full.parent.mkdir(parents=True, exist_ok=True)
+    if not full.exists():
+        t = time.perf_counter()
+        spec = fs.friction.format(mu=fs.truths[i], seed=seed)
+        scene = scene_from_options("allen-key", friction_spec=spec, engine=fs.engine)
+        res = run_direct(scene, names, fs.trials, seed=seed, workers=1)
+        rng = np.random.default_rng([seed, 0xCA])
+        p = res.poses.copy()
+        p[..., :2] += rng.normal(0.0, CAMERA[0], p[..., :2].shape)
+        p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(CAMERA[1]), p[..., 2].shape), 2 * np.pi)
+        write_poses_csv(full, replace(res, poses=p))
+        print(f"{fs.name} log {i}: {spec}, {fs.engine}, {time.perf_counter() - t:.0f} s, faults {res.faults}",
+              file=sys.stderr, flush=True)
+    if trials is None or trials >= fs.trials:
+        return str(full), names
+    cut = full.with_name(f"log{i}_{trials}.csv")
+    if not cut.exists():
+        _cut_log(full, cut, trials)
+    return str(cut), names
+
+
+def fit(fs: FineSet, i: int, trials: int, options=(), label: str = "") -> dict:
+    """``kruskal fit`` of log ``i`` at ``trials`` (kept as JSON; a kept fit is read back)."""
+    from benchmarks.bench_fit import fit_file
+
+    out = OUT / fs.name / f"fit{i}_{trials}{label}.json"
+    if out.exists():
+        return json.loads(out.read_text())
+    path, names = make_log(fs, i, trials)
+    return fit_file(path, names, i, out, fs.truths[i], (*FIT_OPTIONS, *options), workers=1)
+
+
+def row(r: dict, i: int, trials: int) -> dict:
+    """One fit's row: error, interval, coverage, goodness of fit."""
+    est = r["estimate"]["mu"]
+    iv = (r["interval_90"] or {}).get("mu")
+    gof = r.get("goodness_of_fit", {}).get("verdict")
+    return {"log": i, "trials": trials, "truth": r["truth"], "estimate": est, "error": round(est - r["truth"], 4),
+            "interval_90": iv, "width": None if iv is None else round(iv[1] - iv[0], 4),
+            "covered": bool(iv and iv[0] <= r["truth"] <= iv[1]), "models": len(r["models"]),
+            "wall_seconds": round(r["wall_seconds"], 1), "goodness": gof,
+            "dominated_by": r["trials_needed"].get("dominated_by")}
+
+
+def summary(rows: list) -> dict:
+    """Per log size: mean / max absolute error, coverage, mean width."""
+    out = {}
+    for n in sorted({r["trials"] for r in rows}):
+        rs = [r for r in rows if r["trials"] == n]
+        err = np.abs([r["error"] for r in rs])
+        widths = [r["width"] for r in rs if r["width"] is not None]
+        out[n] = {"logs": len(rs), "mean_abs_error": round(float(err.mean()), 4),
+                  "max_abs_error": round(float(err.max()), 4), "covered": sum(r["covered"] for r in rs),
+                  "mean_width": round(float(np.mean(widths)), 4) if widths else None}
+    return out
+
+
+def main(argv) -> None:
+    extra = ()
+    if "--" in argv:
+        k = argv.index("--")
+        argv, extra = argv[:k], tuple(argv[k + 1:])
+    part, fs = argv[0], SETS[argv[1]]
+    sizes = tuple(int(v) for v in argv[2:]) or ((fs.trials,) if fs.trials < 1000 else SIZES)
+    label = os.environ.get("FIT_FINE_LABEL", "")
+    rows = []
+    for i in range(len(fs.truths)):
+        if part == "logs":
+            make_log(fs, i)
+            continue
+        for n in sizes:
+            rows.append(row(fit(fs, i, n, extra, label), i, n))
+            print(json.dumps(rows[-1]), flush=True)
+    if rows:
+        s = summary(rows)
+        print(json.dumps(s), flush=True)
+        (OUT / fs.name / f"summary{label}.json").write_text(json.dumps({"rows": rows, "summary": s}, indent=1))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
