@@ -57,9 +57,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--fit mu: extra builds (other build seeds) of the best model and its two neighbours, "
                              "measuring the models' own error for the interval (default 1; 0: from the "
                              "criterion's residual scatter alone)")
-    parser.add_argument("--estimator", choices=("grid", "vertex"), default="grid",
-                        help="--fit mu: the estimate is the best grid point (grid, default) or the vertex of a "
-                             "quadratic through its window (vertex; docs/fit.md)")
+    parser.add_argument("--estimator", choices=("grid", "vertex", "local"), default=None,
+                        help="--fit mu: the estimate is the best grid point (grid, the default without --local), "
+                             "the vertex of a quadratic through its window (vertex) or through the fine local "
+                             "patch (local, the default with --local; docs/fit.md)")
+    parser.add_argument("--local", type=int, default=0, metavar="K",
+                        help="--fit mu: K fine models each side of the best refined point (spacing h/(K+1)); "
+                             "default 0 (none)")
     parser.add_argument("--figure", metavar="PNG", help="write the criterion and goodness-of-fit figure here")
     parser.add_argument("--resolution", default="1,1", metavar="MM,DEG",
                         help="snapping tolerance of the grid's models (default 1,1; see docs/fit.md)")
@@ -103,8 +107,11 @@ def _settings(args):
         raise InputError(_PAIR_RANGE_NOTE)
     check_positive(args.points, "--points")
     check_positive(args.noise_points, "--noise-points")
-    if (args.refine is not None and args.refine < 0) or args.bootstrap < 0 or args.replicates < 0:
-        raise InputError("--refine, --bootstrap and --replicates must be >= 0")
+    if min(args.refine or 0, args.bootstrap, args.replicates, args.local) < 0:
+        raise InputError("--refine, --bootstrap, --replicates and --local must be >= 0")
+    estimator = args.estimator or ("local" if args.local > 0 else "grid")
+    if estimator == "local" and args.local <= 0:
+        raise InputError("--estimator local needs --local K with K >= 1 (the fine patch it fits)")
     camera = None
     if args.camera_noise is not None:
         camera = parse_resolution(args.camera_noise)
@@ -118,7 +125,7 @@ def _settings(args):
     try:
         return FitSettings(params=params, ranges=ranges, points=points, refine=args.refine, camera=camera,
                            criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed,
-                           replicates=args.replicates, estimator=args.estimator)
+                           replicates=args.replicates, estimator=estimator, local=args.local)
     except ValueError as exc:
         raise InputError(f"--fit {args.fit}: {exc}") from None
 
