@@ -15,6 +15,10 @@ Protocols named here (truths, seeds, sizes) and committed before any of their lo
   physics on a mild friction map ``map:low:SEED:TRUTH`` (the mean is the truth), fitted by uniform
   planar models.
 
+Misreads (``MISREAD_SHARE`` = 3% of the ``ok`` rows of a log replaced by a pose drawn uniformly over the
+tray, ``default_rng([log seed, 3])``): the same logs' misread copies, ``SET`` ``tuning-misread`` or
+``valid-misread`` (500 trials).
+
 ``python -m benchmarks.bench_fit_fine logs|fit|summary SET [SIZES...]`` (SET: tuning, valid,
 pybullet, map); extra ``kruskal fit`` options after ``--``.
 """
@@ -95,6 +99,44 @@ def make_log(fs: FineSet, i: int, trials: int | None = None) -> tuple[str, list]
     return str(cut), names
 
 
+MISREAD_SHARE = 0.03
+
+
+def add_misreads(src, dst, share: float, seed: int, tray=(200.0, 200.0)) -> int:
+    """Copy the log ``src`` to ``dst`` with ``share`` of its ``ok`` rows' poses replaced by wild
+    ones (uniform over the tray, theta uniform); returns how many were replaced."""
+    import csv
+
+    with open(src, newline="") as fh:
+        rows = list(csv.reader(fh))
+    head = rows[0]
+    ix, iy, it, ist = (head.index(c) for c in ("x_mm", "y_mm", "theta_rad", "status"))
+    ok = [k for k, r in enumerate(rows[1:], 1) if r[ist] == "ok"]
+    rng = np.random.default_rng([seed, 3])
+    pick = rng.choice(len(ok), int(round(share * len(ok))), replace=False)
+    for k in np.sort(pick):
+        r = rows[ok[k]]
+        r[ix], r[iy], r[it] = (repr(float(v)) for v in (rng.uniform(0, tray[0]), rng.uniform(0, tray[1]),
+                                                          rng.uniform(0, 2 * np.pi)))
+    with open(dst, "w", newline="") as fh:
+        csv.writer(fh).writerows(rows)
+    return len(pick)
+
+
+def fit_misread(fs: FineSet, i: int, trials: int, options=(), label: str = "") -> dict:
+    """``kruskal fit`` of log ``i``'s misread copy (``MISREAD_SHARE``) at ``trials``, kept."""
+    from benchmarks.bench_fit import fit_file
+
+    out = OUT / fs.name / f"fit{i}_{trials}_misread{label}.json"
+    if out.exists():
+        return json.loads(out.read_text())
+    path, names = make_log(fs, i, trials)
+    bad = pathlib.Path(path).with_name(f"log{i}_{trials}_misread.csv")
+    if not bad.exists():
+        add_misreads(path, bad, MISREAD_SHARE, fs.seed0 + i)
+    return fit_file(bad, names, i, out, fs.truths[i], (*FIT_OPTIONS, *options), workers=1)
+
+
 def fit(fs: FineSet, i: int, trials: int, options=(), label: str = "") -> dict:
     """``kruskal fit`` of log ``i`` at ``trials`` (kept as JSON; a kept fit is read back)."""
     from benchmarks.bench_fit import fit_file
@@ -136,7 +178,8 @@ def main(argv) -> None:
     if "--" in argv:
         k = argv.index("--")
         argv, extra = argv[:k], tuple(argv[k + 1:])
-    part, fs = argv[0], SETS[argv[1]]
+    part, misread = argv[0], argv[1].endswith("-misread")
+    fs = SETS[argv[1].removesuffix("-misread")]
     sizes = tuple(int(v) for v in argv[2:]) or ((fs.trials,) if fs.trials < 1000 else SIZES)
     label = os.environ.get("FIT_FINE_LABEL", "")
     rows = []
@@ -145,12 +188,12 @@ def main(argv) -> None:
             make_log(fs, i)
             continue
         for n in sizes:
-            rows.append(row(fit(fs, i, n, extra, label), i, n))
+            rows.append(row((fit_misread if misread else fit)(fs, i, n, extra, label), i, n))
             print(json.dumps(rows[-1]), flush=True)
     if rows:
         s = summary(rows)
         print(json.dumps(s), flush=True)
-        (OUT / fs.name / f"summary{label}.json").write_text(json.dumps({"rows": rows, "summary": s}, indent=1))
+        (OUT / fs.name / f"summary{'_misread' if misread else ''}{label}.json").write_text(json.dumps({"rows": rows, "summary": s}, indent=1))
 
 
 if __name__ == "__main__":

@@ -310,6 +310,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         crit.append(row)
     cam_used = cams[cam]
     extra = {k: out[k] for k in ("pair", "model_error", "interval_90_trials_only") if k in out}
+    extra["misreads"] = {"outside_tray": log.outside_tray, "outlier_share": s.outlier}
     return FitResult(
         estimate=out["estimate"], interval_90=out["interval"], interval_90_profile=out["profile"],
         at_edge=out["at_edge"], criterion=crit, criterion_name=s.criterion,
