@@ -190,6 +190,11 @@ def format_text(result: dict) -> str:
                   f"; best single coefficient {pair['best_single_mu']:.4g} "
                   f"({pair['criterion_gain_over_single']:.1f} below the pair)")
         lines.append(f"mu_s - mu_k: 90% interval {d[0]:.4g} .. {d[1]:.4g}{single}")
+    test = (result.get("goodness_of_fit") or {}).get("test") or {}
+    if test.get("verdict"):
+        lines.append(f"goodness of fit: {test['verdict']} (histogram distance {test['log']:.4f}; logs of this size "
+                     f"from the best model: median {test['model_median']:.4f}, 95% {test['model_95']:.4f}; "
+                     f"p = {test['p_value']:.3f})")
     cam = result["camera_noise"]
     how = "given" if not cam["estimated"] else ("estimated" if cam.get("identifiable", True) else
                                                  "not identifiable: at or below the models' tolerance")

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from analysis.fit.goodness import goodness_of_fit
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
 from analysis.fit.hmm import EmissionSettings, model_tolerance, trial_loglik
 from analysis.fit.model_error import (
@@ -112,6 +113,8 @@ class FitSettings:
         ``--fit mu``: after refinement, ``local`` models each side of the best point at the spacing
         ``h / (local + 1)`` (``h`` the refined spacing there): a fine local patch of ``2 local + 3``
         models across ``best +- h`` (docs/fit.md, "Finer than the grid"). 0: none.
+    gof_draws : int
+        Logs simulated from the best model for the goodness of fit (:mod:`analysis.fit.goodness`).
     """
 
     params: tuple = ("mu",)
@@ -127,6 +130,7 @@ class FitSettings:
     replicates: int = 1
     estimator: str = "grid"
     local: int = 0
+    gof_draws: int = 200
 
     def __post_init__(self):
         if tuple(self.params) not in FITS:
@@ -302,6 +306,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     model, _ = build_point(best_point)
     pred = predicted_histograms(model, log)
     band = entropy_band(pred, g.counts, salted_rng(s.seed, "fit", 1))
+    test = goodness_of_fit(model, log, rgrid, g.counts, salted_rng(s.seed, "fit", 2), s.gof_draws)
     crit = []
     for p in pts:
         row = {name: v for name, v in zip(s.params, p)}
@@ -318,7 +323,8 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         trials=log.trials, tilts=log.tilts, observations=log.n_observations,
         trials_needed=out["trials_needed"],
         goodness={"model_point": dict(zip(s.params, best_point)), "entropy": band,
-                  "log_histograms": g.counts.tolist(), "model_histograms": pred.tolist()},
+                  "log_histograms": g.counts.tolist(), "model_histograms": pred.tolist(),
+                  "verdict": test["verdict"], "test": test},
         models=_model_paths(g, pts), extra=extra)
 
 
