@@ -1,0 +1,183 @@
+"""``kruskal fit --design``: which tilt sequence, and how many trials, pin the friction best.
+
+Before any robot runs, the models answer how much a log of a given sequence says about ``mu``. The
+Fisher information of one trial at ``mu0`` (Lehmann & Casella 1998, "Theory of Point Estimation",
+sec. 2.6) is estimated from the models' predicted log-likelihoods: trials are simulated from the
+model at ``mu0`` along the sequence (each observation the state's pose plus the camera's noise),
+their log-likelihoods taken under the models at ``mu0 - d``, ``mu0`` and ``mu0 + d``
+(:func:`analysis.fit.hmm.trial_loglik`), and the mean log-likelihood ratios are the
+Kullback-Leibler divergences ``KL(mu0 || mu0 +- d) ~ I d^2 / 2``, so
+``I ~ (KL_+ + KL_-) / d^2``. The predicted 90% interval width of ``M`` trials is
+``2 z90 / sqrt(M I)`` (the trials' term of a fit's interval; the models' own error, which does
+not shrink with trials, comes on top of it: docs/fit.md).
+
+Candidates: ``sequences`` random sequences of ``tilts`` tilts (``random:N`` of ``--seed``, as every
+command draws them) and one sequence *designed* by the models: greedily, each tilt the action
+whose predicted report-cell distributions under ``mu0 - d`` and ``mu0 + d`` (each propagated from
+the uniform start along the sequence so far) differ most in total variation. The recommended
+candidate is the narrowest; its trials the fewest whose predicted width reaches ``target``.
+
+``d`` is the fit's refined spacing (0.025 by default): finite differences across neighbouring
+builds would otherwise measure the builds' scatter, not the physics.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["DesignSettings", "design", "designed_sequence", "fisher_information", "predicted_width"]
+
+_Z90 = 1.6448536
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """What ``fit --design`` compares.
+
+    Attributes
+    ----------
+    mu0 : float
+        The coefficient the design is made at (a prior guess).
+    step : float
+        ``d`` of the finite differences.
+    sequences : int
+        Random candidate sequences.
+    tilts : int
+        Tilts of every candidate.
+    trials : int
+        The trial budget the widths are predicted at.
+    target : float
+        The 90% width the recommended trial count reaches.
+    simulated : int
+        Trials simulated per candidate for the information.
+    camera : (float, float)
+        Camera noise (mm, deg) of the simulated observations and the likelihood.
+    seed : int
+    """
+
+    mu0: float = 0.3
+    step: float = 0.025
+    sequences: int = 8
+    tilts: int = 50
+    trials: int = 500
+    target: float = 0.02
+    simulated: int = 200
+    camera: tuple = (0.5, 0.5)
+    seed: int = 0
+
+    def __post_init__(self):
+        if not 0 < self.step < self.mu0:
+            raise ValueError(f"the design's step must lie in (0, mu0 = {self.mu0:g}), got {self.step:g}")
+        for name in ("sequences", "tilts", "trials", "simulated"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"--{name} must be at least 1, got {getattr(self, name)}")
+        if not self.target > 0:
+            raise ValueError(f"the target width must be positive, got {self.target:g}")
+
+
+def _cells(model, dist: np.ndarray) -> np.ndarray:
+    return np.bincount(np.asarray(model.partition), weights=dist, minlength=model.n_cells)
+
+
+def designed_sequence(lo_model, hi_model, tilts: int) -> list[int]:
+    """Greedy: each tilt the action whose cell predictions under the two models differ most (TV)."""
+    a = np.asarray(lo_model.initial, dtype=float)
+    b = np.asarray(hi_model.initial, dtype=float)
+    seq = []
+    for _ in range(tilts):
+        best, best_tv, nxt = 0, -1.0, None
+        for k in range(len(lo_model.actions)):
+            na, nb = lo_model.matrices[k].T @ a, hi_model.matrices[k].T @ b
+            tv = 0.5 * float(np.abs(_cells(lo_model, na) - _cells(hi_model, nb)).sum())
+            if tv > best_tv + 1e-12:
+                best, best_tv, nxt = k, tv, (na, nb)
+        seq.append(best)
+        a, b = nxt
+    return seq
+
+
+def _simulated_log(model, seq, trials: int, camera, rng, grid):
+    """A :class:`~analysis.fit.log.FitLog` of ``trials`` trials simulated from ``model`` along ``seq``:
+    unobserved start, every later pose the state's pose plus the camera's noise."""
+    from analysis.fit.goodness import _step
+    from analysis.fit.log import FitLog
+
+    init = np.asarray(model.initial, dtype=float)
+    starts = np.flatnonzero(init > 0)
+    state = rng.choice(starts, trials, p=init[starts] / init[starts].sum())
+    poses = np.asarray(model.extras["state_poses"], dtype=float)
+    L = len(seq)
+    obs = np.full((trials, L + 1, 3), np.nan)
+    for k, a in enumerate(seq, 1):
+        state = _step(model.matrices[a], state, rng)
+        p = poses[state].copy()
+        p[:, :2] += rng.normal(0.0, camera[0], (trials, 2))
+        p[:, 2] = np.mod(p[:, 2] + rng.normal(0.0, math.radians(camera[1]), trials), grid.theta_period)
+        obs[:, k] = p
+    obs[~np.all(np.isfinite(obs), axis=2)] = np.nan
+    actions = np.repeat(np.asarray(seq, dtype=np.int64)[None, :], trials, axis=0)
+    return FitLog(obs=obs, actions=actions, length=np.full(trials, L, dtype=np.int64),
+                  trial_ids=np.arange(trials), action_names=tuple(model.actions), source="sequence")
+
+
+def fisher_information(models, seq, step: float, trials: int, camera, rng, grid) -> dict:
+    """Per-trial Fisher information at the middle model (``models`` = (lo, mid, hi)), from the two
+    KL divergences (see the module); also their standard errors' share."""
+    from analysis.fit.hmm import EmissionSettings, trial_loglik
+
+    lo, mid, hi = models
+    log = _simulated_log(mid, seq, trials, camera, rng, grid)
+    em = EmissionSettings(*camera)
+    ll = [trial_loglik(m, log, em, grid) for m in (lo, mid, hi)]
+    kl_lo, kl_hi = ll[1] - ll[0], ll[1] - ll[2]
+    info = float(max((kl_lo.mean() + kl_hi.mean()) / step ** 2, 0.0))
+    se = float(np.sqrt((kl_lo + kl_hi).var(ddof=1) / trials)) / step ** 2
+    return {"per_trial": info, "se": se, "kl_minus": float(kl_lo.mean()), "kl_plus": float(kl_hi.mean())}
+
+
+def predicted_width(info: float, trials: int) -> float | None:
+    """The 90% width ``2 z90 / sqrt(trials info)`` (None without information)."""
+    return 2 * _Z90 / math.sqrt(trials * info) if info > 0 else None
+
+
+def design(models, actions, s: DesignSettings, grid, random_sequences) -> dict:
+    """Candidates, their predicted widths and the recommendation (the JSON of ``fit --design``).
+
+    Parameters
+    ----------
+    models : (TransitionModel, TransitionModel, TransitionModel)
+        The models at ``mu0 - step``, ``mu0``, ``mu0 + step``.
+    actions : sequence of str
+        Action names.
+    s : DesignSettings
+    grid : ReportGrid
+    random_sequences : list of list of int
+        The random candidates (drawn by the caller from ``--seed``).
+
+    Returns
+    -------
+    dict
+        ``candidates`` (``sequence``, ``designed``, ``information_per_trial``, ``predicted_width_90``
+        ``{"mu": w}`` at ``s.trials``), ``recommended`` (``sequence``, ``trials``, ``predicted_width_90``).
+    """
+    from analysis.streams import salted_rng
+
+    cands = [(list(q), False) for q in random_sequences]
+    cands.append((designed_sequence(models[0], models[2], s.tilts), True))
+    out = []
+    for i, (seq, designed) in enumerate(cands):
+        info = fisher_information(models, seq, s.step, s.simulated, s.camera, salted_rng(s.seed, "fit", 3, i), grid)
+        out.append({"sequence": [actions[a] for a in seq], "designed": designed,
+                    "information_per_trial": info["per_trial"], "information_se": info["se"],
+                    "predicted_width_90": {"mu": predicted_width(info["per_trial"], s.trials)}})
+    best = max(out, key=lambda c: c["information_per_trial"])
+    info = best["information_per_trial"]
+    trials = None if info <= 0 else max(1, math.ceil((2 * _Z90 / s.target) ** 2 / info))
+    return {"candidates": out, "mu0": s.mu0, "step": s.step, "trials_budget": s.trials,
+            "recommended": {"sequence": best["sequence"], "designed": best["designed"], "trials": trials,
+                            "target_width_90": s.target,
+                            "predicted_width_90": {"mu": None if trials is None else predicted_width(info, trials)}},
+            "note": "predicted widths are the trials' term; the models' own error adds a floor that more trials "
+                    "do not lower (docs/fit.md)"}
