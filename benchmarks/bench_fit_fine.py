@@ -173,11 +173,50 @@ def summary(rows: list) -> dict:
     return out
 
 
+def design_check(fs: FineSet, trials: int, label: str = "_l4", simulated: int = 200) -> list:
+    """The design's predicted 90% width (the trials' term, Fisher information from the models at the
+    fit's patch centre +- 0.025, all cached by the fit) beside the fit's realised trials-only width,
+    for each kept fit of ``fs`` at ``trials``."""
+    from analysis.fit.design import fisher_information, predicted_width
+    from analysis.montecarlo import report_grid_for
+    from transition_builder.builder import BuildSettings
+    from transition_builder.cache import cached_build
+    from transition_builder.scene import scene_from_options
+
+    scene = scene_from_options("allen-key", engine="planar")
+    grid = report_grid_for(scene, "4x4x4")
+    rows = []
+    for i in range(len(fs.truths)):
+        path = OUT / fs.name / f"fit{i}_{trials}{label}.json"
+        if not path.exists():
+            continue
+        r = json.loads(path.read_text())
+        mus = sorted(round(c["mu"], 6) for c in r["criterion"])
+        best = max(r["criterion"], key=lambda c: c["loglik"])["mu"]
+        centre = min((m for m in mus if round(m - 0.025, 6) in mus and round(m + 0.025, 6) in mus),
+                     key=lambda m: abs(m - best))
+        models = [cached_build(scene_from_options("allen-key", friction_spec=round(m, 6), engine="planar"),
+                               BuildSettings.compared(), workers=1)[0].model for m in (centre - 0.025, centre, centre + 0.025)]
+        seq = [scene.actions.index(a) for a in r["sequence"]]
+        info = fisher_information(models, seq, 0.025, simulated, CAMERA, np.random.default_rng([fs.seed0 + i, 4]), grid)
+        tv = r["interval_90_trials_only"]["mu"]
+        rows.append({"log": i, "trials": trials, "centre": centre, "information_per_trial": round(info["per_trial"], 1),
+                     "predicted_width_90": predicted_width(info["per_trial"], trials),
+                     "realised_trials_only_width_90": tv[1] - tv[0],
+                     "realised_width_90": (r["interval_90"]["mu"][1] - r["interval_90"]["mu"][0])})
+        print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
 def main(argv) -> None:
     extra = ()
     if "--" in argv:
         k = argv.index("--")
         argv, extra = argv[:k], tuple(argv[k + 1:])
+    if argv[0] == "design":
+        rows = design_check(SETS[argv[1]], int(argv[2]))
+        (OUT / argv[1] / f"design_{argv[2]}.json").write_text(json.dumps(rows, indent=1))
+        return
     part, misread = argv[0], argv[1].endswith("-misread")
     fs = SETS[argv[1].removesuffix("-misread")]
     sizes = tuple(int(v) for v in argv[2:]) or ((fs.trials,) if fs.trials < 1000 else SIZES)

@@ -115,6 +115,9 @@ class FitSettings:
         models across ``best +- h`` (docs/fit.md, "Finer than the grid"). 0: none.
     gof_draws : int
         Logs simulated from the best model for the goodness of fit (:mod:`analysis.fit.goodness`).
+    gof_sibling : bool
+        Draw the goodness of fit's reference logs from a second build of the best point (build seed
+        + 1; one build more unless it is a replicate already), not from the model itself.
     """
 
     params: tuple = ("mu",)
@@ -131,6 +134,7 @@ class FitSettings:
     estimator: str = "grid"
     local: int = 0
     gof_draws: int = 200
+    gof_sibling: bool = True
 
     def __post_init__(self):
         if tuple(self.params) not in FITS:
@@ -306,7 +310,9 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     model, _ = build_point(best_point)
     pred = predicted_histograms(model, log)
     band = entropy_band(pred, g.counts, salted_rng(s.seed, "fit", 1))
-    test = goodness_of_fit(model, log, rgrid, g.counts, salted_rng(s.seed, "fit", 2), s.gof_draws)
+    sibling, sibling_name = build_point(best_point, replicate=1) if s.gof_sibling else (None, None)
+    test = goodness_of_fit(model, log, rgrid, g.counts, salted_rng(s.seed, "fit", 2), s.gof_draws, sibling)
+    test["sibling_model"] = sibling_name
     crit = []
     for p in pts:
         row = {name: v for name, v in zip(s.params, p)}
@@ -504,7 +510,8 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     interval = [float(v) for v in np.quantile(both, [0.05, 0.95])]
     profile = [est - 1.6448536 * sd, est + 1.6448536 * sd]
     me = err.to_dict()
-    me.update({"replicated_points": [p[0] for p in pts if p in g.rep], "replicates": s.replicates,
+    me.update({"local_patch": list(g.patch) if g.patch else None,
+               "replicated_points": [p[0] for p in pts if p in g.rep], "replicates": s.replicates,
                "sd_estimate": sd, "sd_estimate_trials": sd_t, "sd_estimate_model": sd_m,
                "untempered_profile_90": _profile_interval(x, y, j)})
     if err.var is None:

@@ -79,3 +79,22 @@ def test_logs_from_the_model_are_explained_and_a_far_log_is_not(scene, tmp_path)
     far = _log(scene, tmp_path, 0.05, seed=60)
     g = goodness_of_fit(model, far, grid, log_histograms(far, grid), np.random.default_rng(0), draws=200)
     assert g["verdict"] == "not explained" and g["p_value"] < ALPHA
+
+
+def test_a_sibling_build_widens_the_reference(scene, tmp_path):
+    """Reference logs drawn from a sibling (here the family at 0.33 standing in for another build of
+    0.3), scored against the model's own prediction: recounted from the same draws, and wider."""
+    grid = report_grid_for(scene)
+    log = _log(scene, tmp_path, 0.3, seed=33)
+    model, sib = synthetic_model(scene, 0.3), synthetic_model(scene, 0.33)
+    counts = log_histograms(log, grid)
+    own = goodness_of_fit(model, log, grid, counts, np.random.default_rng(2), draws=300)
+    g = goodness_of_fit(model, log, grid, counts, np.random.default_rng(2), draws=300, sibling=sib)
+    rng = np.random.default_rng(2)
+    sim = simulate_cell_histograms(model, log, grid, rng, 300)
+    ref = simulate_cell_histograms(sib, log, grid, rng, 300)
+    p = (sim / sim.sum(axis=2, keepdims=True)).mean(axis=0)
+    d = 0.5 * np.abs(ref[:, 1:] / ref[:, 1:].sum(axis=2, keepdims=True) - p[1:]).sum(axis=2).mean(axis=1)
+    assert g["p_value"] == pytest.approx((1 + np.sum(d >= g["log"])) / 301)
+    assert g["log"] == own["log"] and g["reference"] == "sibling build"
+    assert g["model_95"] > own["model_95"]
