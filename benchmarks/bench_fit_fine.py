@@ -19,6 +19,12 @@ Misreads (``MISREAD_SHARE`` = 3% of the ``ok`` rows of a log replaced by a pose 
 tray, ``default_rng([log seed, 3])``): the same logs' misread copies, ``SET`` ``tuning-misread`` or
 ``valid-misread`` (500 trials).
 
+- ``PAIR`` (named 2026-11-28 before any of its logs): kinetic truths
+  ``g = default_rng(6060); g.uniform(0.15, 0.35, 3)`` rounded (0.281, 0.188, 0.189), static
+  ``mu_k + g.uniform(0, 0.15, 3)`` (the next draw: gaps 0.136, 0.101) for logs 0 and 1, and log 2
+  with no gap (0.189/0.189); seeds 6000-6002, 500 trials, planar physics ``MU_S/MU_K``; fitted with
+  ``--fit mu_s,mu_k --range 0.15..0.5`` (``python -m benchmarks.bench_fit_fine pair``).
+
 ``python -m benchmarks.bench_fit_fine logs|fit|summary SET [SIZES...]`` (SET: tuning, valid,
 pybullet, map); extra ``kruskal fit`` options after ``--``.
 """
@@ -58,7 +64,9 @@ TUNING_FINE = FineSet("tuning", (0.267, 0.312, 0.211), 5600)
 VALID_FINE = FineSet("valid", (0.239, 0.242, 0.216, 0.333, 0.184, 0.35, 0.299, 0.208), 5700)
 PYBULLET = FineSet("pybullet", (0.374, 0.205, 0.392), 5800, trials=200, engine="pybullet")
 MAP = FineSet("map", (0.35, 0.276, 0.237), 5900, friction="map:low:{seed}:{mu}")
-SETS = {s.name: s for s in (TUNING_FINE, VALID_FINE, PYBULLET, MAP)}
+PAIR_STATIC = (0.417, 0.289, 0.189)
+PAIR = FineSet("pair", (0.281, 0.188, 0.189), 6000, trials=500, friction="{mus}/{mu}")
+SETS = {s.name: s for s in (TUNING_FINE, VALID_FINE, PYBULLET, MAP, PAIR)}
 
 
 def _names(seed: int) -> list:
@@ -81,7 +89,7 @@ def make_log(fs: FineSet, i: int, trials: int | None = None) -> tuple[str, list]
     full.parent.mkdir(parents=True, exist_ok=True)
     if not full.exists():
         t = time.perf_counter()
-        spec = fs.friction.format(mu=fs.truths[i], seed=seed)
+        spec = fs.friction.format(mu=fs.truths[i], seed=seed, mus=PAIR_STATIC[i] if fs is PAIR else None)
         scene = scene_from_options("allen-key", friction_spec=spec, engine=fs.engine)
         res = run_direct(scene, names, fs.trials, seed=seed, workers=1)
         rng = np.random.default_rng([seed, 0xCA])
@@ -208,7 +216,33 @@ def design_check(fs: FineSet, trials: int, label: str = "_l4", simulated: int = 
     return rows
 
 
+def fit_pairs() -> list:
+    """The PAIR logs fitted with ``--fit mu_s,mu_k`` (kept); one row per log."""
+    from benchmarks.bench_fit import fit_file
+
+    rows = []
+    for i in range(len(PAIR.truths)):
+        out = OUT / "pair" / f"fit{i}.json"
+        path, names = make_log(PAIR, i)
+        r = json.loads(out.read_text()) if out.exists() else fit_file(
+            path, names, i, out, PAIR.truths[i],
+            ("--engine", "planar", "--workers", "1", "--range", "0.15..0.5", "--fit", "mu_s,mu_k",
+             "--camera-noise", "0.5,0.5"), workers=1)
+        iv = r["interval_90"] or {}
+        rows.append({"log": i, "truth": [PAIR_STATIC[i], PAIR.truths[i]], "estimate": r["estimate"],
+                     "interval_90": iv, "covered": {k: bool(iv.get(k) and iv[k][0] <= t <= iv[k][1])
+                                                     for k, t in (("mu_s", PAIR_STATIC[i]), ("mu_k", PAIR.truths[i]))},
+                     "models": len(r["models"]), "wall_seconds": round(r["wall_seconds"], 1),
+                     "goodness": r["goodness_of_fit"].get("verdict")})
+        print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
 def main(argv) -> None:
+    if argv[0] == "pair":
+        (OUT / "pair").mkdir(parents=True, exist_ok=True)
+        (OUT / "pair" / "summary.json").write_text(json.dumps(fit_pairs(), indent=1))
+        return
     extra = ()
     if "--" in argv:
         k = argv.index("--")
