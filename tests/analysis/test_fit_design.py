@@ -81,3 +81,27 @@ def test_bad_design_options_one_line(tmp_path, capsys):
         assert main(["fit", *argv]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1, argv
+
+
+def test_design_command_keys_and_determinism(tmp_path, monkeypatch, capsys):
+    """The command on a small planar case (rectangle, 2 mm builds): SPEC's keys, and the same seed
+    gives the same candidates and recommendation."""
+    import json
+
+    from analysis.cli import main
+    monkeypatch.setenv("KRUSKAL_CACHE", str(tmp_path / "cache"))
+    argv = ["fit", "--design", "--shape", "rectangle:60x20", "--engine", "planar", "--resolution", "2,2",
+            "--start-samples", "200", "--recenter-rounds", "0", "--sequences", "2", "--tilts", "5",
+            "--trials", "100", "--workers", "1", "--seed", "3", "--json"]
+    outs = []
+    for _ in range(2):
+        assert main(argv) == 0
+        outs.append(json.loads(capsys.readouterr().out))
+    a, b = outs
+    assert {"candidates", "recommended", "seconds"} <= set(a)
+    assert len(a["candidates"]) == 3
+    for c in a["candidates"]:
+        assert len(c["sequence"]) == 5 and set(c["predicted_width_90"]) == {"mu"}
+    assert {"sequence", "trials"} <= set(a["recommended"])
+    for k in ("candidates", "recommended"):
+        assert a[k] == b[k]
