@@ -204,7 +204,8 @@ def format_text(result: dict) -> str:
     test = (result.get("goodness_of_fit") or {}).get("test") or {}
     if test.get("verdict"):
         lines.append(f"goodness of fit: {test['verdict']} (histogram distance {test['log']:.4f}; logs of this size "
-                     f"from the best model: median {test['model_median']:.4f}, 95% {test['model_95']:.4f}; "
+                     f"from {'a sibling build of ' if test.get('reference') == 'sibling build' else ''}"
+                     f"the best model: median {test['model_median']:.4f}, 95% {test['model_95']:.4f}; "
                      f"p = {test['p_value']:.3f})")
     cam = result["camera_noise"]
     how = "given" if not cam["estimated"] else ("estimated" if cam.get("identifiable", True) else

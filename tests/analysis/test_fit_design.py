@@ -64,6 +64,8 @@ def test_widths_and_recommendation_follow_their_formulas(scene):
     s = DesignSettings(mu0=MU0, step=STEP, sequences=3, tilts=6, trials=200, target=0.02, simulated=300)
     out = design(models, scene.actions, s, grid, randoms)
     assert len(out["candidates"]) == 4 and out["candidates"][-1]["designed"]
+    designed = out["candidates"][-1]["sequence"]
+    assert len(designed) == 6 and all(a != b for a, b in zip(designed, designed[1:]))   # never a tilt twice
     for c in out["candidates"]:
         i = c["information_per_trial"]
         assert c["predicted_width_90"]["mu"] == pytest.approx(2 * 1.6448536 / math.sqrt(200 * i))
