@@ -25,6 +25,12 @@ tray, ``default_rng([log seed, 3])``): the same logs' misread copies, ``SET`` ``
   with no gap (0.189/0.189); seeds 6000-6002, 500 trials, planar physics ``MU_S/MU_K``; fitted with
   ``--fit mu_s,mu_k --range 0.15..0.5`` (``python -m benchmarks.bench_fit_fine pair``).
 
+- ``DESIGN_CHECK`` (named 2026-11-28 before any of its logs): truths
+  ``default_rng(6363).uniform(0.2, 0.4, 3)`` rounded (0.39, 0.351, 0.355), seeds 6300-6302; for
+  each, a 200-trial planar log of the sequence ``kruskal fit --design --shape allen-key --engine
+  planar --sequences 4 --seed 0`` recommends and one of its first random candidate, both fitted as
+  the validation logs are (``python -m benchmarks.bench_fit_fine designcheck``).
+
 ``python -m benchmarks.bench_fit_fine logs|fit|summary SET [SIZES...]`` (SET: tuning, valid,
 pybullet, map); extra ``kruskal fit`` options after ``--``.
 """
@@ -238,7 +244,61 @@ def fit_pairs() -> list:
     return rows
 
 
+DESIGN_CHECK = FineSet("design", (0.39, 0.351, 0.355), 6300, trials=200)
+
+
+def _design_sequences() -> dict:
+    """The recommended and the first random candidate of ``fit --design`` at its defaults, seed 0."""
+    import contextlib
+    import io
+
+    from analysis.cli import main as cli
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert cli(["fit", "--design", "--shape", "allen-key", "--engine", "planar", "--workers", "1",
+                    "--sequences", "4", "--seed", "0", "--json"]) == 0
+    d = json.loads(buf.getvalue())
+    return {"recommended": d["recommended"]["sequence"], "random": d["candidates"][0]["sequence"]}
+
+
+def design_logs() -> list:
+    """DESIGN_CHECK: each truth logged along the recommended and a random sequence, each fitted."""
+    from analysis.montecarlo import run_direct, write_poses_csv
+    from benchmarks.bench_fit import fit_file
+    from transition_builder.scene import scene_from_options
+
+    seqs = _design_sequences()
+    rows = []
+    for i, mu in enumerate(DESIGN_CHECK.truths):
+        for kind, names in seqs.items():
+            d = OUT / "design"
+            d.mkdir(parents=True, exist_ok=True)
+            path, out = d / f"log{i}_{kind}.csv", d / f"fit{i}_{kind}.json"
+            if not path.exists():
+                scene = scene_from_options("allen-key", friction_spec=mu, engine="planar")
+                res = run_direct(scene, names, DESIGN_CHECK.trials, seed=DESIGN_CHECK.seed0 + i, workers=1)
+                rng = np.random.default_rng([DESIGN_CHECK.seed0 + i, 0xCA])
+                p = res.poses.copy()
+                p[..., :2] += rng.normal(0.0, CAMERA[0], p[..., :2].shape)
+                p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(CAMERA[1]), p[..., 2].shape), 2 * np.pi)
+                write_poses_csv(path, replace(res, poses=p))
+            r = json.loads(out.read_text()) if out.exists() else fit_file(
+                path, names, i, out, mu, (*FIT_OPTIONS, "--local", "4", "--camera-noise", "0.5,0.5"), workers=1)
+            iv, tv = r["interval_90"]["mu"], r["interval_90_trials_only"]["mu"]
+            rows.append({"log": i, "kind": kind, "truth": mu, "estimate": r["estimate"]["mu"],
+                         "error": round(r["estimate"]["mu"] - mu, 4), "width": iv[1] - iv[0],
+                         "covered": iv[0] <= mu <= iv[1], "trials_only_width": tv[1] - tv[0],
+                         "goodness": r["goodness_of_fit"]["verdict"], "wall_seconds": round(r["wall_seconds"], 1)})
+            print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
 def main(argv) -> None:
+    if argv[0] == "designcheck":
+        rows = design_logs()
+        (OUT / "design" / "summary.json").write_text(json.dumps(rows, indent=1))
+        return
     if argv[0] == "pair":
         (OUT / "pair").mkdir(parents=True, exist_ok=True)
         (OUT / "pair" / "summary.json").write_text(json.dumps(fit_pairs(), indent=1))
