@@ -29,7 +29,12 @@ tray, ``default_rng([log seed, 3])``): the same logs' misread copies, ``SET`` ``
   ``default_rng(6363).uniform(0.2, 0.4, 3)`` rounded (0.39, 0.351, 0.355), seeds 6300-6302; for
   each, a 200-trial planar log of the sequence ``kruskal fit --design --shape allen-key --engine
   planar --sequences 4 --seed 0`` recommends and one of its first random candidate, both fitted as
-  the validation logs are (``python -m benchmarks.bench_fit_fine designcheck``).
+  the validation logs are (``python -m benchmarks.bench_fit_fine designcheck``); the design then
+  was made at the single point 0.3 (``--at 0.3``).
+- ``DESIGN_CHECK2`` (named 2026-11-28, after the first check failed and the design became maximin
+  over ``--at 0.2,0.3,0.4``, before any of its logs): truths ``default_rng(6464).uniform(0.2, 0.4,
+  3)`` rounded, seeds 6400-6402, otherwise as ``DESIGN_CHECK`` with the maximin design
+  (``python -m benchmarks.bench_fit_fine designcheck2``).
 
 ``python -m benchmarks.bench_fit_fine logs|fit|summary SET [SIZES...]`` (SET: tuning, valid,
 pybullet, map); extra ``kruskal fit`` options after ``--``.
@@ -245,9 +250,10 @@ def fit_pairs() -> list:
 
 
 DESIGN_CHECK = FineSet("design", (0.39, 0.351, 0.355), 6300, trials=200)
+DESIGN_CHECK2 = FineSet("design2", (0.399, 0.31, 0.398), 6400, trials=200)
 
 
-def _design_sequences() -> dict:
+def _design_sequences(at: str = "0.3") -> dict:
     """The recommended and the first random candidate of ``fit --design`` at its defaults, seed 0."""
     import contextlib
     import io
@@ -257,28 +263,29 @@ def _design_sequences() -> dict:
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         assert cli(["fit", "--design", "--shape", "allen-key", "--engine", "planar", "--workers", "1",
-                    "--sequences", "4", "--seed", "0", "--json"]) == 0
+                    "--sequences", "4", "--seed", "0", "--at", at, "--json"]) == 0
     d = json.loads(buf.getvalue())
     return {"recommended": d["recommended"]["sequence"], "random": d["candidates"][0]["sequence"]}
 
 
-def design_logs() -> list:
-    """DESIGN_CHECK: each truth logged along the recommended and a random sequence, each fitted."""
+def design_logs(fs: FineSet = DESIGN_CHECK, at: str = "0.3") -> list:
+    """``fs`` (DESIGN_CHECK, DESIGN_CHECK2): each truth logged along the recommended and a random
+    sequence of the design made at ``at``, each fitted."""
     from analysis.montecarlo import run_direct, write_poses_csv
     from benchmarks.bench_fit import fit_file
     from transition_builder.scene import scene_from_options
 
-    seqs = _design_sequences()
+    seqs = _design_sequences(at)
     rows = []
-    for i, mu in enumerate(DESIGN_CHECK.truths):
+    for i, mu in enumerate(fs.truths):
         for kind, names in seqs.items():
-            d = OUT / "design"
+            d = OUT / fs.name
             d.mkdir(parents=True, exist_ok=True)
             path, out = d / f"log{i}_{kind}.csv", d / f"fit{i}_{kind}.json"
             if not path.exists():
                 scene = scene_from_options("allen-key", friction_spec=mu, engine="planar")
-                res = run_direct(scene, names, DESIGN_CHECK.trials, seed=DESIGN_CHECK.seed0 + i, workers=1)
-                rng = np.random.default_rng([DESIGN_CHECK.seed0 + i, 0xCA])
+                res = run_direct(scene, names, fs.trials, seed=fs.seed0 + i, workers=1)
+                rng = np.random.default_rng([fs.seed0 + i, 0xCA])
                 p = res.poses.copy()
                 p[..., :2] += rng.normal(0.0, CAMERA[0], p[..., :2].shape)
                 p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(CAMERA[1]), p[..., 2].shape), 2 * np.pi)
@@ -295,9 +302,10 @@ def design_logs() -> list:
 
 
 def main(argv) -> None:
-    if argv[0] == "designcheck":
-        rows = design_logs()
-        (OUT / "design" / "summary.json").write_text(json.dumps(rows, indent=1))
+    if argv[0] in ("designcheck", "designcheck2"):
+        fs, at = (DESIGN_CHECK, "0.3") if argv[0] == "designcheck" else (DESIGN_CHECK2, "0.2,0.3,0.4")
+        rows = design_logs(fs, at)
+        (OUT / fs.name / "summary.json").write_text(json.dumps(rows, indent=1))
         return
     if argv[0] == "pair":
         (OUT / "pair").mkdir(parents=True, exist_ok=True)

@@ -15,8 +15,9 @@ def add_design_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sequences", type=int, default=8, help="--design: random candidate sequences (default 8)")
     parser.add_argument("--tilts", type=int, default=50, help="--design: tilts of every candidate (default 50)")
     parser.add_argument("--trials", type=int, default=500, help="--design: the trial budget (default 500)")
-    parser.add_argument("--at", type=float, default=0.3, metavar="MU",
-                        help="--design: the coefficient the design is made at (a prior guess, default 0.3)")
+    parser.add_argument("--at", default="0.2,0.3,0.4", metavar="MU[,MU...]",
+                        help="--design: the coefficients the design is made at, the prior range's points; each "
+                             "candidate counts its smallest information over them (default 0.2,0.3,0.4)")
     parser.add_argument("--target-width", type=float, default=0.02,
                         help="--design: the 90%% width the recommended trials reach (default 0.02)")
     parser.add_argument("--design-step", type=float, default=0.025,
@@ -38,20 +39,27 @@ def run_design(args: argparse.Namespace, scene, build_settings) -> dict:
         check_positive(getattr(args, name), f"--{name}")
     camera = parse_resolution(args.camera_noise) if args.camera_noise else (0.5, 0.5)
     try:
-        s = DesignSettings(mu0=args.at, step=args.design_step, sequences=args.sequences, tilts=args.tilts,
+        at = tuple(float(v) for v in args.at.split(","))
+    except ValueError:
+        raise InputError(f"bad --at {args.at!r}: expected MU[,MU...], e.g. 0.2,0.3,0.4") from None
+    try:
+        s = DesignSettings(at=at, step=args.design_step, sequences=args.sequences, tilts=args.tilts,
                            trials=args.trials, target=args.target_width, camera=camera, seed=args.seed)
     except ValueError as exc:
         raise InputError(f"--design: {exc}") from None
-    models, keys = [], []
-    for mu in (s.mu0 - s.step, s.mu0, s.mu0 + s.step):
-        res, path, _ = cached_build(replace(scene, friction=parse_friction(mu)), build_settings,
-                                    workers=args.workers, scheduler=args.scheduler,
-                                    progress=True if args.progress else None)
-        models.append(res.model)
-        keys.append(cache_key(path))
+    model_sets, keys = [], []
+    for mu0 in s.at:
+        models = []
+        for mu in (mu0 - s.step, mu0, mu0 + s.step):
+            res, path, _ = cached_build(replace(scene, friction=parse_friction(round(mu, 10))), build_settings,
+                                        workers=args.workers, scheduler=args.scheduler,
+                                        progress=True if args.progress else None)
+            models.append(res.model)
+            keys.append(cache_key(path))
+        model_sets.append(models)
     rng = sequence_rng(args.seed)
     randoms = [list(rng.integers(0, len(scene.actions), s.tilts)) for _ in range(s.sequences)]
-    out = design(models, scene.actions, s, report_grid_for(scene, args.grid), randoms)
+    out = design(model_sets, scene.actions, s, report_grid_for(scene, args.grid), randoms)
     out.update({"models": keys, "camera_noise": list(camera), "engine": scene.settings.engine,
                 "shape": scene.shape.name})
     return out

@@ -228,7 +228,8 @@ def format_text(result: dict) -> str:
 
 
 def _design_text(result: dict) -> str:
-    lines = [f"design at mu = {result['mu0']:g} (information from models at +-{result['step']:g}), "
+    lines = [f"design at mu = {', '.join(f'{v:g}' for v in result['at'])} (smallest information over them, "
+             f"from models at +-{result['step']:g}), "
              f"{result['trials_budget']} trials:"]
     for c in result["candidates"]:
         w = c["predicted_width_90"]["mu"]

@@ -61,8 +61,8 @@ def test_widths_and_recommendation_follow_their_formulas(scene):
     models = [synthetic_model(scene, m) for m in (MU0 - STEP, MU0, MU0 + STEP)]
     rng = np.random.default_rng(73)
     randoms = [list(rng.integers(0, 8, 6)) for _ in range(3)]
-    s = DesignSettings(mu0=MU0, step=STEP, sequences=3, tilts=6, trials=200, target=0.02, simulated=300)
-    out = design(models, scene.actions, s, grid, randoms)
+    s = DesignSettings(at=(MU0,), step=STEP, sequences=3, tilts=6, trials=200, target=0.02, simulated=300)
+    out = design([models], scene.actions, s, grid, randoms)
     assert len(out["candidates"]) == 4 and out["candidates"][-1]["designed"]
     designed = out["candidates"][-1]["sequence"]
     assert len(designed) == 6 and all(a != b for a, b in zip(designed, designed[1:]))   # never a tilt twice
@@ -76,10 +76,27 @@ def test_widths_and_recommendation_follow_their_formulas(scene):
     assert rec["predicted_width_90"]["mu"] <= 0.02 < predicted_width(best["information_per_trial"], rec["trials"] - 1)
 
 
+def test_maximin_takes_each_candidates_smallest_information(scene):
+    """Two points of the prior range: a candidate's information is the smaller of its two, and the
+    recommendation the candidate whose smaller one is the largest."""
+    grid = report_grid_for(scene)
+    at = (0.2, 0.4)
+    sets = [[synthetic_model(scene, m) for m in (mu - STEP, mu, mu + STEP)] for mu in at]
+    rng = np.random.default_rng(74)
+    randoms = [list(rng.integers(0, 8, 6)) for _ in range(2)]
+    s = DesignSettings(at=at, step=STEP, sequences=2, tilts=6, trials=200, simulated=300)
+    out = design(sets, scene.actions, s, grid, randoms)
+    for c in out["candidates"]:
+        assert len(c["information_by_point"]) == 2
+        assert c["information_per_trial"] == min(c["information_by_point"])
+    best = max(out["candidates"], key=lambda c: min(c["information_by_point"]))
+    assert out["recommended"]["sequence"] == best["sequence"] and out["at"] == [0.2, 0.4]
+
+
 def test_bad_design_options_one_line(tmp_path, capsys):
     from analysis.cli import main
     for argv in (["--design", "--poses", str(tmp_path / "x.csv")], ["--design", "--fit", "mu,noise"],
-                 ["--design", "--at", "0.01"], ["--design", "--trials", "0"], []):
+                 ["--design", "--at", "0.01"], ["--design", "--at", "x"], ["--design", "--trials", "0"], []):
         assert main(["fit", *argv]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1, argv
@@ -94,7 +111,7 @@ def test_design_command_keys_and_determinism(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("KRUSKAL_CACHE", str(tmp_path / "cache"))
     argv = ["fit", "--design", "--shape", "rectangle:60x20", "--engine", "planar", "--resolution", "2,2",
             "--start-samples", "200", "--recenter-rounds", "0", "--sequences", "2", "--tilts", "5",
-            "--trials", "100", "--workers", "1", "--seed", "3", "--json"]
+            "--trials", "100", "--workers", "1", "--seed", "3", "--at", "0.3", "--json"]
     outs = []
     for _ in range(2):
         assert main(argv) == 0
