@@ -36,6 +36,10 @@ tray, ``default_rng([log seed, 3])``): the same logs' misread copies, ``SET`` ``
   3)`` rounded, seeds 6400-6402, otherwise as ``DESIGN_CHECK`` with the maximin design
   (``python -m benchmarks.bench_fit_fine designcheck2``).
 
+- ``PAIR2`` (named 2026-11-28 after PAIR's three were fitted, before any of its logs): 7 more,
+  ``g = default_rng(6666)``, kinetic ``g.uniform(0.15, 0.35, 7)``, static ``mu_k + g.uniform(0, 0.15,
+  7)``, both rounded; seeds 6600-6606 (``python -m benchmarks.bench_fit_fine pair2``).
+
 ``python -m benchmarks.bench_fit_fine logs|fit|summary SET [SIZES...]`` (SET: tuning, valid,
 pybullet, map); extra ``kruskal fit`` options after ``--``.
 """
@@ -77,7 +81,9 @@ PYBULLET = FineSet("pybullet", (0.374, 0.205, 0.392), 5800, trials=200, engine="
 MAP = FineSet("map", (0.35, 0.276, 0.237), 5900, friction="map:low:{seed}:{mu}")
 PAIR_STATIC = (0.417, 0.289, 0.189)
 PAIR = FineSet("pair", (0.281, 0.188, 0.189), 6000, trials=500, friction="{mus}/{mu}")
-SETS = {s.name: s for s in (TUNING_FINE, VALID_FINE, PYBULLET, MAP, PAIR)}
+PAIR2 = FineSet("pair2", (0.168, 0.214, 0.176, 0.277, 0.18, 0.29, 0.235), 6600, trials=500, friction="{mus}/{mu}")
+STATIC = {"pair": PAIR_STATIC, "pair2": (0.244, 0.306, 0.253, 0.381, 0.318, 0.384, 0.338)}
+SETS = {s.name: s for s in (TUNING_FINE, VALID_FINE, PYBULLET, MAP, PAIR, PAIR2)}
 
 
 def _names(seed: int) -> list:
@@ -100,7 +106,7 @@ def make_log(fs: FineSet, i: int, trials: int | None = None) -> tuple[str, list]
     full.parent.mkdir(parents=True, exist_ok=True)
     if not full.exists():
         t = time.perf_counter()
-        spec = fs.friction.format(mu=fs.truths[i], seed=seed, mus=PAIR_STATIC[i] if fs is PAIR else None)
+        spec = fs.friction.format(mu=fs.truths[i], seed=seed, mus=STATIC[fs.name][i] if fs.name in STATIC else None)
         scene = scene_from_options("allen-key", friction_spec=spec, engine=fs.engine)
         res = run_direct(scene, names, fs.trials, seed=seed, workers=1)
         rng = np.random.default_rng([seed, 0xCA])
@@ -227,22 +233,23 @@ def design_check(fs: FineSet, trials: int, label: str = "_l4", simulated: int = 
     return rows
 
 
-def fit_pairs() -> list:
-    """The PAIR logs fitted with ``--fit mu_s,mu_k`` (kept); one row per log."""
+def fit_pairs(fs: FineSet = PAIR) -> list:
+    """The pair logs of ``fs`` fitted with ``--fit mu_s,mu_k`` (kept); one row per log."""
     from benchmarks.bench_fit import fit_file
 
     rows = []
-    for i in range(len(PAIR.truths)):
-        out = OUT / "pair" / f"fit{i}.json"
-        path, names = make_log(PAIR, i)
+    static = STATIC[fs.name]
+    for i in range(len(fs.truths)):
+        out = OUT / fs.name / f"fit{i}.json"
+        path, names = make_log(fs, i)
         r = json.loads(out.read_text()) if out.exists() else fit_file(
-            path, names, i, out, PAIR.truths[i],
+            path, names, i, out, fs.truths[i],
             ("--engine", "planar", "--workers", "1", "--range", "0.15..0.5", "--fit", "mu_s,mu_k",
              "--camera-noise", "0.5,0.5"), workers=1)
         iv = r["interval_90"] or {}
-        rows.append({"log": i, "truth": [PAIR_STATIC[i], PAIR.truths[i]], "estimate": r["estimate"],
+        rows.append({"log": i, "truth": [static[i], fs.truths[i]], "estimate": r["estimate"],
                      "interval_90": iv, "covered": {k: bool(iv.get(k) and iv[k][0] <= t <= iv[k][1])
-                                                     for k, t in (("mu_s", PAIR_STATIC[i]), ("mu_k", PAIR.truths[i]))},
+                                                     for k, t in (("mu_s", static[i]), ("mu_k", fs.truths[i]))},
                      "models": len(r["models"]), "wall_seconds": round(r["wall_seconds"], 1),
                      "goodness": r["goodness_of_fit"].get("verdict")})
         print(json.dumps(rows[-1]), flush=True)
@@ -307,9 +314,10 @@ def main(argv) -> None:
         rows = design_logs(fs, at)
         (OUT / fs.name / "summary.json").write_text(json.dumps(rows, indent=1))
         return
-    if argv[0] == "pair":
-        (OUT / "pair").mkdir(parents=True, exist_ok=True)
-        (OUT / "pair" / "summary.json").write_text(json.dumps(fit_pairs(), indent=1))
+    if argv[0] in ("pair", "pair2"):
+        fs = SETS[argv[0]]
+        (OUT / fs.name).mkdir(parents=True, exist_ok=True)
+        (OUT / fs.name / "summary.json").write_text(json.dumps(fit_pairs(fs), indent=1))
         return
     extra = ()
     if "--" in argv:
