@@ -34,7 +34,9 @@ SALTS: dict[str, int] = {
     "validate.posterior": 4,              # analysis.validate: posterior draws of the model's band, [seed, 4, r]
     "orientability.entropy_tilts": 5,     # analysis.orientability: Monte Carlo random tilts to entropy <= eps
     "orientability.sync_length": 6,       # analysis.orientability: Monte Carlo random synchronizing length
-    "fit": 0x464954,                      # analysis.fit.core: bootstraps [seed, fit]; entropy band [seed, fit, 1]
+    # analysis.fit: bootstraps [seed, fit]; entropy band [seed, fit, 1]; goodness of fit [seed, fit, 2];
+    # fit --design, candidate i's simulated trials [seed, fit, 3, i]
+    "fit": 0x464954,
     "tray_log": 0x7E41,                   # analysis.fit.study: hidden coefficient [seed, s]; sequence [seed, s, 1]
     "tray_log.camera": 0xCA,              # analysis.fit.study.add_camera_noise
     "kit.compartment": 0x6B6974,          # analysis.kit_replay.compartment_seed: [seed, i, salt], compartment i > 0

@@ -142,7 +142,8 @@ def make_report_log() -> tuple[str, list, float, int]:
 def _build_seconds(paths) -> float:
     """Sum of the models' recorded build (simulation) seconds."""
     from kruskal_markov.model import TransitionModel
-    return float(sum(TransitionModel.load(p).metadata.get("stats", {}).get("simulation_seconds") or 0.0
+    from transition_builder.cache import model_file
+    return float(sum(TransitionModel.load(model_file(p)).metadata.get("stats", {}).get("simulation_seconds") or 0.0
                      for p in paths))
 
 

@@ -21,12 +21,13 @@ from analysis.commands._common import (
     scene_from_args,
     sequence_rng,
 )
+from analysis.commands._fit_design import add_design_arguments, run_design
 
 _PAIR_RANGE_NOTE = "a paired --range LO_S/LO_K..HI_S/HI_K needs --fit mu_s,mu_k"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--poses", required=True, metavar="LOG.csv",
+    parser.add_argument("--poses", default=None, metavar="LOG.csv",
                         help="the log: columns trial,step,x_mm,y_mm,theta_rad[,status][,action]")
     parser.add_argument("--shape", default=None, help="the logged part (default allen-key)")
     parser.add_argument("--sequence", default=None,
@@ -57,9 +58,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--fit mu: extra builds (other build seeds) of the best model and its two neighbours, "
                              "measuring the models' own error for the interval (default 1; 0: from the "
                              "criterion's residual scatter alone)")
-    parser.add_argument("--estimator", choices=("grid", "vertex"), default="grid",
-                        help="--fit mu: the estimate is the best grid point (grid, default) or the vertex of a "
-                             "quadratic through its window (vertex; docs/fit.md)")
+    parser.add_argument("--estimator", choices=("grid", "vertex", "local"), default=None,
+                        help="--fit mu: the estimate is the best grid point (grid, the default without --local), "
+                             "the vertex of a quadratic through its window (vertex) or through the fine local "
+                             "patch (local, the default with --local; docs/fit.md)")
+    parser.add_argument("--local", type=int, default=0, metavar="K",
+                        help="--fit mu: K fine models each side of the best refined point (spacing h/(K+1)); "
+                             "default 0 (none)")
     parser.add_argument("--figure", metavar="PNG", help="write the criterion and goodness-of-fit figure here")
     parser.add_argument("--resolution", default="1,1", metavar="MM,DEG",
                         help="snapping tolerance of the grid's models (default 1,1; see docs/fit.md)")
@@ -69,6 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--grid", default="4x4x4", help="report grid AxBxG of the histograms (default 4x4x4)")
     parser.add_argument("--tilt-deg", type=float, default=None, help="tilt angle in degrees (default 30)")
     parser.add_argument("--scene", metavar="FILE", help="a scene file (.json/.toml); its friction is ignored")
+    add_design_arguments(parser)
     add_contact(parser)
     add_seed(parser)
     parser.add_argument("--workers", type=int, default=None, help="worker processes of the builds")
@@ -103,8 +109,11 @@ def _settings(args):
         raise InputError(_PAIR_RANGE_NOTE)
     check_positive(args.points, "--points")
     check_positive(args.noise_points, "--noise-points")
-    if (args.refine is not None and args.refine < 0) or args.bootstrap < 0 or args.replicates < 0:
-        raise InputError("--refine, --bootstrap and --replicates must be >= 0")
+    if min(args.refine or 0, args.bootstrap, args.replicates, args.local) < 0:
+        raise InputError("--refine, --bootstrap, --replicates and --local must be >= 0")
+    estimator = args.estimator or ("local" if args.local > 0 else "grid")
+    if estimator == "local" and args.local <= 0:
+        raise InputError("--estimator local needs --local K with K >= 1 (the fine patch it fits)")
     camera = None
     if args.camera_noise is not None:
         camera = parse_resolution(args.camera_noise)
@@ -118,7 +127,7 @@ def _settings(args):
     try:
         return FitSettings(params=params, ranges=ranges, points=points, refine=args.refine, camera=camera,
                            criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed,
-                           replicates=args.replicates, estimator=args.estimator)
+                           replicates=args.replicates, estimator=estimator, local=args.local)
     except ValueError as exc:
         raise InputError(f"--fit {args.fit}: {exc}") from None
 
@@ -138,6 +147,10 @@ def run(args: argparse.Namespace) -> dict:
     from analysis.fit import fit_log, read_fit_log
     from transition_builder.builder import BuildSettings
 
+    if not args.design and args.poses is None:
+        raise InputError("kruskal fit needs --poses LOG.csv (or --design, to plan the log)")
+    if args.design and args.poses is not None:
+        raise InputError("--design plans a log before it exists: give no --poses")
     settings = _settings(args)
     check_writable_file(args.figure, "--figure")
     if args.workers is not None:
@@ -147,13 +160,15 @@ def run(args: argparse.Namespace) -> dict:
     if settings.params == ("mu_s", "mu_k") and scene.settings.contact != "coulomb":
         raise InputError(f"--fit mu_s,mu_k needs the coulomb contact: the {scene.settings.contact} contact has "
                          "one Bullet coefficient, static and kinetic alike")
+    mm, deg = parse_resolution(args.resolution)
+    bs = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=args.recenter_rounds,
+                       start_samples=args.start_samples, seed=args.build_seed, grid=args.grid)
+    if args.design:
+        return run_design(args, scene, bs)
     sequence = None
     if args.sequence is not None:
         sequence = parse_sequence(args.sequence, scene.actions, sequence_rng(args.seed))
     log = read_fit_log(args.poses, scene.actions, (scene.tray_x_mm, scene.tray_y_mm), sequence)
-    mm, deg = parse_resolution(args.resolution)
-    bs = BuildSettings(tol_mm=mm, tol_deg=deg, recenter_rounds=args.recenter_rounds,
-                       start_samples=args.start_samples, seed=args.build_seed, grid=args.grid)
     result = fit_log(scene, log, settings, build_settings=bs, workers=args.workers, scheduler=args.scheduler,
                      progress=True if args.progress else None, grid=args.grid)
     out = result.to_dict()
@@ -169,7 +184,10 @@ def run(args: argparse.Namespace) -> dict:
 
 
 def format_text(result: dict) -> str:
-    """A short human summary: the estimate, its interval, the criterion over the range."""
+    """A short human summary: the estimate, its interval, the criterion over the range (with
+    ``--design``: the candidates' predicted widths and the recommendation)."""
+    if "candidates" in result:
+        return _design_text(result)
     lines = []
     for name, value in result["estimate"].items():
         iv = (result["interval_90"] or {}).get(name)
@@ -183,6 +201,12 @@ def format_text(result: dict) -> str:
                   f"; best single coefficient {pair['best_single_mu']:.4g} "
                   f"({pair['criterion_gain_over_single']:.1f} below the pair)")
         lines.append(f"mu_s - mu_k: 90% interval {d[0]:.4g} .. {d[1]:.4g}{single}")
+    test = (result.get("goodness_of_fit") or {}).get("test") or {}
+    if test.get("verdict"):
+        lines.append(f"goodness of fit: {test['verdict']} (histogram distance {test['log']:.4f}; logs of this size "
+                     f"from {'a sibling build of ' if test.get('reference') == 'sibling build' else ''}"
+                     f"the best model: median {test['model_median']:.4f}, 95% {test['model_95']:.4f}; "
+                     f"p = {test['p_value']:.3f})")
     cam = result["camera_noise"]
     how = "given" if not cam["estimated"] else ("estimated" if cam.get("identifiable", True) else
                                                  "not identifiable: at or below the models' tolerance")
@@ -199,5 +223,20 @@ def format_text(result: dict) -> str:
     if result["trials_needed"].get("dominated_by"):
         lines.append(f"the interval is dominated by: {result['trials_needed']['dominated_by']} "
                      f"({result['trials_needed']['note']})")
+    lines.append(f"seconds: {result['seconds']:.1f}")
+    return "\n".join(lines)
+
+
+def _design_text(result: dict) -> str:
+    lines = [f"design at mu = {', '.join(f'{v:g}' for v in result['at'])} (smallest information over them, "
+             f"from models at +-{result['step']:g}), "
+             f"{result['trials_budget']} trials:"]
+    for c in result["candidates"]:
+        w = c["predicted_width_90"]["mu"]
+        lines.append(f"  {'designed' if c['designed'] else 'random  '}  width {'-' if w is None else f'{w:.4f}'}"
+                     f"  {','.join(c['sequence'][:8])}...")
+    r = result["recommended"]
+    lines.append(f"recommended: {'the designed' if r['designed'] else 'a random'} sequence, {r['trials']} trials "
+                 f"for a 90% width of {r['target_width_90']:g} ({result['note']})")
     lines.append(f"seconds: {result['seconds']:.1f}")
     return "\n".join(lines)

@@ -23,16 +23,19 @@ refined around the best point, with a quadratic surface's constrained maximum as
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from analysis.fit.goodness import goodness_of_fit
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
 from analysis.fit.hmm import EmissionSettings, model_tolerance, trial_loglik
 from analysis.fit.model_error import (
     ESTIMATORS,
     model_error,
+    patch_vertex,
     replicate_indices,
     resample_vertices,
     trials_needed,
@@ -104,7 +107,17 @@ class FitSettings:
     estimator : str
         ``--fit mu`` with the likelihood: ``"grid"`` (default, version 3: the best grid point) or
         ``"vertex"`` (version 2: the vertex of the weighted quadratic through the best point's
-        window); :data:`analysis.fit.model_error.ESTIMATORS`, docs/fit.md.
+        window); :data:`analysis.fit.model_error.ESTIMATORS`, docs/fit.md; ``"local"``: the vertex
+        of the quadratic through the fine local patch (``local``), clipped to it.
+    local : int
+        ``--fit mu``: after refinement, ``local`` models each side of the best point at the spacing
+        ``h / (local + 1)`` (``h`` the refined spacing there): a fine local patch of ``2 local + 3``
+        models across ``best +- h`` (docs/fit.md, "Finer than the grid"). 0: none.
+    gof_draws : int
+        Logs simulated from the best model for the goodness of fit (:mod:`analysis.fit.goodness`).
+    gof_sibling : bool
+        Draw the goodness of fit's reference logs from a second build of the best point (build seed
+        + 1; one build more unless it is a replicate already), not from the model itself.
     """
 
     params: tuple = ("mu",)
@@ -119,6 +132,9 @@ class FitSettings:
     outlier: float = 1e-3
     replicates: int = 1
     estimator: str = "grid"
+    local: int = 0
+    gof_draws: int = 200
+    gof_sibling: bool = True
 
     def __post_init__(self):
         if tuple(self.params) not in FITS:
@@ -137,6 +153,8 @@ class FitSettings:
                                  "LO_K <= LO_S, HI_K <= HI_S and a range of positive width")
             if min(self.points["mu_s"], self.points["mu_k"]) < 2:
                 raise ValueError("a pair fit needs at least 2 grid points per axis")
+        if self.local < 0:
+            raise ValueError(f"local must be >= 0, got {self.local}")
         if self.estimator not in ESTIMATORS:
             raise ValueError(f"unknown estimator {self.estimator!r}: {' or '.join(ESTIMATORS)}")
         if self.criterion not in ("likelihood", "histogram"):
@@ -181,6 +199,7 @@ class _Grid:
         self.dist: dict = {}
         self.paths: dict = {}
         self.rep: dict = {}                 # point -> list of (n_cams, T), the replicate builds
+        self.patch: tuple | None = None     # (lo, hi) of the fine local patch (FitSettings.local)
         self.counts = log_histograms(log, grid)
 
     def add(self, point: tuple) -> None:
@@ -291,6 +310,9 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     model, _ = build_point(best_point)
     pred = predicted_histograms(model, log)
     band = entropy_band(pred, g.counts, salted_rng(s.seed, "fit", 1))
+    sibling, sibling_name = build_point(best_point, replicate=1) if s.gof_sibling else (None, None)
+    test = goodness_of_fit(model, log, rgrid, g.counts, salted_rng(s.seed, "fit", 2), s.gof_draws, sibling)
+    test["sibling_model"] = sibling_name
     crit = []
     for p in pts:
         row = {name: v for name, v in zip(s.params, p)}
@@ -299,6 +321,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         crit.append(row)
     cam_used = cams[cam]
     extra = {k: out[k] for k in ("pair", "model_error", "interval_90_trials_only") if k in out}
+    extra["misreads"] = {"outside_tray": log.outside_tray, "outlier_share": s.outlier}
     return FitResult(
         estimate=out["estimate"], interval_90=out["interval"], interval_90_profile=out["profile"],
         at_edge=out["at_edge"], criterion=crit, criterion_name=s.criterion,
@@ -306,7 +329,8 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         trials=log.trials, tilts=log.tilts, observations=log.n_observations,
         trials_needed=out["trials_needed"],
         goodness={"model_point": dict(zip(s.params, best_point)), "entropy": band,
-                  "log_histograms": g.counts.tolist(), "model_histograms": pred.tolist()},
+                  "log_histograms": g.counts.tolist(), "model_histograms": pred.tolist(),
+                  "verdict": test["verdict"], "test": test},
         models=_model_paths(g, pts), extra=extra)
 
 
@@ -353,6 +377,45 @@ def _refine(g: _Grid, s: FitSettings, axis: np.ndarray) -> None:
                 g.add((v,))
 
 
+def _local_patch(g: _Grid, s: FitSettings) -> None:
+    """``s.local`` fine models each side of the best point, at ``h / (local + 1)`` (``h``: the spacing
+    beside it), inside the range; when the best fine model is not the patch's centre the patch is
+    re-centred on it (up to 3 times), so that the quadratic has both flanks. Records the patch
+    ``best +- h`` (none at an edge of the range)."""
+    if s.local <= 0 or len(g.points) < 3:
+        return
+    x = np.array([p[0] for p in g.sorted_points()])
+    j = _best_index(g, s)
+    if j == 0 or j == len(x) - 1:
+        return
+    h = float(min(x[j] - x[j - 1], x[j + 1] - x[j]))
+    step = h / (s.local + 1)
+    lo_r, hi_r = s.ranges[s.params[0]]
+    centre = float(x[j])
+    for _ in range(4):
+        for k in range(1, s.local + 2):
+            for v in (centre - k * step, centre + k * step):
+                if lo_r - 1e-12 <= v <= hi_r + 1e-12:
+                    g.add((v,))
+        g.patch = (max(lo_r, centre - h), min(hi_r, centre + h))
+        pts = g.sorted_points()
+        inside = [i for i, p in enumerate(pts) if g.patch[0] - 1e-9 <= p[0] <= g.patch[1] + 1e-9]
+        y = _criterion_values(g, [pts[i] for i in inside], _camera(g, s), s.criterion)
+        best = float(pts[inside[int(np.argmax(y))]][0])
+        if abs(best - centre) < step / 2:
+            return
+        centre = best
+
+
+def _camera(g: _Grid, s: FitSettings) -> int:
+    return _best_camera(g) if s.criterion == "likelihood" else 0
+
+
+def _best_index(g: _Grid, s: FitSettings) -> int:
+    """Index of the best point among the sorted points."""
+    return int(np.argmax(_criterion_values(g, g.sorted_points(), _camera(g, s), s.criterion)))
+
+
 def _fit_grid(g: _Grid, s: FitSettings):
     """``mu`` (refined) or the product grid of ``mu,noise``: (summary, points, camera index)."""
     axes = [np.linspace(*s.ranges[p], s.points[p]) if s.points[p] > 1 else np.array([np.mean(s.ranges[p])])
@@ -361,6 +424,7 @@ def _fit_grid(g: _Grid, s: FitSettings):
         g.add(tuple(point))
     if len(s.params) == 1:
         _refine(g, s, axes[0])
+        _local_patch(g, s)
     cam = _best_camera(g) if s.criterion == "likelihood" else 0
     pts = g.sorted_points()
     if len(s.params) == 1 and s.criterion == "likelihood" and s.replicates > 0 and len(pts) >= 3:
@@ -426,13 +490,17 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     y = L.sum(axis=0)
     j = int(np.argmax(y))
     estimator = ESTIMATORS[s.estimator]
+    if s.estimator == "local":
+        lo_p, hi_p = g.patch or (None, None)
+        estimator = functools.partial(patch_vertex, lo=lo_p, hi=hi_p)
     est = estimator(x, y, n, j)
     at_edge = bool(len(x) > 1 and (x[j] <= lo + 1e-9 or x[j] >= hi - 1e-9))
     if at_edge or len(x) < 3 or g.log.trials < 2:     # fewer models cannot show a curve: no interval
         return _summary_1d_out(name, est, at_edge, None, None, {}, None)
     diffs = [float(g.ll[p][cam].sum() - r[cam].sum()) for p in pts for r in g.rep.get(p, [])]
     h = float(min(np.diff(x)[max(0, j - 1):j + 1]))        # the finest spacing beside the best point
-    err = model_error(x, y, n, j, diffs, resolution=h)
+    err = model_error(x, y, n, j, diffs, resolution=h,
+                      window=g.patch if s.estimator == "local" else None)
     rng = salted_rng(s.seed, "fit")
     B = max(s.bootstrap, 2)
     both = resample_vertices(x, L, n, err, rng, B, estimator=estimator)
@@ -442,7 +510,8 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     interval = [float(v) for v in np.quantile(both, [0.05, 0.95])]
     profile = [est - 1.6448536 * sd, est + 1.6448536 * sd]
     me = err.to_dict()
-    me.update({"replicated_points": [p[0] for p in pts if p in g.rep], "replicates": s.replicates,
+    me.update({"local_patch": list(g.patch) if g.patch else None,
+               "replicated_points": [p[0] for p in pts if p in g.rep], "replicates": s.replicates,
                "sd_estimate": sd, "sd_estimate_trials": sd_t, "sd_estimate_model": sd_m,
                "untempered_profile_90": _profile_interval(x, y, j)})
     if err.var is None:

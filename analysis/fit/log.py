@@ -9,8 +9,11 @@ an optional ``action`` column; e.g. a camera reading a tag after every tilt). Ro
 - the tilt before step ``k`` is the ``action`` column of that row, or step ``k`` of ``--sequence``
   (both given: they must agree); a trial whose tilt at some step is unknown (no row there and no
   sequence, and the trials that have a row there disagree on it) ends before it;
-- unreadable logs raise :class:`ValueError` with one line: no header, an unknown action, a pose
-  outside the tray, NaN, a duplicated (trial, step), no ``ok`` row at all.
+- an ``ok`` pose outside the tray is a camera's misread, read as a missed observation (counted in
+  ``FitLog.outside_tray``), unless more than :data:`MAX_OUTSIDE_SHARE` of them are: then the log
+  is of another tray or in other units;
+- unreadable logs raise :class:`ValueError` with one line: no header, an unknown action, over a tenth
+  of the poses outside the tray, NaN, a duplicated (trial, step), no ``ok`` row at all.
 """
 from __future__ import annotations
 
@@ -43,6 +46,8 @@ class FitLog:
     action_names : tuple of str
     source : str
         Where the tilts came from: ``"sequence"`` or ``"action column"``.
+    outside_tray : int
+        ``ok`` poses outside the tray, read as misreads (missed observations).
     """
 
     obs: np.ndarray
@@ -51,6 +56,7 @@ class FitLog:
     trial_ids: np.ndarray
     action_names: tuple
     source: str
+    outside_tray: int = 0
 
     @property
     def trials(self) -> int:
@@ -85,7 +91,7 @@ class FitLog:
         """The log of the trials ``rows`` (indices, repeats allowed: a bootstrap resample)."""
         rows = np.asarray(rows, dtype=np.int64)
         return FitLog(self.obs[rows], self.actions[rows], self.length[rows], self.trial_ids[rows],
-                      self.action_names, self.source)
+                      self.action_names, self.source, self.outside_tray)
 
 
 def _action_column(path) -> dict:
@@ -103,17 +109,26 @@ def _action_column(path) -> dict:
         return out
 
 
-def _check_poses(path, rec, tray) -> None:
+#: the largest share of ``ok`` poses outside the tray read as the camera's misreads (missed
+#: observations); more is a log of another tray, or in other units: refused.
+MAX_OUTSIDE_SHARE = 0.1
+
+
+def _check_poses(path, rec, tray) -> np.ndarray:
+    """The ``ok`` rows whose pose lies outside the tray (bool, by row): a camera's misreads, read as
+    missed observations; refused (one line) when they are more than :data:`MAX_OUTSIDE_SHARE`."""
     ok = rec.status == OK
     if not ok.any():
         raise ValueError(f"poses file {path!r} has no row with status ok: nothing was observed")
     a, b = tray
-    p = rec.poses[ok]
-    outside = (p[:, 0] < 0) | (p[:, 0] > a) | (p[:, 1] < 0) | (p[:, 1] > b)
-    if outside.any():
-        i = int(np.flatnonzero(ok)[np.argmax(outside)])
-        raise ValueError(f"poses file {path!r}: trial {rec.trial[i]} step {rec.step[i]} pose "
-                         f"({rec.poses[i, 0]:g}, {rec.poses[i, 1]:g}) mm lies outside the {a:g} x {b:g} mm tray")
+    p = rec.poses
+    outside = ok & ((p[:, 0] < 0) | (p[:, 0] > a) | (p[:, 1] < 0) | (p[:, 1] > b))
+    if outside.sum() > MAX_OUTSIDE_SHARE * ok.sum():
+        i = int(np.argmax(outside))
+        raise ValueError(f"poses file {path!r}: {int(outside.sum())} of {int(ok.sum())} observed poses lie outside "
+                         f"the {a:g} x {b:g} mm tray (e.g. trial {rec.trial[i]} step {rec.step[i]} at "
+                         f"({p[i, 0]:g}, {p[i, 1]:g}) mm): another tray size or units?")
+    return outside
 
 
 def read_fit_log(path, action_names, tray, sequence=None) -> FitLog:
@@ -126,7 +141,7 @@ def read_fit_log(path, action_names, tray, sequence=None) -> FitLog:
     action_names : sequence of str
         The scene's actions (the ``action`` column and ``sequence`` use these names).
     tray : (float, float)
-        The tray's inner size (mm); an ``ok`` pose outside it is an error.
+        The tray's inner size (mm); an ``ok`` pose outside it is a misread (see the module).
     sequence : array_like of int, optional
         Action indices of the tilts (``--sequence``); required when the log has no ``action`` column.
 
@@ -140,7 +155,7 @@ def read_fit_log(path, action_names, tray, sequence=None) -> FitLog:
     rec = read_poses_csv(path)
     if rec.trial.size == 0:
         raise ValueError(f"poses file {path!r} has no rows")
-    _check_poses(path, rec, tray)
+    outside = _check_poses(path, rec, tray)
     names = [str(n) for n in action_names]
     column = _action_column(path)
     col_idx = {}
@@ -159,7 +174,7 @@ def read_fit_log(path, action_names, tray, sequence=None) -> FitLog:
             raise ValueError(f"poses file {path!r} has steps up to {n_tilts} but --sequence has {len(sequence)} tilts")
     T = len(ids)
     obs = np.full((T, n_tilts + 1, 3), np.nan)
-    ok = rec.status == OK
+    ok = (rec.status == OK) & ~outside
     obs[inv[ok], rec.step[ok]] = rec.poses[ok]
     last = np.zeros(T, dtype=np.int64)
     np.maximum.at(last, inv, rec.step)
@@ -186,4 +201,4 @@ def read_fit_log(path, action_names, tray, sequence=None) -> FitLog:
         actions[i, length[i]:] = -1
         obs[i, length[i] + 1:] = np.nan
     return FitLog(obs=obs, actions=actions, length=length, trial_ids=ids, action_names=tuple(names),
-                  source="sequence" if sequence is not None else "action column")
+                  source="sequence" if sequence is not None else "action column", outside_tray=int(outside.sum()))

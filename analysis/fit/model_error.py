@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-__all__ = ["ModelError", "weighted_vertex", "best_point", "ESTIMATORS", "replicate_indices", "model_error",
+__all__ = ["ModelError", "weighted_vertex", "best_point", "patch_vertex", "ESTIMATORS", "replicate_indices", "model_error",
            "resample_vertices", "trials_needed"]
 
 #: z of a two-sided 90% interval.
@@ -84,8 +84,35 @@ def best_point(x: np.ndarray, y: np.ndarray, n: np.ndarray, j: int) -> float:
     return float(x[j])
 
 
-#: ``FitSettings.estimator`` -> the 1-D likelihood fit's estimate from the criterion curve.
-ESTIMATORS = {"grid": best_point, "vertex": weighted_vertex}
+def patch_vertex(x: np.ndarray, y: np.ndarray, n: np.ndarray, j: int, *, lo: float | None = None,
+                 hi: float | None = None) -> float:
+    """The maximum of the least-squares quadratic (weights ``sqrt(n)``) through every point of the fine
+    local patch ``lo <= x <= hi``, clipped to the patch; the patch's best point when not concave.
+
+    The estimate of a fit with a fine local grid (``FitSettings.local``, docs/fit.md "Finer than the
+    grid"): each fine model is its own build, so the criterion between neighbouring fine models
+    carries the builds' scatter as well as the curve; a quadratic through the whole patch (2K + 3
+    models) averages that scatter rather than following it. Without a patch (``lo`` None) this is
+    :func:`best_point`.
+    """
+    if lo is None or hi is None:
+        return best_point(x, y, n, j)
+    inside = (x >= lo - 1e-12) & (x <= hi + 1e-12)
+    xs, ys, ws = x[inside], y[inside], np.sqrt(n[inside])
+    k = int(np.argmax(ys)) if len(ys) else None
+    if k is None:
+        return best_point(x, y, n, j)
+    if len(xs) >= 3:
+        c = 0.5 * (lo + hi)
+        a, b, _ = np.polyfit(xs - c, ys - ys[k], 2, w=ws)
+        if a < 0:
+            return float(np.clip(c - b / (2 * a), lo, hi))
+    return float(xs[k])
+
+
+#: ``FitSettings.estimator`` -> the 1-D likelihood fit's estimate from the criterion curve (``local``
+#: takes the fine patch's bounds as keywords, :func:`patch_vertex`).
+ESTIMATORS = {"grid": best_point, "vertex": weighted_vertex, "local": patch_vertex}
 
 
 def replicate_indices(n_points: int, j: int) -> list[int]:
@@ -122,13 +149,20 @@ class ModelError:
                 "resolution_sd": self.resolution / math.sqrt(12.0)}
 
 
-def model_error(x: np.ndarray, y: np.ndarray, n: np.ndarray, j: int, differences, resolution=0.0) -> ModelError:
+def model_error(x: np.ndarray, y: np.ndarray, n: np.ndarray, j: int, differences, resolution=0.0,
+                window=None) -> ModelError:
     """The replicate differences' and the window's weighted residuals' variances, the larger carried
-    (see the module); ``resolution`` is the finest grid spacing at the best point (0: none)."""
+    (see the module); ``resolution`` is the finest grid spacing at the best point (0: none);
+    ``window`` ``(lo, hi)``: the residuals of the quadratic through every point inside it (the fine
+    local patch, :func:`patch_vertex`) instead of the best point's five."""
     d = np.asarray(differences, dtype=float)
     ss_rep, dof_rep = float(np.sum(d ** 2) / 2), len(d)
-    lo, hi = max(0, j - 2), min(len(x), j + 3)
-    xs, ys, ns = x[lo:hi], y[lo:hi], n[lo:hi]
+    if window is not None:
+        sel = (x >= window[0] - 1e-12) & (x <= window[1] + 1e-12)
+        xs, ys, ns = x[sel], y[sel], n[sel]
+    else:
+        lo, hi = max(0, j - 2), min(len(x), j + 3)
+        xs, ys, ns = x[lo:hi], y[lo:hi], n[lo:hi]
     ss_res, dof_res = 0.0, max(0, len(xs) - 3)
     if dof_res:
         coef = np.polyfit(xs - x[j], ys, 2, w=np.sqrt(ns))
