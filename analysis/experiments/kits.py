@@ -65,13 +65,19 @@ def _kit_of(st: Settings, ctx):
     return parse_kit({"compartments": comps})
 
 
+def _engine_changes(ctx) -> dict:
+    """The run's engine for every scene of the section (none: the simulator's default), as for every other section."""
+    engine = getattr(ctx.settings, "engine", None)
+    return {} if engine is None else {"engine": engine}
+
+
 def _kit_answers(ctx, st: Settings, kit) -> tuple:
     """The common plan, the replay and the random-sequence figures of the kit."""
     from analysis.design import kit_metrics
     from analysis.kit_replay import replay_plan
 
     t0 = ctx.clock()
-    scenes = kit.scenes(ctx.settings.contact)
+    scenes = kit.scenes(ctx.settings.contact, **_engine_changes(ctx))
     built = [ctx.build(scene, st.build, f"kit: {name}") for name, scene in zip(kit.names, scenes)]
     models = [m for m, _ in built]
     m = kit_metrics(models, target="cell", seed=ctx.seed("kits"), count=st.count, runs=st.runs, epsilon=st.epsilon,
@@ -112,7 +118,7 @@ def _design(ctx, st: Settings) -> dict:
         comp["friction"] = ctx.settings.friction
     res = run_design(parse_kit({"compartments": [comp]}), Sweep(st.design_tray_mm, (1.0,), st.design_tilt_deg),
                      BuildSettings(seed=ctx.settings.seed, **st.build), contact=ctx.settings.contact,
-                     workers=ctx.workers, log=ctx.log, target="cell", seed=ctx.seed("kits.design"), count=st.count,
+                     setting_changes=_engine_changes(ctx), workers=ctx.workers, log=ctx.log, target="cell", seed=ctx.seed("kits.design"), count=st.count,
                      runs=st.runs, epsilon=st.epsilon, node_budget=st.node_budget)
     res.pop("_scenes")
     rows = res["variants"]

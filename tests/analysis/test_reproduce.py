@@ -251,7 +251,10 @@ def test_kits_section_names_models_by_cache_key(report):
 
     result, _, out = report
     kit = result["kits"]
+    from kruskal_markov.model import TransitionModel
     for c in kit["compartments"]:
         assert os.path.basename(c["model"]) == c["model"] and os.path.exists(model_file(c["model"]))
+        scene = TransitionModel.load(model_file(c["model"])).metadata["scene"]
+        assert scene["settings"].get("engine", "pybullet") == result["engine"]          # the report's physics
     text = json.dumps(kit) + json.dumps(result["kit_design"])
     assert str(out) not in text and os.path.expanduser("~") not in text
