@@ -99,19 +99,15 @@ def judges() -> dict:
         JUDGE_TARGETS,
         NEW_JUDGE_TARGETS,
         PAIR_JUDGE_TARGETS,
-        corner_wedge,
-        judges_table,
+        engine_judges,
         pair_judges,
-        simultaneous_stop,
     )
     out = {}
     for engine in ("planar", "pybullet"):
         t = time.perf_counter()
-        table = dict(judges_table(contacts=("coulomb",), engine=engine)["coulomb"])
+        table = engine_judges(engine)
         for shape, pj in pair_judges(engine=engine).items():
             table.update({f"{name} ({shape})": v for name, v in pj.items()})
-        table["simultaneous_stop"] = simultaneous_stop(engine)
-        table.update(corner_wedge(engine))
         targets = {**JUDGE_TARGETS, **NEW_JUDGE_TARGETS}
         for name in list(table):
             base = name.split(" (")[0]

@@ -26,7 +26,7 @@ from transition_builder._coulomb import integrate_free_sliding
 __all__ = ["FreeSlide", "engine_free_slide", "reference_free_slide", "disk_shape_spec", "rotate_start",
            "isotropy_error", "judges_table", "JUDGE_TARGETS", "TABLE_SLIDES", "engine_incline", "kinetic_distance_mm",
            "onset_slope_deg", "pair_judges", "pair_judge_slopes", "PAIR_JUDGE_TARGETS", "InclineRun",
-           "simultaneous_stop", "corner_wedge", "wedge_drift", "NEW_JUDGE_TARGETS", "STOP_RATIOS"]
+           "simultaneous_stop", "corner_wedge", "wedge_drift", "NEW_JUDGE_TARGETS", "STOP_RATIOS", "engine_judges"]
 
 #: tilt of the "level" tray of the judges (degrees; a scene's tilt must be positive).
 LEVEL_TILT_DEG = 1e-6
@@ -426,6 +426,15 @@ def corner_wedge(engine: str = "pybullet", shape: str = WEDGE_SHAPE, n_starts: i
     finally:
         sim.close()
     return {"drift_mm": drift, "turn_deg": turn, "not_at_rest": bad}
+
+
+def engine_judges(engine: str = "pybullet") -> dict:
+    """Every free-sliding judge of the ``coulomb`` contact (:func:`judges_table`) and the two judges of
+    this section, on ``engine``: ``{judge: value}`` (targets: :data:`JUDGE_TARGETS`, :data:`NEW_JUDGE_TARGETS`)."""
+    table = dict(judges_table(contacts=("coulomb",), engine=engine)["coulomb"])
+    table["simultaneous_stop"] = simultaneous_stop(engine)
+    table.update(corner_wedge(engine))
+    return table
 
 
 #: targets of the two new judges (a judge passes at or below its target).

@@ -61,7 +61,7 @@ def _range(args):
 
 def range_models(args):
     """(range, [(spec, model, path), ...]) of the command's ``--friction LO..HI`` and ``--shape``."""
-    from analysis.commands._common import parse_engine_arg, parse_resolution
+    from analysis.commands._common import parse_resolution, physics_changes
     from analysis.friction_range import models_over_range
     from transition_builder.builder import BuildSettings
     from transition_builder.scene import scene_from_options
@@ -70,9 +70,9 @@ def range_models(args):
         raise InputError("--friction LO..HI builds its own models: drop --model/--automaton")
     fr = _range(args)
     mm, deg = parse_resolution(args.range_resolution)
-    engine = parse_engine_arg(getattr(args, "engine", None))
+    physics = physics_changes(args)           # --engine (the ranges have no --contact)
     try:
-        scene = scene_from_options(args.shape or "allen-key", **({"engine": engine} if engine else {}))
+        scene = scene_from_options(args.shape or "allen-key", **physics)
     except ValueError as exc:
         raise InputError(f"--shape: {exc}") from None
     bs = BuildSettings.compared(tol_mm=mm, tol_deg=deg)

@@ -8,16 +8,10 @@ report under ``reports/``; about an hour on 2 cores when the key's model is cach
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 
-from analysis.commands._common import (
-    add_contact,
-    add_seed,
-    check_positive,
-    check_writable_dir,
-    parse_contact_arg,
-    parse_engine_arg,
-)
+from analysis.commands._common import add_contact, add_seed, check_positive, check_writable_dir, physics_changes
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,16 +30,10 @@ def run(args: argparse.Namespace) -> dict:
     if args.workers is not None:
         check_positive(args.workers, "--workers")
     check_writable_dir(args.out, "--out")
-    contact = parse_contact_arg(args.contact)
-    engine = parse_engine_arg(args.engine)
+    physics = physics_changes(args)           # --contact, --engine: checked before any work
     settings = (ReproduceSettings.quick_settings(args.seed) if args.quick
                 else ReproduceSettings.full(args.seed))
-    if contact is not None:
-        import dataclasses
-        settings = dataclasses.replace(settings, contact=contact)
-    if engine is not None:
-        import dataclasses
-        settings = dataclasses.replace(settings, engine=engine)
+    settings = dataclasses.replace(settings, **physics)
 
     def progress(text):
         print(f"reproduce: {text}", file=sys.stderr, flush=True)

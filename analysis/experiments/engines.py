@@ -78,14 +78,6 @@ def _answers(ctx, st: Settings, engine: str) -> dict:
             "cell_plan_lower_bound": cell.lower_bound, "model": info.to_dict()}
 
 
-def _judges(engine: str) -> dict:
-    from transition_builder.judges import corner_wedge, judges_table, simultaneous_stop
-    table = dict(judges_table(contacts=("coulomb",), engine=engine)["coulomb"])
-    table["simultaneous_stop"] = simultaneous_stop(engine)
-    table.update(corner_wedge(engine))
-    return table
-
-
 def run(ctx) -> Result:
     st = Settings.from_settings(ctx.settings)
     default = ctx.scene().settings.engine
@@ -99,7 +91,8 @@ def run(ctx) -> Result:
     judges = None
     if st.judges:
         ctx.log("the judges on both engines")
-        judges = {engine: _judges(engine) for engine in order}
+        from transition_builder.judges import engine_judges
+        judges = {engine: engine_judges(engine) for engine in order}
     return Result(st, default, answers, judges)
 
 
