@@ -40,6 +40,22 @@ tray, ``default_rng([log seed, 3])``): the same logs' misread copies, ``SET`` ``
   ``g = default_rng(6666)``, kinetic ``g.uniform(0.15, 0.35, 7)``, static ``mu_k + g.uniform(0, 0.15,
   7)``, both rounded; seeds 6600-6606 (``python -m benchmarks.bench_fit_fine pair2``).
 
+Named 2026-11-29 (the ninth session), before any of their logs was made or any method of that
+session was tried; the sets above are spent (tuning for what follows):
+
+- ``VALID_CAL``: truths ``default_rng(7070).uniform(0.175, 0.425, 10)`` rounded, seeds 7000-7009,
+  1,000 trials, planar physics: the validation of the single coefficient's final method at 100 /
+  200 / 500 / 1,000 trials (``fit valid3``).
+- ``PAIR3``: ``g = default_rng(7171)``, kinetic ``g.uniform(0.15, 0.35, 10)``, gaps
+  ``g.uniform(0, 0.15, 10)`` with logs 3 and 7 set to no gap, both rounded; seeds 7100-7109, 500
+  trials, planar physics (``pair3``).
+- ``NOISE``: ``g = default_rng(7272)``, floor ``g.uniform(0.2, 0.4, 10)`` (3 decimals), process noise
+  ``g.uniform(0.1, 0.4, 10)`` (2 decimals; ``pose:S,S``, mm and degrees) applied before every tilt;
+  seeds 7200-7209, 500 trials, planar physics; fitted with ``--fit mu,noise`` (``noise``).
+- ``FINESTEP``: truths ``default_rng(7373).uniform(0.175, 0.425, 3)`` rounded, seeds 7300-7302, 500
+  trials, planar physics at a quarter of the time step (``time_step_s`` / 4, ``substeps`` x 4),
+  fitted by models at the default step (``fit finestep``).
+
 ``python -m benchmarks.bench_fit_fine logs|fit|summary SET [SIZES...]`` (SET: tuning, valid,
 pybullet, map); extra ``kruskal fit`` options after ``--``.
 """
@@ -73,6 +89,8 @@ class FineSet:
     trials: int = 1000
     engine: str = "planar"
     friction: str = "{mu}"          # the log's friction spec; ``{mu}`` the truth, ``{seed}`` the log's seed
+    noise: tuple = ()               # process noise of each log's physics (mm = degrees), () none
+    settings: tuple = ()            # SimSettings changes of the log's physics, as (name, value) pairs
 
 
 TUNING_FINE = FineSet("tuning", (0.267, 0.312, 0.211), 5600)
@@ -83,7 +101,15 @@ PAIR_STATIC = (0.417, 0.289, 0.189)
 PAIR = FineSet("pair", (0.281, 0.188, 0.189), 6000, trials=500, friction="{mus}/{mu}")
 PAIR2 = FineSet("pair2", (0.168, 0.214, 0.176, 0.277, 0.18, 0.29, 0.235), 6600, trials=500, friction="{mus}/{mu}")
 STATIC = {"pair": PAIR_STATIC, "pair2": (0.244, 0.306, 0.253, 0.381, 0.318, 0.384, 0.338)}
-SETS = {s.name: s for s in (TUNING_FINE, VALID_FINE, PYBULLET, MAP, PAIR, PAIR2)}
+VALID_CAL = FineSet("valid3", (0.259, 0.349, 0.291, 0.384, 0.344, 0.232, 0.284, 0.355, 0.417, 0.202), 7000)
+PAIR3 = FineSet("pair3", (0.18, 0.162, 0.336, 0.243, 0.289, 0.223, 0.261, 0.302, 0.301, 0.229), 7100, trials=500,
+                friction="{mus}/{mu}")
+STATIC["pair3"] = (0.322, 0.189, 0.486, 0.243, 0.326, 0.242, 0.325, 0.302, 0.361, 0.331)
+NOISE = FineSet("noise", (0.238, 0.203, 0.222, 0.344, 0.37, 0.325, 0.272, 0.334, 0.208, 0.392), 7200, trials=500,
+                noise=(0.11, 0.2, 0.13, 0.24, 0.32, 0.32, 0.16, 0.18, 0.29, 0.39))
+FINESTEP = FineSet("finestep", (0.345, 0.211, 0.212), 7300, trials=500,
+                   settings=(("time_step_s", 1.0 / 1920.0), ("substeps", 32)))
+SETS = {s.name: s for s in (TUNING_FINE, VALID_FINE, PYBULLET, MAP, PAIR, PAIR2, VALID_CAL, PAIR3, NOISE, FINESTEP)}
 
 
 def _names(seed: int) -> list:
@@ -107,8 +133,9 @@ def make_log(fs: FineSet, i: int, trials: int | None = None) -> tuple[str, list]
     if not full.exists():
         t = time.perf_counter()
         spec = fs.friction.format(mu=fs.truths[i], seed=seed, mus=STATIC[fs.name][i] if fs.name in STATIC else None)
-        scene = scene_from_options("allen-key", friction_spec=spec, engine=fs.engine)
-        res = run_direct(scene, names, fs.trials, seed=seed, workers=1)
+        scene = scene_from_options("allen-key", friction_spec=spec, engine=fs.engine, **dict(fs.settings))
+        noise = f"pose:{fs.noise[i]:g},{fs.noise[i]:g}" if fs.noise else None
+        res = run_direct(scene, names, fs.trials, seed=seed, workers=1, noise=noise)
         rng = np.random.default_rng([seed, 0xCA])
         p = res.poses.copy()
         p[..., :2] += rng.normal(0.0, CAMERA[0], p[..., :2].shape)
