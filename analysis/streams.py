@@ -35,7 +35,8 @@ SALTS: dict[str, int] = {
     "orientability.entropy_tilts": 5,     # analysis.orientability: Monte Carlo random tilts to entropy <= eps
     "orientability.sync_length": 6,       # analysis.orientability: Monte Carlo random synchronizing length
     # analysis.fit: bootstraps [seed, fit]; entropy band [seed, fit, 1]; goodness of fit [seed, fit, 2];
-    # fit --design, candidate i's simulated trials [seed, fit, 3, i]
+    # fit --design, candidate i's simulated trials [seed, fit, 3, i]; fit --calibrate, calibration
+    # log k's start poses and process noise [seed, fit, 4, k] and its camera noise [seed, fit, 5, k]
     "fit": 0x464954,
     "tray_log": 0x7E41,                   # analysis.fit.study: hidden coefficient [seed, s]; sequence [seed, s, 1]
     "tray_log.camera": 0xCA,              # analysis.fit.study.add_camera_noise

@@ -65,6 +65,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--local", type=int, default=0, metavar="K",
                         help="--fit mu: K fine models each side of the best refined point (spacing h/(K+1)); "
                              "default 0 (none)")
+    parser.add_argument("--calibrate", type=int, default=0, metavar="K",
+                        help="--fit mu: K logs simulated directly across the estimate, fitted by the same models; "
+                             "the estimate and interval read back through their calibration line (docs/fit.md); "
+                             "default 0 (none), at least 3")
+    parser.add_argument("--calibrate-width", type=float, default=None, metavar="W",
+                        help="half-width of the calibration logs' coefficients around the estimate (default half "
+                             "the refined spacing)")
     parser.add_argument("--figure", metavar="PNG", help="write the criterion and goodness-of-fit figure here")
     parser.add_argument("--resolution", default="1,1", metavar="MM,DEG",
                         help="snapping tolerance of the grid's models (default 1,1; see docs/fit.md)")
@@ -127,7 +134,8 @@ def _settings(args):
     try:
         return FitSettings(params=params, ranges=ranges, points=points, refine=args.refine, camera=camera,
                            criterion=args.criterion, bootstrap=args.bootstrap, seed=args.seed,
-                           replicates=args.replicates, estimator=estimator, local=args.local)
+                           replicates=args.replicates, estimator=estimator, local=args.local,
+                           calibrate=args.calibrate, calibrate_width=args.calibrate_width)
     except ValueError as exc:
         raise InputError(f"--fit {args.fit}: {exc}") from None
 

@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from analysis.fit.calibration import Calibration, calibration_truths
 from analysis.fit.goodness import goodness_of_fit
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
 from analysis.fit.hmm import EmissionSettings, model_tolerance, trial_loglik
@@ -118,6 +120,14 @@ class FitSettings:
     gof_sibling : bool
         Draw the goodness of fit's reference logs from a second build of the best point (build seed
         + 1; one build more unless it is a replicate already), not from the model itself.
+    calibrate : int
+        ``--fit mu`` with the likelihood: ``calibrate`` logs simulated directly (the log's sequence and
+        trials, the fit's camera noise) at coefficients across the estimate +- ``calibrate_width``,
+        each fitted by the same estimator on the same models; the estimate and the 90% interval are
+        read back through the calibration line (:mod:`analysis.fit.calibration`). 0: none.
+    calibrate_width : float or None
+        Half-width of the calibration's coefficients (None: half the spacing beside the best point
+        before the local patch, 0.0125 with the default grid and one refinement).
     """
 
     params: tuple = ("mu",)
@@ -135,6 +145,8 @@ class FitSettings:
     local: int = 0
     gof_draws: int = 200
     gof_sibling: bool = True
+    calibrate: int = 0
+    calibrate_width: float | None = None
 
     def __post_init__(self):
         if tuple(self.params) not in FITS:
@@ -155,6 +167,11 @@ class FitSettings:
                 raise ValueError("a pair fit needs at least 2 grid points per axis")
         if self.local < 0:
             raise ValueError(f"local must be >= 0, got {self.local}")
+        if self.calibrate and (self.calibrate < 3 or tuple(self.params) != ("mu",) or self.criterion != "likelihood"):
+            raise ValueError(f"calibrate takes 0 or at least 3 logs, with --fit mu and the likelihood; got "
+                             f"{self.calibrate} with --fit {','.join(self.params)} and the {self.criterion}")
+        if self.calibrate_width is not None and not (math.isfinite(self.calibrate_width) and self.calibrate_width > 0):
+            raise ValueError(f"calibrate width must be a positive number, got {self.calibrate_width!r}")
         if self.estimator not in ESTIMATORS:
             raise ValueError(f"unknown estimator {self.estimator!r}: {' or '.join(ESTIMATORS)}")
         if self.criterion not in ("likelihood", "histogram"):
@@ -200,6 +217,7 @@ class _Grid:
         self.paths: dict = {}
         self.rep: dict = {}                 # point -> list of (n_cams, T), the replicate builds
         self.patch: tuple | None = None     # (lo, hi) of the fine local patch (FitSettings.local)
+        self.simulate = None                # (value, trials, sequence, emission, k) -> FitLog (calibration)
         self.counts = log_histograms(log, grid)
 
     def add(self, point: tuple) -> None:
@@ -257,7 +275,7 @@ def _best_camera(g: _Grid) -> int:
 
 
 def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=None, build=None,
-            workers=None, scheduler=None, progress=None, grid="4x4x4") -> FitResult:
+            workers=None, scheduler=None, progress=None, grid="4x4x4", simulate=None) -> FitResult:
     """Fit the parameters of ``settings`` to a pose log.
 
     Parameters
@@ -277,6 +295,10 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         Passed to the builds.
     grid : str
         Report grid of the histograms and of the goodness of fit.
+    simulate : callable, optional
+        ``simulate(value, trials, sequence, emission, k) -> FitLog``: calibration log ``k`` at the
+        coefficient ``value`` (``FitSettings.calibrate``); default direct simulation of the scene
+        (:func:`simulated_log`), process noise of ``build_settings`` included.
 
     Returns
     -------
@@ -305,6 +327,8 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
     cams = ([EmissionSettings(*s.camera, outlier=s.outlier)] if s.camera is not None
             else [EmissionSettings(c, c, outlier=s.outlier) for c in CAMERA_CANDIDATES])
     g = _Grid(build_point, log, rgrid, cams)
+    if s.calibrate:
+        g.simulate = simulate or functools.partial(simulated_log, scene, bs, s, workers=workers, scheduler=scheduler)
     out, pts, cam = (_fit_pair if tuple(s.params) == PAIR else _fit_grid)(g, s)
     best_point = min(pts, key=lambda p: sum((a - b) ** 2 for a, b in zip(p, out["estimate_tuple"])))
     model, _ = build_point(best_point)
@@ -320,7 +344,7 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
         row["histogram_distance"] = g.dist[p]
         crit.append(row)
     cam_used = cams[cam]
-    extra = {k: out[k] for k in ("pair", "model_error", "interval_90_trials_only") if k in out}
+    extra = {k: out[k] for k in ("pair", "model_error", "interval_90_trials_only", "calibration") if k in out}
     extra["misreads"] = {"outside_tray": log.outside_tray, "outlier_share": s.outlier}
     return FitResult(
         estimate=out["estimate"], interval_90=out["interval"], interval_90_profile=out["profile"],
@@ -517,8 +541,75 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     if err.var is None:
         me["note"] = "the models' error is not measured (no replicate build and a 3-point window)"
     need = trials_needed(g.log.trials, sd_t, sd_m, sd_resolution=h / math.sqrt(12.0))
-    return _summary_1d_out(name, est, at_edge, interval, profile, need, me,
-                           [float(v) for v in np.quantile(only_trials, [0.05, 0.95])])
+    trials_only = [float(v) for v in np.quantile(only_trials, [0.05, 0.95])]
+    if not s.calibrate:
+        return _summary_1d_out(name, est, at_edge, interval, profile, need, me, trials_only)
+    cal = _calibrate(g, s, pts, cam, estimator)
+    out = _summary_1d_out(name, est if cal.estimate is None else cal.estimate, at_edge, cal.interval, profile, need,
+                          me, trials_only)
+    out["calibration"] = cal.to_dict()
+    return out
+
+
+def _calibrate(g: _Grid, s: FitSettings, pts, cam: int, estimator) -> Calibration:
+    """Calibration logs simulated across the estimate, each fitted by ``estimator`` on the same models
+    (the local patch's with ``--local``; first builds only, as the log's own estimate is recomputed
+    here), the line through them (:mod:`analysis.fit.calibration`)."""
+    t0 = time.perf_counter()
+    seq = g.log.common_sequence()
+    if seq is None or (seq < 0).any():
+        raise ValueError("--calibrate needs every trial of the log to follow one tilt sequence")
+    use = [p for p in pts if g.patch is None or s.estimator != "local"
+           or g.patch[0] - 1e-9 <= p[0] <= g.patch[1] + 1e-9]
+    xs = np.array([p[0] for p in use])
+    ones = np.ones(len(use))
+
+    def estimate(y):
+        return float(estimator(xs, y, ones, int(np.argmax(y))))
+
+    e0 = estimate(np.array([g.ll[p][cam].sum() for p in use]))
+    if s.calibrate_width is not None:
+        half = s.calibrate_width
+    elif g.patch is not None and s.estimator == "local":
+        half = (g.patch[1] - g.patch[0]) / 4
+    else:
+        j = int(np.argmin(np.abs(xs - e0)))
+        half = float(min(np.diff(xs)[max(0, j - 1):j + 1])) / 2
+    truths = calibration_truths(e0, half, s.calibrate, *s.ranges[s.params[0]])
+    em = g.cams[cam]
+    logs = [g.simulate(float(t), g.log.trials, seq, em, k) for k, t in enumerate(truths)]
+    scores = np.zeros((len(logs), len(use)))
+    for i, p in enumerate(use):
+        model, _ = g.build(p)
+        for k, lg in enumerate(logs):
+            scores[k, i] = trial_loglik(model, lg, em, g.grid).sum()
+    return Calibration(truths, [estimate(row) for row in scores], e0, time.perf_counter() - t0)
+
+
+def simulated_log(scene, build_settings, settings: FitSettings, value: float, trials: int, sequence, em, k: int, *,
+                  workers=None, scheduler=None):
+    """Calibration log ``k``: ``trials`` trials of ``sequence`` simulated directly at the coefficient
+    ``value`` (start poses and process noise from stream ``[seed, fit, 4, k]``, the build settings'
+    process noise), Gaussian camera noise of ``em`` (stream ``[seed, fit, 5, k]``); faults and poses
+    outside the tray are missed observations, as :func:`analysis.fit.log.read_fit_log` reads them."""
+    from analysis.fit.log import FitLog
+    from transition_builder.tilting import run_direct
+
+    sc, st = PARAMETERS[settings.params[0]](scene, build_settings, value)
+    seed = int(salted_rng(settings.seed, "fit", 4, k).integers(0, 2 ** 31))
+    noise = getattr(st, "noise", None)
+    res = run_direct(sc, [int(a) for a in sequence], trials, seed=seed, workers=workers, scheduler=scheduler,
+                     noise=None if noise in (None, "none") else noise)
+    rng = salted_rng(settings.seed, "fit", 5, k)
+    obs = res.poses.copy()
+    obs[..., :2] += rng.normal(0.0, em.sigma_mm, obs[..., :2].shape)
+    obs[..., 2] = np.mod(obs[..., 2] + rng.normal(0.0, math.radians(em.sigma_deg), obs[..., 2].shape), 2 * np.pi)
+    outside = (obs[..., 0] < 0) | (obs[..., 0] > scene.tray_x_mm) | (obs[..., 1] < 0) | (obs[..., 1] > scene.tray_y_mm)
+    obs[outside] = np.nan
+    L = len(sequence)
+    return FitLog(obs=obs, actions=np.tile(np.asarray(sequence, dtype=np.int64), (trials, 1)),
+                  length=np.full(trials, L, dtype=np.int64), trial_ids=np.arange(trials, dtype=np.int64),
+                  action_names=tuple(scene.actions), source="simulation", outside_tray=int(outside.sum()))
 
 
 def _summary_1d_out(name, est, at_edge, interval, profile, needed, me, trials_only=None) -> dict:
