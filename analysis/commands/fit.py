@@ -66,7 +66,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--fit mu: K fine models each side of the best refined point (spacing h/(K+1)); "
                              "default 0 (none)")
     parser.add_argument("--calibrate", type=int, default=0, metavar="K",
-                        help="--fit mu: K logs simulated directly across the estimate, fitted by the same models; "
+                        help="--fit mu or mu_s,mu_k: K logs simulated directly across the estimate (the pair: a 3 x 3 design, "
+                             "repeated to K), fitted by the same models; "
                              "the estimate and interval read back through their calibration line (docs/fit.md); "
                              "default 0 (none), at least 3")
     parser.add_argument("--calibrate-width", type=float, default=None, metavar="W",

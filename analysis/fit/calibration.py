@@ -35,7 +35,8 @@ import math
 import numpy as np
 from scipy import stats
 
-__all__ = ["calibration_truths", "calibration_line", "calibrated_interval", "Calibration"]
+__all__ = ["calibration_truths", "calibration_line", "calibrated_interval", "Calibration", "pair_calibration_truths",
+           "calibration_plane", "calibrated_region", "PairCalibration"]
 
 
 def calibration_truths(estimate: float, half_width: float, count: int, lo: float, hi: float) -> np.ndarray:
@@ -127,3 +128,120 @@ class Calibration:
                 "interval_90": self.interval, "seconds": round(self.seconds, 2),
                 "note": None if self.interval is not None else
                 "the calibration line's slope is not significant beside its scatter: no interval"}
+
+
+# ----------------------------------------------------------------------------------------------
+# the static/kinetic pair: a calibration plane and its confidence region
+# ----------------------------------------------------------------------------------------------
+
+def pair_calibration_truths(estimate, half, ranges: dict) -> np.ndarray:
+    """The 3 x 3 design ``estimate + {-1, 0, 1} half`` (per axis: ``mu_s``, ``mu_k``), each axis shifted
+    (not clipped) into its range, and ``mu_s`` lifted to ``mu_k`` where a point falls below the
+    diagonal (a static coefficient below the kinetic one is not a friction law)."""
+    cols = []
+    for i, name in enumerate(("mu_s", "mu_k")):
+        lo, hi = ranges[name]
+        a, b = estimate[i] - half[i], estimate[i] + half[i]
+        if a < lo:
+            a, b = lo, min(hi, lo + 2 * half[i])
+        if b > hi:
+            a, b = max(lo, hi - 2 * half[i]), hi
+        cols.append(np.linspace(a, b, 3))
+    pts = np.array([(s, k) for s in cols[0] for k in cols[1]])
+    pts[:, 0] = np.maximum(pts[:, 0], pts[:, 1])
+    return pts
+
+
+def calibration_plane(truths, estimates, resolution=(0.0, 0.0)) -> dict:
+    """The least-squares plane ``e = a + t B`` of 2-D estimates on 2-D truths (``K >= 4`` pairs),
+    with the residual covariance ``S`` (``K - 3`` degrees of freedom) plus the estimator's
+    resolution term ``diag(resolution^2 / 12)`` (a rectangular error of each grid spacing, as in
+    :mod:`analysis.fit.model_error`, which also keeps ``S`` invertible when calibration logs land
+    on the same grid point)."""
+    T, E = np.asarray(truths, dtype=float), np.asarray(estimates, dtype=float)
+    if T.shape != E.shape or T.ndim != 2 or T.shape[1] != 2 or len(T) < 4:
+        raise ValueError("a pair calibration needs at least 4 (truth, estimate) pairs of 2 coefficients")
+    tbar, ebar = T.mean(axis=0), E.mean(axis=0)
+    Tc, Ec = T - tbar, E - ebar
+    txx = Tc.T @ Tc
+    if np.linalg.matrix_rank(txx) < 2:
+        raise ValueError("a pair calibration's truths must span both coefficients")
+    B = np.linalg.solve(txx, Tc.T @ Ec)             # (2, 2): e = a + t @ B
+    a = ebar - tbar @ B
+    R = E - a - T @ B
+    dof = len(T) - 3
+    S = R.T @ R / dof + np.diag(np.square(np.asarray(resolution, dtype=float)) / 12.0)
+    return {"a": a, "B": B, "S": S, "dof": dof, "tbar": tbar, "txx": txx, "n": len(T)}
+
+
+def calibrated_region(plane: dict, e0, ranges: dict, level: float = 0.9, step: float = 0.0005) -> dict:
+    """The coefficients ``t`` (on a ``step`` lattice over the ranges, ``mu_s >= mu_k``) whose predicted
+    estimate ``a + t B`` is within the prediction region of the observed ``e0``:
+    ``d' S^-1 d / (1 + h(t)) <= c``, ``d = e0 - a - t B``, ``h(t) = 1/K + (t - tbar)' Txx^-1 (t - tbar)``
+    (the leverage; Brown 1982, "Multivariate calibration", JRSS B 44:287-321, sec. 2). The intervals
+    are per coefficient (and for ``mu_s - mu_k``), so the cutoff is that of one linear function of
+    the pair, ``c = F_level(1, nu)`` (``nu = K - 3``): the projection of the ellipsoid
+    ``(t - t0)' A (t - t0) <= c`` onto one coordinate is ``t0_i +- sqrt(c (A^-1)_ii)``, the marginal
+    interval at ``level`` (Scheffe 1959, "The Analysis of Variance", sec. 3.5, with one direction);
+    the joint region of both would need ``2 nu / (nu - 1) F_level(2, nu - 1)``, wider.
+
+    Returns ``estimate`` (the lattice point of smallest statistic), ``interval`` (per coefficient the
+    region's projection, ``[lo, hi]``; None when the region is empty), ``open`` (per coefficient:
+    the region reaches an end of its range, so the interval is bounded by the range, not the data),
+    ``difference_interval`` (of ``mu_s - mu_k`` over the region) and ``cutoff``."""
+    a, B, S, nu, tbar, txx, n = (plane[k] for k in ("a", "B", "S", "dof", "tbar", "txx", "n"))
+    (slo, shi), (klo, khi) = ranges["mu_s"], ranges["mu_k"]
+    s_ax = np.arange(slo, shi + step / 2, step)
+    k_ax = np.arange(klo, khi + step / 2, step)
+    ss, kk = np.meshgrid(s_ax, k_ax, indexing="ij")
+    ok = ss >= kk - 1e-12
+    t = np.column_stack([ss[ok], kk[ok]])
+    d = np.asarray(e0, dtype=float) - a - t @ B
+    tc = t - tbar
+    h = 1.0 / n + np.einsum("ij,jk,ik->i", tc, np.linalg.inv(txx), tc)
+    stat = np.einsum("ij,jk,ik->i", d, np.linalg.inv(S), d) / (1.0 + h)
+    cutoff = float(stats.f.ppf(level, 1, nu)) if nu >= 1 else math.inf
+    inside = stat <= cutoff
+    best = t[int(np.argmin(stat))]
+    out = {"estimate": [float(v) for v in best], "cutoff": cutoff, "interval": None, "open": None,
+           "difference_interval": None}
+    if inside.any():
+        r = t[inside]
+        out["interval"] = {name: [float(r[:, i].min()), float(r[:, i].max())] for i, name in enumerate(("mu_s", "mu_k"))}
+        gap = r[:, 0] - r[:, 1]
+        out["difference_interval"] = [float(gap.min()), float(gap.max())]
+        out["open"] = {name: bool(r[:, i].min() <= rng[0] + step / 2 or r[:, i].max() >= rng[1] - step / 2)
+                       for i, (name, rng) in enumerate((("mu_s", ranges["mu_s"]), ("mu_k", ranges["mu_k"])))}
+    return out
+
+
+class PairCalibration:
+    """Outcome of a pair calibration (:func:`calibration_plane`, :func:`calibrated_region`)."""
+
+    def __init__(self, truths, estimates, uncalibrated, ranges, resolution, seconds=0.0, level=0.9):
+        self.truths = np.asarray(truths, dtype=float)
+        self.estimates = np.asarray(estimates, dtype=float)
+        self.uncalibrated = [float(v) for v in uncalibrated]
+        self.plane = calibration_plane(self.truths, self.estimates, resolution)
+        self.region = calibrated_region(self.plane, self.uncalibrated, ranges, level)
+        self.seconds = float(seconds)
+
+    def to_dict(self) -> dict:
+        p, r = self.plane, self.region
+        return {"logs": len(self.truths), "truths": self.truths.tolist(), "estimates": self.estimates.tolist(),
+                "intercept": p["a"].tolist(), "slope_matrix": p["B"].tolist(), "residual_cov": p["S"].tolist(),
+                "dof": p["dof"], "uncalibrated_estimate": self.uncalibrated, "estimate": r["estimate"],
+                "interval_90": r["interval"], "difference_interval_90": r["difference_interval"], "open": r["open"],
+                "cutoff": r["cutoff"],
+                "seconds": round(self.seconds, 2),
+                "note": _region_note(r)}
+
+
+def _region_note(r: dict) -> str | None:
+    if r["interval"] is None:
+        return "no coefficient of the range predicts the log's estimate: the models cannot explain it"
+    opened = [k for k, v in r["open"].items() if v]
+    if opened:
+        return (f"{' and '.join(opened)} not pinned by this log: the calibrated region reaches the range's end "
+                "(the estimates of logs made at other values do not move with it beside their scatter)")
+    return None

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from analysis.fit.calibration import Calibration, calibration_truths
+from analysis.fit.calibration import Calibration, PairCalibration, calibration_truths, pair_calibration_truths
 from analysis.fit.goodness import goodness_of_fit
 from analysis.fit.histograms import entropy_band, histogram_distance, log_histograms, predicted_histograms
 from analysis.fit.hmm import EmissionSettings, model_tolerance, trial_loglik
@@ -167,8 +167,9 @@ class FitSettings:
                 raise ValueError("a pair fit needs at least 2 grid points per axis")
         if self.local < 0:
             raise ValueError(f"local must be >= 0, got {self.local}")
-        if self.calibrate and (self.calibrate < 3 or tuple(self.params) != ("mu",) or self.criterion != "likelihood"):
-            raise ValueError(f"calibrate takes 0 or at least 3 logs, with --fit mu and the likelihood; got "
+        if self.calibrate and (self.calibrate < 3 or tuple(self.params) not in (("mu",), PAIR)
+                               or self.criterion != "likelihood"):
+            raise ValueError(f"calibrate takes 0 or at least 3 logs, with --fit mu or mu_s,mu_k and the likelihood; got "
                              f"{self.calibrate} with --fit {','.join(self.params)} and the {self.criterion}")
         if self.calibrate_width is not None and not (math.isfinite(self.calibrate_width) and self.calibrate_width > 0):
             raise ValueError(f"calibrate width must be a positive number, got {self.calibrate_width!r}")
@@ -471,7 +472,40 @@ def _fit_pair(g: _Grid, s: FitSettings):
     L = np.stack([g.ll[p][cam] for p in pts], axis=1) if s.criterion == "likelihood" else None
     out = pair_summary(np.array(pts), y, L, s.ranges, steps, s.bootstrap,
                        salted_rng(s.seed, "fit"))
+    if s.calibrate:
+        cal = _calibrate_pair(g, s, pts, cam, steps, out["estimate_tuple"])
+        d = cal.to_dict()
+        out["calibration"] = d
+        out["estimate"] = {n: round(v, 6) for n, v in zip(PAIR, d["estimate"])}
+        out["estimate_tuple"] = tuple(d["estimate"])
+        out["interval"] = None if out["at_edge"] else d["interval_90"]
+        out["profile"] = None
     return out, pts, cam
+
+
+def _calibrate_pair(g: _Grid, s: FitSettings, pts, cam: int, steps, e0) -> PairCalibration:
+    """The pair's calibration: the 3 x 3 design around the estimate at twice the finest spacing
+    (repeated ``ceil(calibrate / 9)`` times with other logs), each log fitted on the fit's final grid
+    by :func:`analysis.fit.pair.pair_estimate`, the plane through them and its region
+    (:mod:`analysis.fit.calibration`)."""
+    from analysis.fit.pair import pair_estimate
+
+    t0 = time.perf_counter()
+    seq = g.log.common_sequence()
+    if seq is None or (seq < 0).any():
+        raise ValueError("--calibrate needs every trial of the log to follow one tilt sequence")
+    design = pair_calibration_truths(e0, 2 * np.asarray(steps, dtype=float), s.ranges)
+    truths = np.concatenate([design] * int(math.ceil(s.calibrate / len(design))))
+    em = g.cams[cam]
+    logs = [g.simulate(tuple(float(v) for v in t), g.log.trials, seq, em, k) for k, t in enumerate(truths)]
+    P = np.array(pts)
+    scores = np.zeros((len(logs), len(pts)))
+    for i, p in enumerate(pts):
+        model, _ = g.build(p)
+        for k, lg in enumerate(logs):
+            scores[k, i] = trial_loglik(model, lg, em, g.grid).sum()
+    ests = [pair_estimate(P, row, np.asarray(steps, dtype=float))[0] for row in scores]
+    return PairCalibration(truths, ests, e0, {n: s.ranges[n] for n in PAIR}, steps, time.perf_counter() - t0)
 
 
 def _refine_pair(g: _Grid, s: FitSettings, axes) -> np.ndarray:
@@ -595,7 +629,10 @@ def simulated_log(scene, build_settings, settings: FitSettings, value: float, tr
     from analysis.fit.log import FitLog
     from transition_builder.tilting import run_direct
 
-    sc, st = PARAMETERS[settings.params[0]](scene, build_settings, value)
+    if tuple(settings.params) == PAIR:
+        sc, st = _set_pair(scene, *value), build_settings
+    else:
+        sc, st = PARAMETERS[settings.params[0]](scene, build_settings, value)
     seed = int(salted_rng(settings.seed, "fit", 4, k).integers(0, 2 ** 31))
     noise = getattr(st, "noise", None)
     res = run_direct(sc, [int(a) for a in sequence], trials, seed=seed, workers=workers, scheduler=scheduler,

@@ -12,7 +12,15 @@ import pytest
 from scipy import optimize, stats
 
 from analysis.fit import FitSettings, fit_log, read_fit_log
-from analysis.fit.calibration import Calibration, calibrated_interval, calibration_line, calibration_truths
+from analysis.fit.calibration import (
+    Calibration,
+    calibrated_interval,
+    calibrated_region,
+    calibration_line,
+    calibration_plane,
+    calibration_truths,
+    pair_calibration_truths,
+)
 from analysis.fit.log import FitLog
 from tests.analysis.test_fit import _family, synthetic_log, synthetic_model
 
@@ -68,9 +76,9 @@ def test_calibration_truths_are_spread_around_the_estimate_inside_the_range():
         calibration_truths(0.3, 0.01, 2, 0.1, 0.5)
 
 
-def family_log(scene, mu, trials, seq, seed, camera) -> FitLog:
+def family_log(scene, mu, trials, seq, seed, camera, gap=0.0) -> FitLog:
     """A log of the synthetic family at ``mu`` along ``seq`` (the generator of test_fit.synthetic_log,
-    with a given sequence), as a FitLog."""
+    with a given sequence; ``gap``: the pair's ``mu_s - mu_k``, to the third successor), as a FitLog."""
     grid, poses, n_start, first, second, third = _family(scene)
     rng = np.random.default_rng(seed)
     L = len(seq)
@@ -81,7 +89,8 @@ def family_log(scene, mu, trials, seq, seed, camera) -> FitLog:
         obs[t, 0] = start
         state = int(grid.voxel_index(start[None])[0])
         for k in range(L):
-            nxt = second if rng.random() < mu else first
+            u = rng.random()
+            nxt = second if u < mu else third if u < mu + gap else first
             r = int(nxt[seq[k], state])
             state = n_start + r
             p = poses[r] + rng.normal(0, 1, 3) * [camera[0], camera[0], np.radians(camera[1])]
@@ -159,3 +168,89 @@ def test_bad_calibrate_options_one_line_exit_2(tmp_path, capsys, extra, needle):
     rc = main(["fit", "--poses", str(path), "--shape", "allen-key", "--json", *extra])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and needle in err[0]
+
+
+# --- the pair ------------------------------------------------------------------------------------
+
+RANGES = {"mu_s": (0.1, 0.5), "mu_k": (0.1, 0.5)}
+
+
+def test_pair_plane_and_region_recomputed_independently():
+    truths = pair_calibration_truths((0.33, 0.22), (0.04, 0.04), RANGES)
+    assert truths.shape == (9, 2) and np.all(truths[:, 0] >= truths[:, 1])
+    rng = np.random.default_rng(3)
+    B_true = np.array([[0.9, 0.05], [0.1, 1.05]])
+    est = 0.01 + truths @ B_true + rng.normal(0, 0.003, truths.shape)
+    plane = calibration_plane(truths, est, resolution=(0.01, 0.01))
+    X = np.column_stack([np.ones(9), truths])
+    coef = np.linalg.lstsq(X, est, rcond=None)[0]
+    assert np.allclose(plane["a"], coef[0]) and np.allclose(plane["B"], coef[1:])
+    R = est - X @ coef
+    assert np.allclose(plane["S"], R.T @ R / 6 + np.diag([0.01 ** 2 / 12] * 2))
+    e0 = np.array([0.31, 0.25])
+    region = calibrated_region(plane, e0, RANGES, 0.9, step=0.005)
+    cutoff = stats.t.ppf(0.95, 6) ** 2           # one linear function of the pair at 90%
+    assert region["cutoff"] == pytest.approx(cutoff)
+    kept = []
+    Sinv, Tinv = np.linalg.inv(plane["S"]), np.linalg.inv(plane["txx"])
+    for ms in np.arange(0.1, 0.5 + 1e-9, 0.005):
+        for mk in np.arange(0.1, 0.5 + 1e-9, 0.005):
+            if ms < mk - 1e-12:
+                continue
+            t = np.array([ms, mk])
+            d = e0 - coef[0] - t @ coef[1:]
+            h = 1 / 9 + (t - truths.mean(0)) @ Tinv @ (t - truths.mean(0))
+            if d @ Sinv @ d / (1 + h) <= cutoff:
+                kept.append(t)
+    kept = np.array(kept)
+    assert region["interval"]["mu_s"] == pytest.approx([kept[:, 0].min(), kept[:, 0].max()])
+    assert region["interval"]["mu_k"] == pytest.approx([kept[:, 1].min(), kept[:, 1].max()])
+    solved = np.linalg.solve(coef[1:].T, e0 - coef[0])
+    assert np.allclose(region["estimate"], solved, atol=0.005)
+    assert region["open"] == {"mu_s": False, "mu_k": False}
+
+
+def test_pair_coefficient_the_estimates_ignore_is_not_pinned():
+    """Estimates that do not move with ``mu_s`` (the key at a 30 degree tilt: it breaks away whatever
+    ``mu_s``): the region runs to the ends of ``mu_s``'s range, and the note says so."""
+    truths = pair_calibration_truths((0.33, 0.22), (0.04, 0.04), RANGES)
+    rng = np.random.default_rng(4)
+    est = np.column_stack([np.full(9, 0.2) + rng.normal(0, 0.01, 9), truths[:, 1] + rng.normal(0, 0.003, 9)])
+    from analysis.fit.calibration import PairCalibration
+    d = PairCalibration(truths, est, (0.2, 0.22), RANGES, (0.02, 0.02)).to_dict()
+    assert d["open"]["mu_s"] and not d["open"]["mu_k"]
+    lo, hi = d["interval_90"]["mu_k"]            # wider far from the design in mu_s (the leverage)
+    assert lo <= 0.22 <= hi and hi - lo < 0.1
+    assert "mu_s not pinned" in d["note"]
+
+
+def _pair_biased(sc, st):
+    return synthetic_model(sc, sc.friction.mu + BIAS, sc.friction.static_mu - sc.friction.mu), "biased"
+
+
+def test_pair_calibration_removes_a_planted_bias(scene, tmp_path):
+    """A pair log (0.34, 0.21), 1,000 x 15, fitted by models whose kinetic coefficient behaves 0.02 too
+    high: uncalibrated the kinetic estimate misses by about 0.02; calibrated, both intervals cover."""
+    path = tmp_path / "pair.csv"
+    synthetic_log(scene, path, 0.21, trials=1000, tilts=15, seed=21, noise=0.34 - 0.21)
+    log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm))
+
+    def simulate(value, trials, seq, em, k):
+        return family_log(scene, value[1], trials, seq, 20_000 + k, (em.sigma_mm, em.sigma_deg), gap=value[0] - value[1])
+
+    out = {}
+    for cal in (0, 9):
+        st = FitSettings(params=("mu_s", "mu_k"), ranges=RANGES, points={"mu_s": 6, "mu_k": 6}, camera=(0.5, 0.5),
+                         seed=0, bootstrap=100, calibrate=cal)
+        out[cal] = fit_log(scene, log, st, build=_pair_biased, simulate=simulate).to_dict()
+    assert out[0]["estimate"]["mu_k"] < 0.21 - 0.012
+    assert not out[0]["interval_90"]["mu_k"][0] <= 0.21 <= out[0]["interval_90"]["mu_k"][1]
+    c = out[9]["calibration"]
+    assert c["logs"] == 9 and c["uncalibrated_estimate"] == pytest.approx(list(out[0]["estimate_tuple"])
+                                                                          if "estimate_tuple" in out[0] else
+                                                                          [out[0]["estimate"]["mu_s"],
+                                                                           out[0]["estimate"]["mu_k"]], abs=1e-6)
+    for name, truth in (("mu_s", 0.34), ("mu_k", 0.21)):
+        lo, hi = out[9]["interval_90"][name]
+        assert lo <= truth <= hi and hi - lo < 0.1
+    assert abs(out[9]["estimate"]["mu_k"] - 0.21) < 0.01
