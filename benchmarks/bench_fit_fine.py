@@ -260,27 +260,83 @@ def design_check(fs: FineSet, trials: int, label: str = "_l4", simulated: int = 
     return rows
 
 
-def fit_pairs(fs: FineSet = PAIR) -> list:
-    """The pair logs of ``fs`` fitted with ``--fit mu_s,mu_k`` (kept); one row per log."""
+def fit_pairs(fs: FineSet = PAIR, options=(), label: str = "") -> list:
+    """The pair logs of ``fs`` fitted with ``--fit mu_s,mu_k`` and ``options`` (kept as
+    ``fit{i}{label}.json``); one row per log."""
     from benchmarks.bench_fit import fit_file
 
     rows = []
     static = STATIC[fs.name]
     for i in range(len(fs.truths)):
-        out = OUT / fs.name / f"fit{i}.json"
+        out = OUT / fs.name / f"fit{i}{label}.json"
         path, names = make_log(fs, i)
         r = json.loads(out.read_text()) if out.exists() else fit_file(
             path, names, i, out, fs.truths[i],
             ("--engine", "planar", "--workers", "1", "--range", "0.15..0.5", "--fit", "mu_s,mu_k",
-             "--camera-noise", "0.5,0.5"), workers=1)
+             "--camera-noise", "0.5,0.5", *options), workers=1)
         iv = r["interval_90"] or {}
         rows.append({"log": i, "truth": [static[i], fs.truths[i]], "estimate": r["estimate"],
+                     "error": [round(r["estimate"]["mu_s"] - static[i], 4), round(r["estimate"]["mu_k"] - fs.truths[i], 4)],
                      "interval_90": iv, "covered": {k: bool(iv.get(k) and iv[k][0] <= t <= iv[k][1])
                                                      for k, t in (("mu_s", static[i]), ("mu_k", fs.truths[i]))},
+                     "open": (r.get("calibration") or {}).get("open"),
                      "models": len(r["models"]), "wall_seconds": round(r["wall_seconds"], 1),
                      "goodness": r["goodness_of_fit"].get("verdict")})
         print(json.dumps(rows[-1]), flush=True)
     return rows
+
+
+def pair_summary(rows: list) -> dict:
+    """The pair's targets: mu_k within +-0.02, mu_s within +-0.04, coverage of each and both."""
+    return {"logs": len(rows),
+            "mu_k_within_0.02": sum(abs(r["error"][1]) <= 0.02 for r in rows),
+            "mu_s_within_0.04": sum(abs(r["error"][0]) <= 0.04 for r in rows),
+            "covered_mu_s": sum(r["covered"]["mu_s"] for r in rows),
+            "covered_mu_k": sum(r["covered"]["mu_k"] for r in rows),
+            "covered_both": sum(r["covered"]["mu_s"] and r["covered"]["mu_k"] for r in rows),
+            "mu_s_open": sum(bool(r["open"] and r["open"]["mu_s"]) for r in rows),
+            "not_explained": sum(r["goodness"] == "not explained" for r in rows)}
+
+
+#: ``--fit mu,noise`` options of the noise set (fixed before any of its logs was made): the floor
+#: over 0.15..0.5 at 8 points, the process noise over 0..0.5 at 6 points (0.1 apart).
+NOISE_OPTIONS = ("--engine", "planar", "--workers", "1", "--fit", "mu,noise", "--range", "0.15..0.5", "--points", "8",
+                 "--noise-range", "0..0.5", "--noise-points", "6", "--camera-noise", "0.5,0.5")
+
+
+def fit_noise(fs: FineSet, options=(), label: str = "") -> list:
+    """The noise logs fitted with ``--fit mu,noise`` (kept); one row per log."""
+    from benchmarks.bench_fit import fit_file
+
+    rows = []
+    for i in range(len(fs.truths)):
+        out = OUT / fs.name / f"fit{i}{label}.json"
+        path, names = make_log(fs, i)
+        r = json.loads(out.read_text()) if out.exists() else fit_file(
+            path, names, i, out, fs.truths[i], (*NOISE_OPTIONS, *options), workers=1)
+        iv = r["interval_90"] or {}
+        est = r["estimate"]
+        sigma = fs.noise[i]
+        rows.append({"log": i, "truth": {"mu": fs.truths[i], "noise": sigma}, "estimate": est,
+                     "error_mu": round(est["mu"] - fs.truths[i], 4),
+                     "noise_relative_error": round((est["noise"] - sigma) / sigma, 3),
+                     "interval_90": iv,
+                     "covered": {k: bool(iv.get(k) and iv[k][0] <= t <= iv[k][1])
+                                 for k, t in (("mu", fs.truths[i]), ("noise", sigma))},
+                     "models": len(r["models"]), "wall_seconds": round(r["wall_seconds"], 1),
+                     "goodness": r["goodness_of_fit"].get("verdict")})
+        print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
+def noise_summary(rows: list) -> dict:
+    """The noise's target: sigma within +-30%; the floor's error; coverage."""
+    return {"logs": len(rows), "noise_within_30pct": sum(abs(r["noise_relative_error"]) <= 0.3 for r in rows),
+            "mu_within_0.02": sum(abs(r["error_mu"]) <= 0.02 for r in rows),
+            "mean_abs_error_mu": round(float(np.mean([abs(r["error_mu"]) for r in rows])), 4),
+            "covered_mu": sum(r["covered"]["mu"] for r in rows),
+            "covered_noise": sum(r["covered"]["noise"] for r in rows),
+            "not_explained": sum(r["goodness"] == "not explained" for r in rows)}
 
 
 DESIGN_CHECK = FineSet("design", (0.39, 0.351, 0.355), 6300, trials=200)
@@ -341,15 +397,23 @@ def main(argv) -> None:
         rows = design_logs(fs, at)
         (OUT / fs.name / "summary.json").write_text(json.dumps(rows, indent=1))
         return
-    if argv[0] in ("pair", "pair2"):
-        fs = SETS[argv[0]]
-        (OUT / fs.name).mkdir(parents=True, exist_ok=True)
-        (OUT / fs.name / "summary.json").write_text(json.dumps(fit_pairs(fs), indent=1))
-        return
     extra = ()
     if "--" in argv:
         k = argv.index("--")
         argv, extra = argv[:k], tuple(argv[k + 1:])
+    label = os.environ.get("FIT_FINE_LABEL", "")
+    if argv[0] in ("pair", "pair2", "pair3"):
+        fs = SETS[argv[0]]
+        (OUT / fs.name).mkdir(parents=True, exist_ok=True)
+        rows = fit_pairs(fs, extra, label)
+        (OUT / fs.name / f"summary{label}.json").write_text(json.dumps({"rows": rows, "summary": pair_summary(rows)}, indent=1))
+        print(json.dumps(pair_summary(rows)), flush=True)
+        return
+    if argv[0] == "noise":
+        rows = fit_noise(NOISE, extra, label)
+        (OUT / NOISE.name / f"summary{label}.json").write_text(json.dumps({"rows": rows, "summary": noise_summary(rows)}, indent=1))
+        print(json.dumps(noise_summary(rows)), flush=True)
+        return
     if argv[0] == "design":
         rows = design_check(SETS[argv[1]], int(argv[2]))
         (OUT / argv[1] / f"design_{argv[2]}.json").write_text(json.dumps(rows, indent=1))
@@ -357,7 +421,6 @@ def main(argv) -> None:
     part, misread = argv[0], argv[1].endswith("-misread")
     fs = SETS[argv[1].removesuffix("-misread")]
     sizes = tuple(int(v) for v in argv[2:]) or ((fs.trials,) if fs.trials < 1000 else SIZES)
-    label = os.environ.get("FIT_FINE_LABEL", "")
     rows = []
     for i in range(len(fs.truths)):
         if part == "logs":
