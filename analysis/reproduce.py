@@ -86,6 +86,10 @@ class ReproduceSettings:
         The sensitivity study (:mod:`analysis.sensitivity`): whether it runs, the pose noises, the
         static/kinetic pairs and tilt times (``(label, friction or None, tilt_time_s)``) and floor
         friction coefficients the key is rebuilt under, and the direct checks of the friction curve.
+    tray_log, tray_log_trials, tray_log_tilts, tray_log_pair, tray_log_design, tray_log_models_engine
+        The tray's-log section (:mod:`analysis.experiments.tray_log`): whether it runs, its log's size,
+        whether the static/kinetic pair's log and fit and the log's design (``kruskal fit --design``)
+        run with it, and the engine of their models.
     kits, kit_compartments, kit_build, kit_design_tray_mm, kit_design_tilt_deg, kit_replay_trials, kit_node_budget
         The kits section (:mod:`analysis.experiments.kits`): whether it runs, the kit (name, shape, x mm,
         y mm per compartment), its models' build settings, the key's design sweep (compartment sides and
@@ -159,6 +163,12 @@ class ReproduceSettings:
     tray_log: bool = False
     tray_log_trials: int = 500
     tray_log_tilts: int = 50
+    #: with ``tray_log``: a second log (the scene's engine) at a hidden static/kinetic pair, fitted with
+    #: ``--fit mu_s,mu_k`` on ``tray_log_models_engine``'s models (about 37 of them), and ``kruskal fit --design``
+    #: on that engine's models (9); both off by default, on in :meth:`full`
+    tray_log_pair: bool = False
+    tray_log_design: bool = False
+    tray_log_models_engine: str = "planar"
     #: the kits section (analysis.experiments.kits): a kit of parts in one tray, its common plan, replay and
     #: animation, and the key's tray design sweep; off by default (on in :meth:`full` and :meth:`quick_settings`)
     kits: bool = False
@@ -176,7 +186,8 @@ class ReproduceSettings:
         """The committed report's settings: every section but the friction study, which is its own
         command (``python -m analysis.friction_study``, about 40 minutes of direct simulation; its
         measured parts are committed beside the report in ``reports/full/friction_study/``)."""
-        return cls(seed=seed, tray_log=True, friction_study_dir="reports/full/friction_study", kits=True)
+        return cls(seed=seed, tray_log=True, tray_log_pair=True, tray_log_design=True,
+                   friction_study_dir="reports/full/friction_study", kits=True)
 
     @classmethod
     def quick_settings(cls, seed: int = 0) -> "ReproduceSettings":

@@ -38,8 +38,11 @@ SALTS: dict[str, int] = {
     # fit --design, candidate i's simulated trials [seed, fit, 3, i]; fit --calibrate, calibration
     # log k's start poses and process noise [seed, fit, 4, k] and its camera noise [seed, fit, 5, k]
     "fit": 0x464954,
-    "tray_log": 0x7E41,                   # analysis.fit.study: hidden coefficient [seed, s]; sequence [seed, s, 1]
-    "tray_log.camera": 0xCA,              # analysis.fit.study.add_camera_noise
+    # analysis.fit.study: hidden coefficient [seed, s]; sequence [seed, s, 1]; analysis.fit.study_pair: the
+    # pair's hidden mu_k and gap [seed, s, 2], its sequence [seed, s, 3], its start poses' seed [seed, s, 4]
+    "tray_log": 0x7E41,
+    # analysis.fit.study.add_camera_noise: the first log's [seed, s], the pair's log's [seed, s, 1]
+    "tray_log.camera": 0xCA,
     "kit.compartment": 0x6B6974,          # analysis.kit_replay.compartment_seed: [seed, i, salt], compartment i > 0
 }
 
@@ -60,7 +63,7 @@ REPORT_STREAMS: dict[str, str] = {
     "B": "experiment B's direct simulation of each part (B:SHAPE)",
     "C": "experiment C's direct simulation on each friction map (C:MAP)",
     "friction_study": "the friction study's seed",
-    "tray_log": "the tray-log study's seed (its hidden coefficient, log and fit)",
+    "tray_log": "the tray-log study's seed (its hidden coefficient, log and fit; the pair's log and fit; the design)",
     "kits": "the kits section's random sequences (the kit's ensemble and convergence)",
     "kits.design": "the key's tray design sweep",
     "kits.replay": "the kit's common plan replayed in direct simulation",

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from analysis.commands import InputError
-from analysis.commands._common import check_positive, parse_resolution, sequence_rng
+from analysis.commands._common import check_positive, parse_resolution
 
 
 def add_design_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,13 +25,9 @@ def add_design_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run_design(args: argparse.Namespace, scene, build_settings) -> dict:
-    """The ``fit --design`` JSON: ``candidates``, ``recommended`` (and the settings used)."""
-    from dataclasses import replace
-
-    from analysis.fit.design import DesignSettings, design
-    from analysis.montecarlo import report_grid_for
-    from transition_builder.cache import cache_key, cached_build
-    from transition_builder.friction import parse_friction
+    """The ``fit --design`` JSON: ``candidates``, ``recommended`` (and the settings used), from
+    :func:`analysis.fit.design.design_for_scene` once the options are checked."""
+    from analysis.fit.design import DesignSettings, design_for_scene
 
     if args.fit != "mu":
         raise InputError(f"--design designs a --fit mu calibration only, got --fit {args.fit!r}")
@@ -47,19 +43,5 @@ def run_design(args: argparse.Namespace, scene, build_settings) -> dict:
                            trials=args.trials, target=args.target_width, camera=camera, seed=args.seed)
     except ValueError as exc:
         raise InputError(f"--design: {exc}") from None
-    model_sets, keys = [], []
-    for mu0 in s.at:
-        models = []
-        for mu in (mu0 - s.step, mu0, mu0 + s.step):
-            res, path, _ = cached_build(replace(scene, friction=parse_friction(round(mu, 10))), build_settings,
-                                        workers=args.workers, scheduler=args.scheduler,
-                                        progress=True if args.progress else None)
-            models.append(res.model)
-            keys.append(cache_key(path))
-        model_sets.append(models)
-    rng = sequence_rng(args.seed)
-    randoms = [list(rng.integers(0, len(scene.actions), s.tilts)) for _ in range(s.sequences)]
-    out = design(model_sets, scene.actions, s, report_grid_for(scene, args.grid), randoms)
-    out.update({"models": keys, "camera_noise": list(camera), "engine": scene.settings.engine,
-                "shape": scene.shape.name})
-    return out
+    return design_for_scene(scene, s, build_settings, grid=args.grid, workers=args.workers, scheduler=args.scheduler,
+                            progress=True if args.progress else None)

@@ -36,7 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DesignSettings", "design", "designed_sequence", "fisher_information", "predicted_width"]
+__all__ = ["DesignSettings", "design", "design_for_scene", "design_models", "designed_sequence", "fisher_information",
+           "predicted_width"]
 
 _Z90 = 1.6448536
 
@@ -200,3 +201,73 @@ def design(model_sets, actions, s: DesignSettings, grid, random_sequences) -> di
                             "predicted_width_90": {"mu": None if trials is None else predicted_width(info, trials)}},
             "note": "predicted widths are the trials' term; the models' own error adds a floor that more trials "
                     "do not lower (docs/fit.md)"}
+
+
+def design_models(scene, s: DesignSettings, build_settings, *, workers=None, scheduler=None, progress=None):
+    """The models the design compares: for every point ``mu0`` of ``s.at``, cached builds of ``scene``
+    at ``mu0 - s.step``, ``mu0`` and ``mu0 + s.step``.
+
+    Parameters
+    ----------
+    scene : transition_builder.scene.Scene
+        The tray and part (its engine and contact are the models'; its friction is replaced).
+    s : DesignSettings
+    build_settings : transition_builder.builder.BuildSettings
+    workers, scheduler, progress
+        Passed to :func:`transition_builder.cache.cached_build`.
+
+    Returns
+    -------
+    model_sets : list of [TransitionModel, TransitionModel, TransitionModel]
+    keys : list of str
+        Every model's cache key, in build order.
+    """
+    from dataclasses import replace
+
+    from transition_builder.cache import cache_key, cached_build
+    from transition_builder.friction import parse_friction
+
+    model_sets, keys = [], []
+    for mu0 in s.at:
+        models = []
+        for mu in (mu0 - s.step, mu0, mu0 + s.step):
+            res, path, _ = cached_build(replace(scene, friction=parse_friction(round(mu, 10))), build_settings,
+                                        workers=workers, scheduler=scheduler, progress=progress)
+            models.append(res.model)
+            keys.append(cache_key(path))
+        model_sets.append(models)
+    return model_sets, keys
+
+
+def design_for_scene(scene, s: DesignSettings, build_settings, *, grid="4x4x4", workers=None, scheduler=None,
+                     progress=None) -> dict:
+    """``kruskal fit --design`` for ``scene``: its models (:func:`design_models`), ``s.sequences``
+    random candidates of ``s.tilts`` tilts (``--sequence random:N`` of ``s.seed``, as every command
+    draws them) and :func:`design`; the command's JSON without ``seconds``.
+
+    Parameters
+    ----------
+    scene : transition_builder.scene.Scene
+    s : DesignSettings
+    build_settings : transition_builder.builder.BuildSettings
+    grid : str
+        The report grid of the simulated observations.
+    workers, scheduler, progress
+        Passed to the builds.
+
+    Returns
+    -------
+    dict
+        :func:`design`'s keys and ``models`` (cache keys), ``camera_noise``, ``engine``, ``shape``.
+    """
+    from analysis.montecarlo import report_grid_for
+    from analysis.sequences import sequence_rng
+
+    model_sets, keys = design_models(scene, s, build_settings, workers=workers, scheduler=scheduler,
+                                     progress=progress)
+    rng = sequence_rng(s.seed)
+    randoms = [list(rng.integers(0, len(scene.actions), s.tilts)) for _ in range(s.sequences)]
+    out = design(model_sets, scene.actions, s, report_grid_for(scene, grid), randoms)
+    out.update({"models": keys, "camera_noise": list(s.camera), "engine": scene.settings.engine,
+                "shape": scene.shape.name})
+    return out

@@ -23,10 +23,11 @@ def hidden_coefficient(seed: int, lo: float = 0.15, hi: float = 0.45) -> float:
     return round(float(salted_rng(seed, "tray_log").uniform(lo, hi)), 3)
 
 
-def add_camera_noise(result, sigma_mm: float, sigma_deg: float, seed: int):
+def add_camera_noise(result, sigma_mm: float, sigma_deg: float, seed: int, *index: int):
     """A copy of a :class:`~analysis.montecarlo.DirectResult` whose poses carry Gaussian camera noise
-    (x and y in mm, theta in degrees, theta wrapped to [0, 2 pi)); faults stay NaN."""
-    rng = salted_rng(seed, "tray_log.camera")
+    (x and y in mm, theta in degrees, theta wrapped to [0, 2 pi)); faults stay NaN. The noise is
+    stream ``[seed, tray_log.camera, *index]`` (no index: the first log's; ``1``: the pair's)."""
+    rng = salted_rng(seed, "tray_log.camera", *index)
     p = result.poses.copy()
     p[..., :2] += rng.normal(0.0, sigma_mm, p[..., :2].shape)
     p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(sigma_deg), p[..., 2].shape), 2 * np.pi)
@@ -51,7 +52,8 @@ def _dominant_text(fit: dict) -> str:
 
 @dataclass(frozen=True)
 class TrayLogStudy:
-    """Outcome of :func:`tray_log_study`."""
+    """Outcome of :func:`tray_log_study`; ``pair`` and ``design`` (with why they were skipped, if so)
+    are :func:`analysis.fit.study_pair.pair_study`'s and :func:`analysis.fit.study_design.design_study`'s."""
 
     truth: float
     fit: dict
@@ -61,13 +63,30 @@ class TrayLogStudy:
     interval_models: list
     answers: dict
     plan: dict
+    pair: dict | None = None
+    pair_skipped: str | None = None
+    design: dict | None = None
+    design_skipped: str | None = None
 
     def to_dict(self) -> dict:
         return {"truth": self.truth, "fit": self.fit, "sequence": self.sequence, "trials": self.trials,
                 "camera": list(self.camera), "interval_models": self.interval_models, "answers": self.answers,
-                "plan": self.plan}
+                "plan": self.plan, "pair": self.pair, "pair_skipped": self.pair_skipped, "design": self.design,
+                "design_skipped": self.design_skipped}
 
     def markdown(self) -> str:
+        from analysis.fit.study_design import design_markdown
+        from analysis.fit.study_pair import pair_markdown
+
+        lines = self._single_lines()
+        extra = pair_markdown(self.pair, self.pair_skipped) + design_markdown(self.design, self.design_skipped,
+                                                                                 self.fit)
+        if not extra:
+            return "\n".join(lines) + "\n"
+        return "\n".join(lines + [""] + extra).rstrip("\n") + "\n"
+
+    def _single_lines(self) -> list:
+        """The single coefficient's log, fit, answers and plan."""
         f = self.fit
         est = f["estimate"]["mu"]
         iv = (f["interval_90"] or {}).get("mu")
@@ -89,12 +108,17 @@ class TrayLogStudy:
             lines += ["", f"Robust one-cell plan over the interval: {','.join(self.plan['word'])} "
                           f"(length {self.plan['length']}, success probability per model "
                           f"{_probabilities_text(self.plan['success_probability'])})."]
-        return "\n".join(lines) + "\n"
+        return lines
 
     def figures(self, directory) -> list:
         from analysis.fit.figure import fit_figure
 
-        return [fit_figure(self.fit, os.path.join(directory, "fig_tray_log.png"), truth=self.truth)]
+        out = [fit_figure(self.fit, os.path.join(directory, "fig_tray_log.png"), truth=self.truth)]
+        if self.pair is not None:
+            t = self.pair["truth"]
+            out.append(fit_figure(self.pair["fit"], os.path.join(directory, "fig_tray_log_pair.png"),
+                                  truth=(t["mu_s"], t["mu_k"])))
+        return out
 
 
 def _probabilities_text(p) -> str:
@@ -103,8 +127,32 @@ def _probabilities_text(p) -> str:
     return ", ".join(f"{float(v):.3f}" for v in values)
 
 
+def simulated_fit_log(scene, friction, seq, trials: int, start_seed: int, camera, seed: int, *camera_index: int,
+                      workers=None):
+    """A log as a camera gives it: ``trials`` trials of ``seq`` (action indices) simulated directly in
+    ``scene`` at ``friction`` (start poses from ``start_seed``), camera noise ``camera`` (mm, degrees)
+    from stream ``[seed, tray_log.camera, *camera_index]``, written as a ``--poses`` CSV and read back
+    by :func:`analysis.fit.log.read_fit_log` (so faults and misreads are read as ``kruskal fit`` reads them).
+
+    Returns
+    -------
+    FitLog
+    """
+    from analysis.fit.log import read_fit_log
+    from analysis.montecarlo import run_direct, write_poses_csv
+    from transition_builder.friction import parse_friction
+
+    names = [scene.actions[a] for a in seq]
+    res = run_direct(replace(scene, friction=parse_friction(friction)), names, trials, seed=start_seed, workers=workers)
+    noisy = add_camera_noise(res, camera[0], camera[1], seed, *camera_index)
+    with tempfile.TemporaryDirectory() as d:
+        path = write_poses_csv(os.path.join(d, "log.csv"), noisy)
+        return read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm), seq)
+
+
 def tray_log_study(scene, seed: int, *, trials: int = 500, tilts: int = 50, camera=(0.5, 0.5), fit_settings=None,
-                   build_settings=None, workers=None, count: int = 500) -> TrayLogStudy:
+                   build_settings=None, workers=None, count: int = 500, pair: bool = False, design: bool = False,
+                   models_engine: str = "planar", pair_settings=None, design_settings=None) -> TrayLogStudy:
     """Run the study (see the module docstring).
 
     Parameters
@@ -112,50 +160,71 @@ def tray_log_study(scene, seed: int, *, trials: int = 500, tilts: int = 50, came
     scene : transition_builder.scene.Scene
         The key's scene (its friction is replaced by the hidden coefficient).
     seed : int
-        The report's seed: the hidden coefficient, the sequence, the starts, the camera noise, the fit.
+        The section's seed: the hidden coefficient, the sequence, the starts, the camera noise, the fit
+        (and the pair's and the design's draws).
     trials, tilts : int
     camera : (float, float)
         Camera noise added to the log (mm, degrees).
     fit_settings : FitSettings, optional
     build_settings : BuildSettings, optional
-        The fit grid's builds (default: the fit's).
+        The fit grid's builds (default: the fit's); also the pair's and the design's.
     workers : int, optional
     count : int
         Random sequences of the converging-share answer.
+    pair : bool
+        Also the static/kinetic pair's log and fit (:func:`analysis.fit.study_pair.pair_study`).
+    design : bool
+        Also ``kruskal fit --design`` (:func:`analysis.fit.study_design.design_study`).
+    models_engine : str
+        The engine of the pair's and the design's models (the single fit's are the scene's).
+    pair_settings : FitSettings, optional
+        The pair fit's (default :func:`analysis.fit.study_pair.pair_fit_settings`).
+    design_settings : DesignSettings, optional
+        The design's (default :func:`analysis.fit.study_design.default_design_settings`: the log's
+        trials, tilts and camera noise, the section's seed).
 
     Returns
     -------
     TrayLogStudy
     """
     from analysis.fit.core import FitSettings, fit_log
-    from analysis.fit.log import read_fit_log
-    from analysis.friction_range import FrictionRange, models_over_range
-    from analysis.montecarlo import run_direct, write_poses_csv
-    from kruskal_markov.ensemble import run_ensemble
-    from kruskal_markov.sync.plan import shortest_plan
-    from kruskal_markov.sync.targets import parse_target
-    from transition_builder.friction import parse_friction
+    from analysis.fit.study_design import default_design_settings, design_study
+    from analysis.fit.study_pair import pair_study
 
     truth = hidden_coefficient(seed)
     seq = salted_rng(seed, "tray_log", 1).integers(0, len(scene.actions), tilts)
-    names = [scene.actions[a] for a in seq]
-    res = run_direct(replace(scene, friction=parse_friction(truth)), names, trials, seed=seed, workers=workers)
-    noisy = add_camera_noise(res, camera[0], camera[1], seed)
-    with tempfile.TemporaryDirectory() as d:
-        path = write_poses_csv(os.path.join(d, "log.csv"), noisy)
-        log = read_fit_log(path, scene.actions, (scene.tray_x_mm, scene.tray_y_mm), seq)
+    log = simulated_fit_log(scene, truth, seq, trials, seed, camera, seed, workers=workers)
     fs = fit_settings or FitSettings(seed=seed)
     fit = fit_log(scene, log, fs, build_settings=build_settings, workers=workers).to_dict()
-    answers, plan, specs = {}, {}, []
+    specs, answers, plan = _answers_over_interval(scene, fit, seed, count, build_settings, workers)
+    extras = {}
+    if pair:
+        extras["pair"], extras["pair_skipped"] = pair_study(
+            scene, seed, trials=trials, tilts=tilts, camera=camera, models_engine=models_engine,
+            fit_settings=pair_settings, build_settings=build_settings, workers=workers)
+    if design:
+        ds = design_settings or default_design_settings(seed, trials=trials, tilts=tilts, camera=camera)
+        extras["design"], extras["design_skipped"] = design_study(
+            scene, ds, models_engine=models_engine, build_settings=build_settings, workers=workers)
+    return TrayLogStudy(truth=truth, fit=fit, sequence=[scene.actions[a] for a in seq], trials=trials,
+                        camera=tuple(camera), interval_models=specs, answers=answers, plan=plan, **extras)
+
+
+def _answers_over_interval(scene, fit: dict, seed: int, count: int, build_settings, workers):
+    """Models at 3 coefficients across the fit's 90% interval, the converging share's range over them
+    and their robust one-cell plan: (model specs, answers, plan); empty without an interval."""
+    from analysis.friction_range import FrictionRange, models_over_range
+    from kruskal_markov.ensemble import run_ensemble
+    from kruskal_markov.sync.plan import shortest_plan
+    from kruskal_markov.sync.targets import parse_target
+
     iv = (fit["interval_90"] or {}).get("mu")
-    if iv is not None:
-        lo, hi = round(iv[0], 3), round(iv[1], 3)
-        fr = FrictionRange((lo, lo), (hi, hi))
-        models = models_over_range(scene, fr, 3, build_settings, workers=workers)
-        specs = [s for s, _, _ in models]
-        shares = [run_ensemble(m, count, 50, seed=seed).converged / count for _, m, _ in models]
-        answers["converging share of random 50-tilt sequences"] = (min(shares), max(shares))
-        p = shortest_plan([m for _, m, _ in models], parse_target("cell"), node_budget=5_000_000, time_budget=60)
-        plan = {k: v for k, v in p.to_dict().items() if k in ("word", "length", "exact", "success_probability")}
-    return TrayLogStudy(truth=truth, fit=fit, sequence=names, trials=trials, camera=tuple(camera),
-                        interval_models=specs, answers=answers, plan=plan)
+    if iv is None:
+        return [], {}, {}
+    lo, hi = round(iv[0], 3), round(iv[1], 3)
+    models = models_over_range(scene, FrictionRange((lo, lo), (hi, hi)), 3, build_settings, workers=workers)
+    shares = [run_ensemble(m, count, 50, seed=seed).converged / count for _, m, _ in models]
+    answers = {"converging share of random 50-tilt sequences": (min(shares), max(shares))}
+    p = shortest_plan([m for _, m, _ in models], parse_target("cell"), node_budget=5_000_000, time_budget=60)
+    plan = {k: v for k, v in p.to_dict().items() if k in ("word", "length", "exact", "success_probability")}
+    return [s for s, _, _ in models], answers, plan
