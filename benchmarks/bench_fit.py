@@ -122,14 +122,15 @@ def make_report_log() -> tuple[str, list, float, int]:
     """The report's ``tray_log`` log (seed ``stream_seed(0, "tray_log")``), made exactly as
     :func:`analysis.fit.study.tray_log_study` makes it: its path, action names, truth and seed."""
     from analysis.experiments.context import stream_seed
-    from analysis.fit.study import _SALT, add_camera_noise, hidden_coefficient
+    from analysis.fit.study import add_camera_noise, hidden_coefficient
     from analysis.montecarlo import run_direct, write_poses_csv
+    from analysis.streams import salted_rng
     from transition_builder.friction import parse_friction
 
     seed = stream_seed(0, "tray_log")
     truth = hidden_coefficient(seed)
     scene = _key()
-    seq = np.random.default_rng([seed, _SALT, 1]).integers(0, len(scene.actions), TILTS)
+    seq = salted_rng(seed, "tray_log", 1).integers(0, len(scene.actions), TILTS)
     names = [scene.actions[a] for a in seq]
     path = REPORT_DIR / "log0.csv"
     if not path.exists():

@@ -391,7 +391,52 @@ def design_logs(fs: FineSet = DESIGN_CHECK, at: str = "0.3") -> list:
     return rows
 
 
+def markdown(name: str, label: str = "") -> str:
+    """The kept summary ``summary{label}.json`` of set ``name`` as a markdown table (rows and totals)."""
+    d = json.loads((OUT / name / f"summary{label}.json").read_text())
+    rows, out = d["rows"], []
+    if "noise_relative_error" in rows[0]:
+        out += ["| log | truth mu / sigma | estimate mu / sigma | error mu | sigma error | 90% mu | 90% sigma | goodness | models | seconds |",
+                "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in rows:
+            iv = r["interval_90"] or {}
+            out.append(f"| {r['log']} | {r['truth']['mu']:g} / {r['truth']['noise']:g} | {r['estimate']['mu']:.4g} / "
+                       f"{r['estimate']['noise']:.4g} | {r['error_mu']:+.4f} | {100 * r['noise_relative_error']:+.0f}% | "
+                       f"{_iv(iv.get('mu'), r['covered']['mu'])} | {_iv(iv.get('noise'), r['covered']['noise'])} | "
+                       f"{r['goodness']} | {r['models']} | {r['wall_seconds']:.0f} |")
+    elif "error" in rows[0] and isinstance(rows[0]["error"], list):
+        out += ["| log | truth mu_s / mu_k | estimate | error mu_s / mu_k | 90% mu_s | 90% mu_k | mu_s pinned | goodness | models | seconds |",
+                "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in rows:
+            iv = r["interval_90"] or {}
+            pinned = "-" if r["open"] is None else ("no" if r["open"]["mu_s"] else "yes")
+            out.append(f"| {r['log']} | {r['truth'][0]:g} / {r['truth'][1]:g} | {r['estimate']['mu_s']:.4f} / "
+                       f"{r['estimate']['mu_k']:.4f} | {r['error'][0]:+.4f} / {r['error'][1]:+.4f} | "
+                       f"{_iv(iv.get('mu_s'), r['covered']['mu_s'])} | {_iv(iv.get('mu_k'), r['covered']['mu_k'])} | "
+                       f"{pinned} | {r['goodness']} | {r['models']} | {r['wall_seconds']:.0f} |")
+    else:
+        out += ["| log | trials | truth | estimate | error | 90% interval (width) | covers | goodness | models | seconds |",
+                "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in rows:
+            iv = r["interval_90"]
+            ivt = "-" if iv is None else f"{iv[0]:.4f}..{iv[1]:.4f} ({r['width']:.4f})"
+            out.append(f"| {r['log']} | {r['trials']} | {r['truth']:g} | {r['estimate']:.4f} | {r['error']:+.4f} | {ivt} | "
+                       f"{'yes' if r['covered'] else '**no**'} | {r['goodness']} | {r['models']} | {r['wall_seconds']:.0f} |")
+    out.append("")
+    out.append("Totals: `" + json.dumps(d["summary"]) + "`")
+    return "\n".join(out)
+
+
+def _iv(iv, covered) -> str:
+    if not iv:
+        return "-"
+    return f"{iv[0]:.3f}..{iv[1]:.3f}" + ("" if covered else " (**misses**)")
+
+
 def main(argv) -> None:
+    if argv[0] == "table":
+        print(markdown(argv[1], argv[2] if len(argv) > 2 else ""))
+        return
     if argv[0] in ("designcheck", "designcheck2"):
         fs, at = (DESIGN_CHECK, "0.3") if argv[0] == "designcheck" else (DESIGN_CHECK2, "0.2,0.3,0.4")
         rows = design_logs(fs, at)

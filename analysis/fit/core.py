@@ -327,6 +327,8 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
 
     cams = ([EmissionSettings(*s.camera, outlier=s.outlier)] if s.camera is not None
             else [EmissionSettings(c, c, outlier=s.outlier) for c in CAMERA_CANDIDATES])
+    if s.calibrate and (log.common_sequence() is None or (log.common_sequence() < 0).any()):
+        raise ValueError("--calibrate needs every trial of the log to follow one tilt sequence")
     g = _Grid(build_point, log, rgrid, cams)
     if s.calibrate:
         g.simulate = simulate or functools.partial(simulated_log, scene, bs, s, workers=workers, scheduler=scheduler)

@@ -155,9 +155,20 @@ def test_calibration_reruns_identically(scene, tmp_path):
     assert a["interval_90"] == b["interval_90"]
 
 
+def test_calibrate_refuses_a_log_of_several_sequences(tmp_path, capsys):
+    from analysis.cli import main
+    path = tmp_path / "log.csv"
+    path.write_text("trial,step,x_mm,y_mm,theta_rad,status,action\n0,0,50,50,0,ok,\n0,1,60,50,0,ok,N\n"
+                    "1,0,50,50,0,ok,\n1,1,60,50,0,ok,S\n")
+    rc = main(["fit", "--poses", str(path), "--shape", "allen-key", "--calibrate", "4", "--json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "one tilt sequence" in err[0]
+
+
 @pytest.mark.parametrize("extra, needle", [
     (["--calibrate", "2"], "at least 3"),
-    (["--calibrate", "4", "--fit", "mu_s,mu_k"], "calibrate"),
+    (["--calibrate", "4", "--fit", "mu,noise"], "calibrate"),
+    (["--calibrate", "4", "--criterion", "histogram"], "calibrate"),
     (["--calibrate", "4", "--calibrate-width", "-1"], "width"),
 ])
 def test_bad_calibrate_options_one_line_exit_2(tmp_path, capsys, extra, needle):
