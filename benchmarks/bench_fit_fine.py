@@ -298,10 +298,13 @@ def pair_summary(rows: list) -> dict:
             "not_explained": sum(r["goodness"] == "not explained" for r in rows)}
 
 
-#: ``--fit mu,noise`` options of the noise set (fixed before any of its logs was made): the floor
-#: over 0.15..0.5 at 8 points, the process noise over 0..0.5 at 6 points (0.1 apart).
-NOISE_OPTIONS = ("--engine", "planar", "--workers", "1", "--fit", "mu,noise", "--range", "0.15..0.5", "--points", "8",
-                 "--noise-range", "0..0.5", "--noise-points", "6", "--camera-noise", "0.5,0.5")
+#: ``--fit mu,noise`` options of the noise set. First (fixed before any of its logs was made): the
+#: floor over 0.15..0.5 at 8 points, the noise over 0..0.5 at 6; stopped before its first fit ended
+#: because a noisy model took about 3 minutes (not the 10 s measured for one at 0.2 mm): 48 of them
+#: would take over 2 hours. Then (2026-11-29, before any noise fit had a result): the floor over
+#: 0.15..0.45 at 4 points (0.1 apart), the noise over 0.05..0.45 at 5 (0.1 apart), 20 models.
+NOISE_OPTIONS = ("--engine", "planar", "--workers", "1", "--fit", "mu,noise", "--range", "0.15..0.45", "--points", "4",
+                 "--noise-range", "0.05..0.45", "--noise-points", "5", "--camera-noise", "0.5,0.5")
 
 
 def fit_noise(fs: FineSet, options=(), label: str = "") -> list:
