@@ -476,7 +476,7 @@ def _fit_pair(g: _Grid, s: FitSettings):
                        salted_rng(s.seed, "fit"))
     if s.calibrate:
         cal = _calibrate_pair(g, s, pts, cam, steps, out["estimate_tuple"])
-        d = cal.to_dict()
+        d = {**cal.to_dict(), "uncalibrated_interval_90": out["interval"]}
         out["calibration"] = d
         out["estimate"] = {n: round(v, 6) for n, v in zip(PAIR, d["estimate"])}
         out["estimate_tuple"] = tuple(d["estimate"])
@@ -583,7 +583,7 @@ def _summary_1d(g: _Grid, s: FitSettings, pts, cam, axes) -> dict:
     cal = _calibrate(g, s, pts, cam, estimator)
     out = _summary_1d_out(name, est if cal.estimate is None else cal.estimate, at_edge, cal.interval, profile, need,
                           me, trials_only)
-    out["calibration"] = cal.to_dict()
+    out["calibration"] = {**cal.to_dict(), "uncalibrated_interval_90": interval}
     return out
 
 

@@ -136,6 +136,7 @@ def test_calibration_removes_a_planted_model_bias(scene, tmp_path):
         assert c["uncalibrated_estimate"] == pytest.approx(raw["estimate"]["mu"], abs=1e-6)
         assert cal["estimate"]["mu"] == pytest.approx(c["estimate"], abs=1e-6)
         assert cal["interval_90"]["mu"] == c["interval_90"]
+        assert c["uncalibrated_interval_90"] == raw["interval_90"]["mu"]
         lo, hi = c["interval_90"]
         cal_cover += lo <= mu <= hi
         cal_err.append(cal["estimate"]["mu"] - mu)
