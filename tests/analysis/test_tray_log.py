@@ -93,7 +93,9 @@ def test_every_number_of_the_pair_is_recomputed(study):
     md, p = st.markdown(), st.pair
     f, t = p["fit"], p["truth"]
     iv = f["interval_90"] or {}
-    gap_iv = f["pair"]["difference_interval_90"]
+    cal = f["calibration"]                   # the section calibrates the pair (PAIR_CALIBRATION_LOGS logs)
+    assert cal["logs"] == 9 and f"{cal['logs']} logs simulated by" in md
+    gap_iv = cal["difference_interval_90"]
     assert iv and gap_iv                     # not at the range's edge: the covers/misses words are printed
 
     def words(i, v):
