@@ -436,7 +436,27 @@ def _iv(iv, covered) -> str:
     return f"{iv[0]:.3f}..{iv[1]:.3f}" + ("" if covered else " (**misses**)")
 
 
+#: the ninth session's kept summaries gathered into ``benchmarks/data/fit_calibration.json``: (set, label).
+CALIBRATION_SUMMARIES = (("tuning", "_cal8"), ("valid3", "_cal8"), ("valid3", "_l4"), ("pair", "_cal9"),
+                         ("pair3", "_cal9"), ("noise", ""), ("finestep", "_cal8"))
+
+
+def collect() -> dict:
+    """The kept summaries of :data:`CALIBRATION_SUMMARIES` in one file (what docs/log/fit-calibration.md shows)."""
+    out = {}
+    for name, label in CALIBRATION_SUMMARIES:
+        path = OUT / name / f"summary{label}.json"
+        if path.exists():
+            out[f"{name}{label}"] = json.loads(path.read_text())
+    dst = HERE / "data" / "fit_calibration.json"
+    dst.write_text(json.dumps(out, indent=1) + "\n")
+    return out
+
+
 def main(argv) -> None:
+    if argv[0] == "collect":
+        print(", ".join(collect()))
+        return
     if argv[0] == "table":
         print(markdown(argv[1], argv[2] if len(argv) > 2 else ""))
         return
