@@ -116,15 +116,12 @@ def _fit(scene, path, calibrate, seed=0):
     return fit_log(scene, log, s, build=_biased, simulate=simulate).to_dict()
 
 
-def test_calibration_removes_a_planted_model_bias(scene, tmp_path):
-    """6 truths drawn before looking (``default_rng(8181).uniform(0.2, 0.35, 6)``), logs of 1,000 x 15:
-    uncalibrated, the biased models put the estimate about 0.02 low and its interval (which carries
-    the models' scatter, not their bias) covers at most one; calibrated with 6 logs the mean error
-    is below 0.008 and the 90% interval covers at least 4 of 6 (probability 0.98 for an exact 90%
-    interval; these logs: 4; 20 other logs, seeds 700-719: 18 of 20)."""
+def _planted_bias_logs(scene, tmp_path, count):
+    """Uncalibrated and calibrated fits of ``count`` logs (1,000 x 15) at the truths
+    ``default_rng(8181).uniform(0.2, 0.35, 6)[:count]`` (drawn before looking): errors and coverage."""
     raw_cover = cal_cover = 0
     raw_err, cal_err = [], []
-    for i, mu in enumerate(np.random.default_rng(8181).uniform(0.2, 0.35, 6)):
+    for i, mu in enumerate(np.random.default_rng(8181).uniform(0.2, 0.35, 6)[:count]):
         path = tmp_path / f"log{i}.csv"
         synthetic_log(scene, path, mu, trials=1000, tilts=15, seed=300 + i)
         raw = _fit(scene, path, 0, seed=i)
@@ -144,6 +141,26 @@ def test_calibration_removes_a_planted_model_bias(scene, tmp_path):
         # the truths span half the patch (the patch is the refined point +- 0.05: +- 0.025), centred
         spread = np.array(c["truths"]) - c["uncalibrated_estimate"]
         assert len(spread) == 6 and spread.min() == pytest.approx(-0.025) and spread.max() == pytest.approx(0.025)
+    return raw_err, raw_cover, cal_err, cal_cover
+
+
+def test_calibration_removes_a_planted_model_bias(scene, tmp_path):
+    """The first 2 of the slow test's logs: uncalibrated, the biased models put the estimate about
+    0.02 low and the interval misses both; calibrated, the mean error is below 0.008 (measured
+    0.0049 and 0.0080 on these two; the slow test below covers the interval's coverage)."""
+    raw_err, raw_cover, cal_err, _ = _planted_bias_logs(scene, tmp_path, 2)
+    assert np.mean(raw_err) < -0.012 and raw_cover == 0
+    assert np.mean(np.abs(cal_err)) < 0.008
+
+
+@pytest.mark.slow
+def test_calibration_interval_covers_despite_a_planted_model_bias(scene, tmp_path):
+    """6 truths drawn before looking (``default_rng(8181).uniform(0.2, 0.35, 6)``), logs of 1,000 x 15:
+    uncalibrated, the biased models put the estimate about 0.02 low and its interval (which carries
+    the models' scatter, not their bias) covers at most one; calibrated with 6 logs the mean error
+    is below 0.008 and the 90% interval covers at least 4 of 6 (probability 0.98 for an exact 90%
+    interval; these logs: 4; 20 other logs, seeds 700-719: 18 of 20). About 40 s."""
+    raw_err, raw_cover, cal_err, cal_cover = _planted_bias_logs(scene, tmp_path, 6)
     assert np.mean(raw_err) < -0.012 and raw_cover <= 1
     assert np.mean(np.abs(cal_err)) < 0.008 and cal_cover >= 4
 
