@@ -219,6 +219,7 @@ class _Grid:
         self.rep: dict = {}                 # point -> list of (n_cams, T), the replicate builds
         self.patch: tuple | None = None     # (lo, hi) of the fine local patch (FitSettings.local)
         self.simulate = None                # (value, trials, sequence, emission, k) -> FitLog (calibration)
+        self.sequence = None                # the log's one tilt sequence (calibration)
         self.counts = log_histograms(log, grid)
 
     def add(self, point: tuple) -> None:
@@ -327,10 +328,10 @@ def fit_log(scene, log, settings: FitSettings | None = None, *, build_settings=N
 
     cams = ([EmissionSettings(*s.camera, outlier=s.outlier)] if s.camera is not None
             else [EmissionSettings(c, c, outlier=s.outlier) for c in CAMERA_CANDIDATES])
-    if s.calibrate and (log.common_sequence() is None or (log.common_sequence() < 0).any()):
-        raise ValueError("--calibrate needs every trial of the log to follow one tilt sequence")
+    sequence = _calibration_sequence(log) if s.calibrate else None
     g = _Grid(build_point, log, rgrid, cams)
     if s.calibrate:
+        g.sequence = sequence
         g.simulate = simulate or functools.partial(simulated_log, scene, bs, s, workers=workers, scheduler=scheduler)
     out, pts, cam = (_fit_pair if tuple(s.params) == PAIR else _fit_grid)(g, s)
     best_point = min(pts, key=lambda p: sum((a - b) ** 2 for a, b in zip(p, out["estimate_tuple"])))
@@ -493,20 +494,12 @@ def _calibrate_pair(g: _Grid, s: FitSettings, pts, cam: int, steps, e0) -> PairC
     from analysis.fit.pair import pair_estimate
 
     t0 = time.perf_counter()
-    seq = g.log.common_sequence()
-    if seq is None or (seq < 0).any():
-        raise ValueError("--calibrate needs every trial of the log to follow one tilt sequence")
     design = pair_calibration_truths(e0, 2 * np.asarray(steps, dtype=float), s.ranges)
     truths = np.concatenate([design] * int(math.ceil(s.calibrate / len(design))))
     em = g.cams[cam]
-    logs = [g.simulate(tuple(float(v) for v in t), g.log.trials, seq, em, k) for k, t in enumerate(truths)]
+    logs = [g.simulate(tuple(float(v) for v in t), g.log.trials, g.sequence, em, k) for k, t in enumerate(truths)]
     P = np.array(pts)
-    scores = np.zeros((len(logs), len(pts)))
-    for i, p in enumerate(pts):
-        model, _ = g.build(p)
-        for k, lg in enumerate(logs):
-            scores[k, i] = trial_loglik(model, lg, em, g.grid).sum()
-    ests = [pair_estimate(P, row, np.asarray(steps, dtype=float))[0] for row in scores]
+    ests = [pair_estimate(P, row, np.asarray(steps, dtype=float))[0] for row in _score_logs(g, pts, logs, em)]
     return PairCalibration(truths, ests, e0, {n: s.ranges[n] for n in PAIR}, steps, time.perf_counter() - t0)
 
 
@@ -592,9 +585,6 @@ def _calibrate(g: _Grid, s: FitSettings, pts, cam: int, estimator) -> Calibratio
     (the local patch's with ``--local``; first builds only, as the log's own estimate is recomputed
     here), the line through them (:mod:`analysis.fit.calibration`)."""
     t0 = time.perf_counter()
-    seq = g.log.common_sequence()
-    if seq is None or (seq < 0).any():
-        raise ValueError("--calibrate needs every trial of the log to follow one tilt sequence")
     use = [p for p in pts if g.patch is None or s.estimator != "local"
            or g.patch[0] - 1e-9 <= p[0] <= g.patch[1] + 1e-9]
     xs = np.array([p[0] for p in use])
@@ -613,13 +603,28 @@ def _calibrate(g: _Grid, s: FitSettings, pts, cam: int, estimator) -> Calibratio
         half = float(min(np.diff(xs)[max(0, j - 1):j + 1])) / 2
     truths = calibration_truths(e0, half, s.calibrate, *s.ranges[s.params[0]])
     em = g.cams[cam]
-    logs = [g.simulate(float(t), g.log.trials, seq, em, k) for k, t in enumerate(truths)]
-    scores = np.zeros((len(logs), len(use)))
-    for i, p in enumerate(use):
+    logs = [g.simulate(float(t), g.log.trials, g.sequence, em, k) for k, t in enumerate(truths)]
+    return Calibration(truths, [estimate(row) for row in _score_logs(g, use, logs, em)], e0, time.perf_counter() - t0)
+
+
+def _calibration_sequence(log) -> np.ndarray:
+    """The one tilt sequence every trial of ``log`` follows (calibration logs repeat it); one line when
+    there is none."""
+    seq = log.common_sequence()
+    if seq is None or (seq < 0).any():
+        raise ValueError("--calibrate needs every trial of the log to follow one tilt sequence")
+    return seq
+
+
+def _score_logs(g: _Grid, points, logs, em) -> np.ndarray:
+    """``(len(logs), len(points))``: each log's log-likelihood under each point's model (first builds,
+    read back from the cache), one model at a time."""
+    scores = np.zeros((len(logs), len(points)))
+    for i, p in enumerate(points):
         model, _ = g.build(p)
         for k, lg in enumerate(logs):
             scores[k, i] = trial_loglik(model, lg, em, g.grid).sum()
-    return Calibration(truths, [estimate(row) for row in scores], e0, time.perf_counter() - t0)
+    return scores
 
 
 def simulated_log(scene, build_settings, settings: FitSettings, value: float, trials: int, sequence, em, k: int, *,
@@ -628,7 +633,7 @@ def simulated_log(scene, build_settings, settings: FitSettings, value: float, tr
     ``value`` (start poses and process noise from stream ``[seed, fit, 4, k]``, the build settings'
     process noise), Gaussian camera noise of ``em`` (stream ``[seed, fit, 5, k]``); faults and poses
     outside the tray are missed observations, as :func:`analysis.fit.log.read_fit_log` reads them."""
-    from analysis.fit.log import FitLog
+    from analysis.fit.log import FitLog, add_camera_noise_to, outside_tray
     from transition_builder.tilting import run_direct
 
     if tuple(settings.params) == PAIR:
@@ -639,11 +644,8 @@ def simulated_log(scene, build_settings, settings: FitSettings, value: float, tr
     noise = getattr(st, "noise", None)
     res = run_direct(sc, [int(a) for a in sequence], trials, seed=seed, workers=workers, scheduler=scheduler,
                      noise=None if noise in (None, "none") else noise)
-    rng = salted_rng(settings.seed, "fit", 5, k)
-    obs = res.poses.copy()
-    obs[..., :2] += rng.normal(0.0, em.sigma_mm, obs[..., :2].shape)
-    obs[..., 2] = np.mod(obs[..., 2] + rng.normal(0.0, math.radians(em.sigma_deg), obs[..., 2].shape), 2 * np.pi)
-    outside = (obs[..., 0] < 0) | (obs[..., 0] > scene.tray_x_mm) | (obs[..., 1] < 0) | (obs[..., 1] > scene.tray_y_mm)
+    obs = add_camera_noise_to(res.poses, em.sigma_mm, em.sigma_deg, salted_rng(settings.seed, "fit", 5, k))
+    outside = outside_tray(obs, (scene.tray_x_mm, scene.tray_y_mm))
     obs[outside] = np.nan
     L = len(sequence)
     return FitLog(obs=obs, actions=np.tile(np.asarray(sequence, dtype=np.int64), (trials, 1)),

@@ -26,7 +26,7 @@ import numpy as np
 from kruskal_markov.validation import action_position
 from transition_builder.status import OK
 
-__all__ = ["FitLog", "read_fit_log"]
+__all__ = ["FitLog", "read_fit_log", "add_camera_noise_to", "outside_tray"]
 
 
 @dataclass(frozen=True)
@@ -114,6 +114,21 @@ def _action_column(path) -> dict:
 MAX_OUTSIDE_SHARE = 0.1
 
 
+def outside_tray(poses: np.ndarray, tray) -> np.ndarray:
+    """Where a pose (``(..., 3)``: x, y in mm) lies outside the ``tray`` (x mm, y mm) rectangle (NaN: not)."""
+    a, b = tray
+    return (poses[..., 0] < 0) | (poses[..., 0] > a) | (poses[..., 1] < 0) | (poses[..., 1] > b)
+
+
+def add_camera_noise_to(poses: np.ndarray, sigma_mm: float, sigma_deg: float, rng: np.random.Generator) -> np.ndarray:
+    """A copy of ``poses`` (``(..., 3)``) with Gaussian camera noise: x and y ``N(0, sigma_mm)``, then
+    theta ``N(0, sigma_deg)`` in degrees, wrapped to [0, 2 pi); NaN stays NaN."""
+    p = poses.copy()
+    p[..., :2] += rng.normal(0.0, sigma_mm, p[..., :2].shape)
+    p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(sigma_deg), p[..., 2].shape), 2 * np.pi)
+    return p
+
+
 def _check_poses(path, rec, tray) -> np.ndarray:
     """The ``ok`` rows whose pose lies outside the tray (bool, by row): a camera's misreads, read as
     missed observations; refused (one line) when they are more than :data:`MAX_OUTSIDE_SHARE`."""
@@ -122,7 +137,7 @@ def _check_poses(path, rec, tray) -> np.ndarray:
         raise ValueError(f"poses file {path!r} has no row with status ok: nothing was observed")
     a, b = tray
     p = rec.poses
-    outside = ok & ((p[:, 0] < 0) | (p[:, 0] > a) | (p[:, 1] < 0) | (p[:, 1] > b))
+    outside = ok & outside_tray(p, tray)
     if outside.sum() > MAX_OUTSIDE_SHARE * ok.sum():
         i = int(np.argmax(outside))
         raise ValueError(f"poses file {path!r}: {int(outside.sum())} of {int(ok.sum())} observed poses lie outside "

@@ -11,8 +11,6 @@ import os
 import tempfile
 from dataclasses import dataclass, replace
 
-import numpy as np
-
 from analysis.streams import salted_rng
 
 __all__ = ["TrayLogStudy", "tray_log_study", "hidden_coefficient", "add_camera_noise"]
@@ -27,11 +25,10 @@ def add_camera_noise(result, sigma_mm: float, sigma_deg: float, seed: int, *inde
     """A copy of a :class:`~analysis.montecarlo.DirectResult` whose poses carry Gaussian camera noise
     (x and y in mm, theta in degrees, theta wrapped to [0, 2 pi)); faults stay NaN. The noise is
     stream ``[seed, tray_log.camera, *index]`` (no index: the first log's; ``1``: the pair's)."""
-    rng = salted_rng(seed, "tray_log.camera", *index)
-    p = result.poses.copy()
-    p[..., :2] += rng.normal(0.0, sigma_mm, p[..., :2].shape)
-    p[..., 2] = np.mod(p[..., 2] + rng.normal(0.0, np.radians(sigma_deg), p[..., 2].shape), 2 * np.pi)
-    return replace(result, poses=p)
+    from analysis.fit.log import add_camera_noise_to
+
+    return replace(result, poses=add_camera_noise_to(result.poses, sigma_mm, sigma_deg,
+                                                     salted_rng(seed, "tray_log.camera", *index)))
 
 
 def _camera_text(cam: dict) -> str:
