@@ -44,9 +44,10 @@ def _family(scene):
     return grid, poses, n_start, first, second, third
 
 
-def synthetic_model(scene, mu: float, noise: float = 0.0) -> TransitionModel:
-    """The family at ``mu``; ``noise`` moves that much probability to a third successor."""
-    grid, poses, n_start, first, second, third = _family(scene)
+def synthetic_model(scene, mu: float, noise: float = 0.0, family=None) -> TransitionModel:
+    """The family at ``mu``; ``noise`` moves that much probability to a third successor; ``family``
+    another ``_family``-like maker of the successor maps (default :func:`_family`)."""
+    grid, poses, n_start, first, second, third = (family or _family)(scene)
     n = n_start + N_REST
     mats = []
     for a in range(8):

@@ -76,10 +76,11 @@ def test_calibration_truths_are_spread_around_the_estimate_inside_the_range():
         calibration_truths(0.3, 0.01, 2, 0.1, 0.5)
 
 
-def family_log(scene, mu, trials, seq, seed, camera, gap=0.0) -> FitLog:
+def family_log(scene, mu, trials, seq, seed, camera, gap=0.0, family=None) -> FitLog:
     """A log of the synthetic family at ``mu`` along ``seq`` (the generator of test_fit.synthetic_log,
-    with a given sequence; ``gap``: the pair's ``mu_s - mu_k``, to the third successor), as a FitLog."""
-    grid, poses, n_start, first, second, third = _family(scene)
+    with a given sequence; ``gap``: the pair's ``mu_s - mu_k``, to the third successor; ``family``:
+    another maker of the successor maps), as a FitLog."""
+    grid, poses, n_start, first, second, third = (family or _family)(scene)
     rng = np.random.default_rng(seed)
     L = len(seq)
     obs = np.full((trials, L + 1, 3), np.nan)

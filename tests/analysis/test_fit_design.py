@@ -146,42 +146,14 @@ def _masked_family(scene):
 
 def masked_model(scene, mu):
     """The family at ``mu`` with only :data:`INFORMATIVE` tilts acting on mu."""
-    from kruskal_markov.model import TransitionModel
-
-    grid, poses, n_start, first, second, _ = _masked_family(scene)
-    base = synthetic_model(scene, mu)
-    n = n_start + len(poses)
-    mats = []
-    for a in range(8):
-        P = np.zeros((n, n))
-        P[np.arange(n), n_start + first[a]] += 1 - mu
-        P[np.arange(n), n_start + second[a]] += mu
-        mats.append(P)
-    return TransitionModel(scene.actions, mats, initial=base.initial, partition=base.partition,
-                           n_cells=base.n_cells, metadata=base.metadata, extras=base.extras)
+    return synthetic_model(scene, mu, family=_masked_family)
 
 
 def masked_log(scene, mu, trials, seq, seed):
     """A :class:`~analysis.fit.log.FitLog` of the masked family at ``mu`` along ``seq`` (camera 0.5)."""
-    from analysis.fit.log import FitLog
+    from tests.analysis.test_fit_calibration import family_log
 
-    grid, poses, n_start, first, second, _ = _masked_family(scene)
-    rng = np.random.default_rng(seed)
-    L = len(seq)
-    obs = np.full((trials, L + 1, 3), np.nan)
-    for t in range(trials):
-        start = np.array([rng.uniform(25, 175), rng.uniform(25, 175), rng.uniform(0, 2 * np.pi)])
-        obs[t, 0] = start
-        state = int(grid.voxel_index(start[None])[0])
-        for k, a in enumerate(seq, 1):
-            r = int((second if rng.random() < mu else first)[a, state])
-            state = n_start + r
-            p = poses[r] + rng.normal(0, 1, 3) * [0.5, 0.5, np.radians(0.5)]
-            p[2] %= 2 * np.pi
-            obs[t, k] = p
-    return FitLog(obs=obs, actions=np.tile(np.asarray(seq, dtype=np.int64), (trials, 1)),
-                  length=np.full(trials, L, dtype=np.int64), trial_ids=np.arange(trials),
-                  action_names=tuple(scene.actions), source="sequence")
+    return family_log(scene, mu, trials, seq, seed, (0.5, 0.5), family=_masked_family)
 
 
 def test_recommended_sequence_gives_narrower_intervals_than_random_ones(scene):
