@@ -42,11 +42,10 @@ def design_study(scene, settings, *, models_engine: str = "planar", build_settin
         Why the design was not made (a sentence for the report), else None.
     """
     from analysis.fit.design import design_for_scene
-    from analysis.fit.study_pair import models_scene
     from transition_builder.builder import BuildSettings
 
     try:
-        sc = models_scene(scene, models_engine)
+        sc = scene.with_settings(engine=models_engine)
     except ValueError as exc:
         return None, f"The log's design is not made: {exc}."
     out = design_for_scene(sc, settings, build_settings or BuildSettings.compared(), workers=workers)

@@ -11,11 +11,9 @@ seed as ``kruskal fit --seed`` does.
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
 from analysis.streams import salted_rng
 
-__all__ = ["ENGINE_NAMES", "PAIR_RANGE", "hidden_pair", "models_scene", "pair_fit_settings", "pair_study",
+__all__ = ["ENGINE_NAMES", "PAIR_RANGE", "hidden_pair", "pair_fit_settings", "pair_study",
            "pair_markdown", "covers"]
 
 #: how the text names an engine.
@@ -43,12 +41,6 @@ def hidden_pair(seed: int) -> tuple[float, float]:
     k = float(rng.uniform(*_KINETIC))
     s = k + float(rng.uniform(0.0, _GAP))
     return round(s, 3), round(k, 3)
-
-
-def models_scene(scene, engine: str):
-    """``scene`` with its simulator settings' engine replaced by ``engine`` (ValueError when the
-    engine cannot take the scene's contact: the planar engine has the coulomb contact only)."""
-    return replace(scene, settings=replace(scene.settings, engine=engine))
 
 
 #: calibration logs of the section's pair fit (``FitSettings.calibrate``: one 3 x 3 design).
@@ -117,7 +109,7 @@ def pair_study(scene, seed: int, *, trials: int, tilts: int, camera, models_engi
         return None, (f"The static/kinetic pair is not fitted: the scene's {contact} contact has one coefficient, "
                       "static and kinetic alike (a pair needs the coulomb contact).")
     try:
-        fit_scene = models_scene(scene, models_engine)
+        fit_scene = scene.with_settings(engine=models_engine)
     except ValueError as exc:
         return None, f"The static/kinetic pair is not fitted: {exc}."
     s, k = hidden_pair(seed)
