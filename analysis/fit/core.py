@@ -641,9 +641,8 @@ def simulated_log(scene, build_settings, settings: FitSettings, value: float, tr
     else:
         sc, st = PARAMETERS[settings.params[0]](scene, build_settings, value)
     seed = int(salted_rng(settings.seed, "fit", 4, k).integers(0, 2 ** 31))
-    noise = getattr(st, "noise", None)
     res = run_direct(sc, [int(a) for a in sequence], trials, seed=seed, workers=workers, scheduler=scheduler,
-                     noise=None if noise in (None, "none") else noise)
+                     noise=st.noise)
     obs = add_camera_noise_to(res.poses, em.sigma_mm, em.sigma_deg, salted_rng(settings.seed, "fit", 5, k))
     outside = outside_tray(obs, (scene.tray_x_mm, scene.tray_y_mm))
     obs[outside] = np.nan
